@@ -1,0 +1,1 @@
+"""MCP server that instantiates vision skills on the vision node (the brain's hands)."""

@@ -1,0 +1,1 @@
+"""MCP server storing taught processes (SQLite FTS5 by default)."""

@@ -1,0 +1,100 @@
+"""Model ports of the vision node (spec 000 §4).
+
+A *grounder* decides what/where (labels, boxes, points, semantic answers); a *segmenter*
+turns a box or point prompt into pixels. Adapters live beside this module; the node and the
+pipelines import only these ports.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+Image = npt.NDArray[np.uint8]
+"""An RGB frame, shape (H, W, 3), dtype uint8."""
+
+Mask = npt.NDArray[np.bool_]
+"""A full-frame boolean mask, shape (H, W)."""
+
+Box = tuple[int, int, int, int]
+"""Pixel box (x_min, y_min, x_max, y_max)."""
+
+Point = tuple[int, int]
+"""Pixel point (x, y)."""
+
+CostClass = Literal["local", "cloud"]
+TargetKind = Literal["object", "region"]
+
+
+class ModelError(Exception):
+    """A model call failed in a way the caller should log and survive (retry, stale result)."""
+
+
+class ModelUnavailableError(ModelError):
+    """A model cannot be used at all: missing key, missing weights, missing optional extra."""
+
+
+@dataclass(frozen=True)
+class GroundedTarget:
+    label: str
+    box: Box | None
+    points: list[Point]
+    kind: TargetKind = "object"
+    confidence: float | None = None
+
+
+@dataclass(frozen=True)
+class SemanticRequest:
+    """One semantic output a skill asks the grounder to answer alongside grounding."""
+
+    name: str
+    type: str
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class GroundingResult:
+    answer: str = ""
+    reasoning: str = ""
+    targets: list[GroundedTarget] = field(default_factory=list)
+    outputs: dict[str, Any] = field(default_factory=dict)
+    """Semantic outputs by name, already coerced to their declared types."""
+
+
+class Grounder(ABC):
+    """Decides what/where. ``cost_class`` says whether a call costs money (metered, §8)."""
+
+    cost_class: CostClass = "local"
+
+    @abstractmethod
+    async def ground(
+        self,
+        image: Image,
+        question: str,
+        outputs: list[SemanticRequest] | None = None,
+        mode: str = "ground_and_segment",
+    ) -> GroundingResult:
+        """Answer a grounding question (+ the requested semantic outputs) about one frame."""
+
+    @abstractmethod
+    async def point(self, image: Image, query: str) -> list[GroundedTarget]:
+        """Point at every instance matching ``query`` (used per tile by segment_all)."""
+
+
+class Segmenter(ABC):
+    """Produces pixels from prompts. Calls are synchronous and may be slow; the node runs them
+    in a worker thread."""
+
+    cost_class: CostClass = "local"
+
+    @abstractmethod
+    def segment_box(self, image: Image, box: Box) -> Mask:
+        """Full-image boolean mask of the object inside ``box``."""
+
+    @abstractmethod
+    def segment_points(self, image: Image, points: list[Point]) -> Mask:
+        """Full-image boolean mask of the object under ``points``."""

@@ -1,0 +1,1 @@
+"""asyncio <-> rclpy bridge used by the MCP servers that talk ROS."""

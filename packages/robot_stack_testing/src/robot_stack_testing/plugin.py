@@ -1,0 +1,64 @@
+"""Pytest plugin loaded by every package's tests (entry point ``pytest11``).
+
+It makes loopback-only ROS discovery impossible to forget: before any test imports rclpy,
+the run gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and a ROS domain id of its own, and
+child processes inherit both.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+from collections.abc import Iterator
+
+import pytest
+
+from robot_stack_testing.processes import ProcessLauncher
+from robot_stack_testing.ports import free_tcp_port
+
+_DOMAIN_OVERRIDE = "ROBOT_TEST_ROS_DOMAIN_ID"
+
+
+def pick_ros_domain_id() -> int:
+    """A domain id for this run: the override if given, else a random one (1..100).
+
+    The environment's own ROS_DOMAIN_ID is ignored on purpose: on a robot it is the live
+    robot's domain, which tests must never join.
+    """
+    override = os.environ.get(_DOMAIN_OVERRIDE)
+    if override:
+        return int(override)
+    return random.SystemRandom().randint(1, 100)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    os.environ["ROS_DOMAIN_ID"] = str(pick_ros_domain_id())
+    os.environ.pop("ROS_STATIC_PEERS", None)
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    return (
+        f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']} "
+        f"ROS_AUTOMATIC_DISCOVERY_RANGE={os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE']}"
+    )
+
+
+@pytest.fixture
+def ros_domain_id() -> int:
+    return int(os.environ["ROS_DOMAIN_ID"])
+
+
+@pytest.fixture
+def launcher(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ProcessLauncher]:
+    """Starts OS processes for a test and stops every one of them (by PID) on teardown."""
+    processes = ProcessLauncher(tmp_path_factory.mktemp("processes"))
+    try:
+        yield processes
+    finally:
+        processes.stop_all()
+
+
+@pytest.fixture
+def tcp_port() -> int:
+    return free_tcp_port()

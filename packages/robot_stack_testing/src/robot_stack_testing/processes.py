@@ -1,0 +1,78 @@
+"""Start helper processes for tests and always stop them, by PID, on teardown."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass
+class LaunchedProcess:
+    name: str
+    popen: subprocess.Popen[bytes]
+    log_path: Path
+
+    @property
+    def pid(self) -> int:
+        return self.popen.pid
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def running(self) -> bool:
+        return self.popen.poll() is None
+
+
+class ProcessLauncher:
+    """Launches argv lists (never a shell) with stdout+stderr captured to a log file."""
+
+    def __init__(self, log_dir: Path) -> None:
+        self._log_dir = log_dir
+        self._processes: list[LaunchedProcess] = []
+
+    def start(
+        self,
+        name: str,
+        argv: Sequence[str],
+        env: Mapping[str, str] | None = None,
+        cwd: Path | None = None,
+    ) -> LaunchedProcess:
+        log_path = self._log_dir / f"{name}-{len(self._processes)}.log"
+        full_env = {**os.environ, **(env or {})}
+        full_env.setdefault("PYTHONUNBUFFERED", "1")
+        with log_path.open("wb") as log:
+            popen = subprocess.Popen(  # noqa: S603 - argv list from the test itself
+                list(argv),
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=full_env,
+                cwd=cwd,
+            )
+        launched = LaunchedProcess(name, popen, log_path)
+        self._processes.append(launched)
+        return launched
+
+    def stop(self, process: LaunchedProcess, timeout_s: float = 5.0) -> int:
+        """SIGINT, then SIGTERM, then SIGKILL; returns the exit code."""
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            if process.popen.poll() is not None:
+                break
+            process.popen.send_signal(sig)
+            try:
+                process.popen.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                continue
+        if process.popen.poll() is None:
+            process.popen.kill()
+            process.popen.wait(timeout=timeout_s)
+        return process.popen.returncode
+
+    def stop_all(self) -> None:
+        for process in reversed(self._processes):
+            self.stop(process)
+        self._processes.clear()

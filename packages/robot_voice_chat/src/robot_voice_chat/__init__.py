@@ -1,0 +1,1 @@
+"""The mission brain: voice/chat app with an agentic mission executor."""

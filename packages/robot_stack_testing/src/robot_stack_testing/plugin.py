@@ -13,8 +13,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from robot_stack_testing.processes import ProcessLauncher
 from robot_stack_testing.ports import free_tcp_port
+from robot_stack_testing.processes import ProcessLauncher
 
 _DOMAIN_OVERRIDE = "ROBOT_TEST_ROS_DOMAIN_ID"
 

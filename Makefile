@@ -1,0 +1,38 @@
+# Robot stack — one entry point for people and CI. Every target sets itself up first.
+SHELL := /bin/bash
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export PATH := $(HOME)/.local/bin:$(PATH)
+
+.PHONY: setup demo test lint format typecheck audit bench clean help
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
+
+setup:  ## install uv, sync the locked workspace, build the ROS 2 interfaces, make sample frames
+	@bash scripts/setup.sh
+
+demo: setup  ## run the stack on the embedded defaults (no keys, no GPU) and show what it does
+	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} uv run --frozen python scripts/demo.py
+
+test: setup lint  ## lint + type-check + every test suite with per-package coverage gates
+	@bash scripts/run-tests.sh
+
+lint: setup  ## ruff check, ruff format --check, mypy --strict, import contracts
+	uv run --frozen ruff check .
+	uv run --frozen ruff format --check .
+	uv run --frozen mypy packages/*/src
+	@if [[ -f .importlinter ]]; then uv run --frozen lint-imports; fi
+
+format: setup  ## apply ruff fixes and formatting
+	uv run --frozen ruff check --fix .
+	uv run --frozen ruff format .
+
+audit: setup  ## pip-audit of the locked dependencies (needs PyPI)
+	uv export --frozen --all-packages --no-emit-workspace --no-hashes -o build/requirements-audit.txt
+	uv run --frozen pip-audit -r build/requirements-audit.txt --progress-spinner off
+
+bench: setup  ## run every benchmark; JSON results in benchmarks/results/
+	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} bash scripts/run-benchmarks.sh
+
+clean:  ## remove build output (keeps .venv)
+	rm -rf build benchmarks/results .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,107 @@
+"""The shared plugin keeps ROS on loopback and stops what tests start."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from robot_stack_testing import (
+    ProcessLauncher,
+    async_wait_until,
+    free_tcp_port,
+    wait_for_tcp_port,
+    wait_until,
+)
+from robot_stack_testing.plugin import pick_ros_domain_id
+
+
+def test_every_run_discovers_only_on_loopback_in_its_own_domain(ros_domain_id: int) -> None:
+    assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+    assert 1 <= ros_domain_id <= 100
+    assert os.environ["ROS_DOMAIN_ID"] == str(ros_domain_id)
+
+
+def test_domain_override_wins_over_random_choice(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("ROBOT_TEST_ROS_DOMAIN_ID", "42")
+    assert pick_ros_domain_id() == 42
+
+
+def test_random_domain_ignores_the_robots_own_domain(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("ROBOT_TEST_ROS_DOMAIN_ID", raising=False)
+    monkeypatch.setenv("ROS_DOMAIN_ID", "0")
+    assert all(1 <= pick_ros_domain_id() <= 100 for _ in range(50))
+
+
+def test_wait_until_returns_the_first_truthy_value() -> None:
+    values = iter([0, None, "ready"])
+    assert wait_until(lambda: next(values), 1.0, interval_s=0.001) == "ready"
+
+
+def test_wait_until_raises_at_its_deadline_naming_what_it_waited_for() -> None:
+    with pytest.raises(TimeoutError, match="the moon"):
+        wait_until(lambda: False, 0.05, "the moon", interval_s=0.01)
+
+
+async def test_async_wait_until_accepts_sync_and_async_predicates() -> None:
+    ticks = iter([False, True])
+    assert await async_wait_until(lambda: next(ticks), 1.0, interval_s=0.001) is True
+
+    async def ready() -> str:
+        await asyncio.sleep(0)
+        return "yes"
+
+    assert await async_wait_until(ready, 1.0) == "yes"
+    with pytest.raises(TimeoutError, match="never"):
+        await async_wait_until(lambda: 0, 0.05, "never", interval_s=0.01)
+
+
+def test_free_port_is_bindable_and_wait_for_port_sees_a_listener() -> None:
+    port = free_tcp_port()
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", port))
+        server.listen()
+        wait_for_tcp_port(port, 2.0)
+    with pytest.raises(TimeoutError):
+        wait_for_tcp_port(port, 0.1)
+
+
+def test_launcher_captures_output_and_stops_a_process_that_ignores_sigint(tmp_path: Path) -> None:
+    launcher = ProcessLauncher(tmp_path)
+    stubborn = (
+        "import signal, sys, time\n"
+        "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+        "print('up', flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    process = launcher.start("stubborn", [sys.executable, "-c", stubborn], env={"X": "1"})
+    wait_until(lambda: "up" in process.log(), 10.0, "the child to start")
+    assert process.running()
+    started = time.monotonic()
+    returncode = launcher.stop(process, timeout_s=0.5)
+    assert returncode != 0
+    assert not process.running()
+    assert time.monotonic() - started < 30
+
+
+def test_stop_all_stops_every_started_process(tmp_path: Path) -> None:
+    launcher = ProcessLauncher(tmp_path)
+    sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+    processes = [launcher.start(f"sleeper{i}", sleeper) for i in range(2)]
+    launcher.stop_all()
+    assert not any(process.running() for process in processes)
+
+
+def test_launcher_fixture_yields_a_working_launcher(launcher: ProcessLauncher) -> None:
+    done = launcher.start("echo", [sys.executable, "-c", "print('hello')"])
+    wait_until(lambda: not done.running(), 10.0, "echo to exit")
+    assert "hello" in done.log()
+
+
+def test_tcp_port_fixture_is_a_loopback_port(tcp_port: int) -> None:
+    assert 0 < tcp_port < 65536

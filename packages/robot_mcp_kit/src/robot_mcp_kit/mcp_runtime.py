@@ -1,0 +1,132 @@
+"""MCP server plumbing shared by the capability servers: the transport switch and tool errors.
+
+Tool errors: a tool raises ``tool_error(code, detail)``. The SDK turns that into a tool result
+with ``isError: true`` whose text is ``Error executing tool <name>: <message>``;
+:func:`install_json_tool_errors` (done by :func:`run_server`) adds a server middleware that
+strips that prefix, so the client reads exactly ``{"error": code, "detail": detail}``. Other
+tool failures (bad arguments, crashes) become ``{"error": "tool_error", "detail": <text>}``.
+:func:`parse_tool_error` reads either form on the client side.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal, get_args
+
+from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
+from mcp.server.mcpserver import MCPServer
+from mcp.server.mcpserver.exceptions import ToolError
+
+Transport = Literal["stdio", "sse", "streamable-http"]
+TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
+DEFAULT_HOST = "127.0.0.1"
+GENERIC_TOOL_ERROR = "tool_error"
+
+_SDK_PREFIX = re.compile(r"^Error executing tool [^:]*: ", re.DOTALL)
+
+
+class KitToolError(ToolError):
+    """A tool failure the model can read: ``str(err)`` is ``{"error": code, "detail": ...}``."""
+
+    def __init__(self, code: str, detail: str) -> None:
+        self.code = code
+        self.detail = detail
+        super().__init__(json.dumps({"error": code, "detail": detail}, ensure_ascii=False))
+
+
+def tool_error(code: str, detail: str) -> KitToolError:
+    """The exception a tool raises for an anticipated failure: ``raise tool_error(...)``."""
+    return KitToolError(code, detail)
+
+
+def parse_tool_error(text: str) -> dict[str, str] | None:
+    """``{"error", "detail"}`` from an isError tool result text (with or without the SDK's
+    ``Error executing tool ...:`` prefix), or None if the text is not such an error."""
+    body = _SDK_PREFIX.sub("", text.strip(), count=1)
+    try:
+        data = json.loads(body)
+    except ValueError:
+        return None
+    if (
+        isinstance(data, dict)
+        and isinstance(data.get("error"), str)
+        and isinstance(data.get("detail"), str)
+    ):
+        return {"error": data["error"], "detail": data["detail"]}
+    return None
+
+
+def _as_json_error(text: str) -> str:
+    parsed = parse_tool_error(text)
+    if parsed is None:
+        parsed = {"error": GENERIC_TOOL_ERROR, "detail": text}
+    return json.dumps(parsed, ensure_ascii=False)
+
+
+class JsonToolErrors:
+    """Server middleware: every ``tools/call`` error result carries JSON text only."""
+
+    async def __call__(
+        self, ctx: ServerRequestContext[Any, Any], call_next: CallNext
+    ) -> HandlerResult:
+        result = await call_next(ctx)
+        if ctx.method != "tools/call" or not isinstance(result, dict):
+            return result
+        if not (result.get("isError") or result.get("is_error")):
+            return result
+        content = result.get("content")
+        if not isinstance(content, list):
+            return result
+        rewritten: list[Any] = []
+        for block in content:
+            if isinstance(block, dict) and block.get("type") == "text":
+                block = {**block, "text": _as_json_error(str(block.get("text", "")))}
+            rewritten.append(block)
+        return {**result, "content": rewritten}
+
+
+def install_json_tool_errors(server: MCPServer) -> MCPServer:
+    """Add :class:`JsonToolErrors` to ``server`` (once); returns the server."""
+    if not any(isinstance(m, JsonToolErrors) for m in server.middleware):
+        server.middleware.append(JsonToolErrors())
+    return server
+
+
+@dataclass(frozen=True)
+class TransportSettings:
+    transport: Transport
+    host: str
+    port: int
+
+
+def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSettings:
+    """Read ``MCP_TRANSPORT`` (stdio | sse | streamable-http, default stdio), ``MCP_HOST``
+    (default 127.0.0.1) and ``MCP_PORT`` (default ``default_port``)."""
+    transport = env.get("MCP_TRANSPORT", "stdio").strip().lower() or "stdio"
+    if transport not in TRANSPORTS:
+        raise ValueError(f"MCP_TRANSPORT must be one of {', '.join(TRANSPORTS)}; got {transport!r}")
+    host = env.get("MCP_HOST", DEFAULT_HOST).strip() or DEFAULT_HOST
+    port_text = env.get("MCP_PORT", "").strip()
+    try:
+        port = int(port_text) if port_text else default_port
+    except ValueError:
+        raise ValueError(f"MCP_PORT must be an integer, got {port_text!r}") from None
+    if not 0 < port < 65536:
+        raise ValueError(f"MCP_PORT must be in 1..65535, got {port}")
+    return TransportSettings(transport, host, port)
+
+
+def run_server(server: MCPServer, default_port: int) -> None:
+    """Run ``server`` on the transport chosen by the environment (blocks until it stops)."""
+    settings = transport_settings(os.environ, default_port)
+    install_json_tool_errors(server)
+    if settings.transport == "stdio":
+        server.run("stdio")
+    elif settings.transport == "sse":
+        server.run("sse", host=settings.host, port=settings.port)
+    else:
+        server.run("streamable-http", host=settings.host, port=settings.port)

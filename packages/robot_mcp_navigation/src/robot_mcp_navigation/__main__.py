@@ -1,0 +1,3 @@
+from robot_mcp_navigation.server import main
+
+main()

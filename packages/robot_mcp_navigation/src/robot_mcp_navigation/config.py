@@ -1,0 +1,77 @@
+"""Process settings from the environment, validated at start-up (fail fast, clear errors)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError, field_validator
+
+DEFAULT_PORT = 9101
+DEFAULT_EVENTS_URL = "http://127.0.0.1:8000/api/agent/events"
+
+
+def default_map_path() -> Path:
+    """The office map shipped with the package (``config/maps/office.yaml``)."""
+    return Path(__file__).resolve().parents[2] / "config" / "maps" / "office.yaml"
+
+
+class ConfigError(ValueError):
+    """The environment does not describe a valid configuration."""
+
+
+class NavigationSettings(BaseModel):
+    model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
+
+    map_path: Path = Field(default_factory=default_map_path, alias="NAV_MAP")
+    time_scale: float = Field(default=1.0, gt=0.0, le=1000.0, alias="NAV_TIME_SCALE")
+    failures_enabled: bool = Field(default=True, alias="NAV_FAILURES")
+    progress_interval_s: float = Field(default=2.0, gt=0.0, alias="NAV_PROGRESS_INTERVAL_S")
+    progress_pct_step: float = Field(default=10.0, gt=0.0, le=100.0, alias="NAV_PROGRESS_PCT_STEP")
+    tick_s: float = Field(default=0.05, gt=0.0, le=1.0, alias="NAV_TICK_S")
+    events_url: str = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
+    event_secret: SecretStr | None = Field(default=None, alias="RVC_EVENT_SECRET")
+    outbox_path: Path = Field(default=Path("var/navigation-outbox.sqlite3"), alias="NAV_OUTBOX")
+    transport: Literal["stdio", "sse", "streamable-http"] = Field(
+        default="stdio", alias="MCP_TRANSPORT"
+    )
+    host: str = Field(default="127.0.0.1", alias="MCP_HOST")
+    port: int = Field(default=DEFAULT_PORT, ge=1, le=65535, alias="MCP_PORT")
+    log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
+        default="INFO", alias="LOG_LEVEL"
+    )
+
+    @field_validator("event_secret", mode="before")
+    @classmethod
+    def _empty_secret_is_none(cls, value: object) -> object:
+        return None if value in ("", None) else value
+
+    @field_validator("events_url")
+    @classmethod
+    def _http_url(cls, value: str) -> str:
+        if not value.startswith(("http://", "https://")):
+            raise ValueError("must be an http:// or https:// URL")
+        return value
+
+    @field_validator("log_level", mode="before")
+    @classmethod
+    def _upper(cls, value: object) -> object:
+        return value.upper() if isinstance(value, str) else value
+
+
+_ALIASES = {
+    field.alias for field in NavigationSettings.model_fields.values() if field.alias is not None
+}
+
+
+def load_settings(environ: Mapping[str, str]) -> NavigationSettings:
+    """Settings from an environment mapping; a bad value raises ConfigError naming it."""
+    values = {key: value for key, value in environ.items() if key in _ALIASES}
+    try:
+        return NavigationSettings.model_validate(values)
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"{'.'.join(str(p) for p in err['loc'])}: {err['msg']}" for err in exc.errors()
+        )
+        raise ConfigError(f"invalid navigation settings: {problems}") from exc

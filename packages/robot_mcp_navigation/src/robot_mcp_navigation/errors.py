@@ -1,0 +1,25 @@
+"""Domain errors of the navigation service; the MCP edge turns them into tool errors."""
+
+from __future__ import annotations
+
+
+class NavigationError(Exception):
+    """A request the navigator refuses; ``code`` is stable, ``detail`` is for humans/LLMs."""
+
+    code = "NAVIGATION_ERROR"
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(detail)
+        self.detail = detail
+
+
+class UnknownLocationError(NavigationError):
+    code = "UNKNOWN_LOCATION"
+
+
+class NavigationBusyError(NavigationError):
+    code = "NAVIGATION_BUSY"
+
+
+class UnknownTaskError(NavigationError):
+    code = "UNKNOWN_TASK"

@@ -1,0 +1,1 @@
+"""The robot-motion port (MotionBase) and its adapters."""

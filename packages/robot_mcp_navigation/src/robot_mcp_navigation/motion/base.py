@@ -1,0 +1,95 @@
+"""MotionBase: the port between the navigation service and whatever moves the robot.
+
+The simulated base implements it today; a real base adapter (e.g. a Nav2 action client)
+replaces it in ``composition.py`` without touching the navigator or the MCP tools.
+All durations here are robot-time seconds (simulated seconds for the simulated base).
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+
+@dataclass(frozen=True)
+class Pose:
+    x: float
+    y: float
+    theta: float = 0.0
+
+    def distance_to(self, other: Pose) -> float:
+        return math.hypot(other.x - self.x, other.y - self.y)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"x": round(self.x, 3), "y": round(self.y, 3), "theta": round(self.theta, 3)}
+
+
+@dataclass(frozen=True)
+class DriveGoal:
+    name: str
+    pose: Pose
+
+
+@dataclass(frozen=True)
+class DriveProgress:
+    pose: Pose
+    distance_total_m: float
+    distance_remaining_m: float
+    eta_s: float
+    elapsed_s: float
+
+    @property
+    def fraction(self) -> float:
+        if self.distance_total_m <= 0:
+            return 1.0
+        return max(0.0, min(1.0, 1.0 - self.distance_remaining_m / self.distance_total_m))
+
+
+@dataclass(frozen=True)
+class DriveFailure:
+    error_code: str
+    message: str
+    recoverable: bool = False
+    suggestions: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class DriveResult:
+    status: Literal["arrived", "failed", "stopped"]
+    pose: Pose
+    elapsed_s: float
+    failure: DriveFailure | None = None
+
+
+ProgressCallback = Callable[[DriveProgress], Awaitable[None]]
+
+
+class MotionBusyError(RuntimeError):
+    """drive_to was called while the base is already driving."""
+
+
+class MotionBase(abc.ABC):
+    """Drives the robot to a pose, reports progress, and halts on request."""
+
+    @abc.abstractmethod
+    async def drive_to(self, goal: DriveGoal, on_progress: ProgressCallback) -> DriveResult:
+        """Drive to ``goal``; await ``on_progress`` while moving; return how it ended.
+
+        Returns ``stopped`` when :meth:`stop` halted the drive. Raises MotionBusyError if a
+        drive is already under way.
+        """
+
+    @abc.abstractmethod
+    async def stop(self) -> None:
+        """Halt at once (idempotent; also fine when not moving)."""
+
+    @abc.abstractmethod
+    def current_pose(self) -> Pose:
+        """Where the robot is now."""
+
+    @abc.abstractmethod
+    def estimate_duration_s(self, goal: Pose) -> float:
+        """Expected robot-time seconds from the current pose to ``goal``."""

@@ -1,0 +1,151 @@
+"""SimulatedBase: straight-line motion at a constant speed, time-scaled, with map failures."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import time
+from collections.abc import Callable, Sequence
+
+import structlog
+
+from robot_mcp_navigation.map import FailureSpec
+from robot_mcp_navigation.motion.base import (
+    DriveFailure,
+    DriveGoal,
+    DriveProgress,
+    DriveResult,
+    MotionBase,
+    MotionBusyError,
+    Pose,
+    ProgressCallback,
+)
+
+logger = structlog.get_logger(__name__)
+
+
+class SimulatedBase(MotionBase):
+    """Moves a virtual robot along the straight line to the goal.
+
+    ``time_scale`` simulated seconds pass per wall-clock second (20 → a 30 s drive takes
+    1.5 s). A map failure for the goal's location halts the robot at ``at_fraction`` of the
+    route and ends the drive as ``failed``; ``once`` failures are used up when they fire.
+    """
+
+    def __init__(
+        self,
+        start: Pose,
+        speed_mps: float,
+        time_scale: float = 1.0,
+        failures: Sequence[FailureSpec] = (),
+        tick_s: float = 0.05,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if speed_mps <= 0 or time_scale <= 0 or tick_s <= 0:
+            raise ValueError("speed_mps, time_scale and tick_s must be positive")
+        self._pose = start
+        self._speed = speed_mps
+        self._time_scale = time_scale
+        self._failures = list(failures)
+        self._tick_s = tick_s
+        self._clock = clock
+        self._stop = asyncio.Event()
+        self._driving = False
+        self._stopped_after_s = 0.0
+        self._route: tuple[Pose, DriveGoal, float] | None = None  # origin, goal, started_at
+
+    @property
+    def driving(self) -> bool:
+        return self._driving
+
+    def current_pose(self) -> Pose:
+        if self._route is not None:
+            return self._pose_now()[0]
+        return self._pose
+
+    def estimate_duration_s(self, goal: Pose) -> float:
+        return self.current_pose().distance_to(goal) / self._speed
+
+    async def stop(self) -> None:
+        if self._route is not None:
+            self._pose, _, self._stopped_after_s = self._pose_now()
+            self._route = None
+        self._stop.set()
+
+    async def drive_to(self, goal: DriveGoal, on_progress: ProgressCallback) -> DriveResult:
+        if self._driving:
+            raise MotionBusyError("the simulated base is already driving")
+        self._driving = True
+        self._stop.clear()
+        self._stopped_after_s = 0.0
+        origin = self._pose
+        total = origin.distance_to(goal.pose)
+        failure = self._take_failure(goal.name)
+        self._route = (origin, goal, self._clock())
+        logger.info("drive_started", goal=goal.name, distance_m=round(total, 2))
+        try:
+            while True:
+                if self._stop.is_set():
+                    return DriveResult("stopped", self._pose, self._stopped_after_s)
+                pose, fraction, elapsed = self._pose_now()
+                if failure is not None and fraction >= failure.at_fraction:
+                    return self._fail_at(origin, goal, failure, elapsed)
+                if fraction >= 1.0:
+                    # A final report at the goal, so triggers a coarse tick jumped over
+                    # (high time scale) still fire before the drive ends.
+                    await on_progress(DriveProgress(goal.pose, total, 0.0, 0.0, elapsed))
+                    self._pose = goal.pose
+                    self._route = None
+                    return DriveResult("arrived", goal.pose, elapsed)
+                remaining = max(0.0, total - fraction * total)
+                await on_progress(
+                    DriveProgress(pose, total, remaining, remaining / self._speed, elapsed)
+                )
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._stop.wait(), self._tick_s)
+        finally:
+            self._driving = False
+
+    def _pose_now(self) -> tuple[Pose, float, float]:
+        """Pose, fraction of the route done and simulated seconds since the drive began."""
+        assert self._route is not None
+        origin, goal, started = self._route
+        elapsed = (self._clock() - started) * self._time_scale
+        total = origin.distance_to(goal.pose)
+        fraction = 1.0 if total <= 0 else min(1.0, elapsed * self._speed / total)
+        return _interpolate(origin, goal.pose, fraction), fraction, elapsed
+
+    def _fail_at(
+        self, origin: Pose, goal: DriveGoal, failure: FailureSpec, elapsed: float
+    ) -> DriveResult:
+        self._pose = _interpolate(origin, goal.pose, failure.at_fraction)
+        self._route = None
+        logger.info("drive_failure_injected", goal=goal.name, error_code=failure.error_code)
+        return DriveResult(
+            "failed",
+            self._pose,
+            elapsed,
+            DriveFailure(
+                failure.error_code, failure.message, failure.recoverable, list(failure.suggestions)
+            ),
+        )
+
+    def _take_failure(self, location: str) -> FailureSpec | None:
+        for failure in self._failures:
+            if failure.location == location:
+                if failure.mode == "once":
+                    self._failures.remove(failure)
+                return failure
+        return None
+
+
+def _interpolate(origin: Pose, goal: Pose, fraction: float) -> Pose:
+    if fraction >= 1.0:
+        return goal
+    heading = math.atan2(goal.y - origin.y, goal.x - origin.x) if origin != goal else goal.theta
+    return Pose(
+        origin.x + (goal.x - origin.x) * fraction,
+        origin.y + (goal.y - origin.y) * fraction,
+        heading,
+    )

@@ -1,0 +1,343 @@
+"""Navigator: the application service behind the MCP tools.
+
+Policy (documented in the README):
+- One navigation at a time. A second ``navigate_to`` while one is running is **refused**
+  with NAVIGATION_BUSY (naming the running task); the caller stops or cancels first. A
+  physical robot should never change course because a request was repeated.
+- Every task ends with exactly one terminal event: ``task_done``, or ``task_failed`` with a
+  TaskFailure payload. A cancelled task (``cancel_task`` / ``stop_navigation``) ends in
+  state ``cancelled`` and posts ``task_failed`` with error_code CANCELLED, recoverable
+  true, so the brain resolves its step (spec 002 §5.4/§9). No progress or trigger event of
+  a task is emitted after its cancellation was requested.
+- Progress is emitted on the first report, then when the percentage grew by
+  ``progress_pct_step`` or ``progress_interval_s`` robot-seconds passed. Triggers fire once.
+- All durations (ETA, est_duration_s, elapsed) are robot-time seconds; with the simulated
+  base that is simulated time (wall time × NAV_TIME_SCALE).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+import uuid
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Any
+
+import structlog
+
+from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.tasks import TaskTable
+from robot_mcp_navigation.errors import (
+    NavigationBusyError,
+    UnknownLocationError,
+    UnknownTaskError,
+)
+from robot_mcp_navigation.events.base import EventSink
+from robot_mcp_navigation.map import NavMap
+from robot_mcp_navigation.motion.base import (
+    DriveFailure,
+    DriveGoal,
+    DriveProgress,
+    DriveResult,
+    MotionBase,
+)
+from robot_mcp_navigation.triggers import Trigger
+
+logger = structlog.get_logger(__name__)
+
+TOOL = "navigate_to"
+AT_LOCATION_TOLERANCE_M = 0.05
+
+
+@dataclass(frozen=True)
+class NavigatorSettings:
+    time_scale: float = 1.0
+    progress_interval_s: float = 2.0
+    progress_pct_step: float = 10.0
+    stop_timeout_s: float = 5.0
+    drive_timeout_factor: float = 3.0
+    drive_timeout_margin_s: float = 30.0
+
+
+def new_task_id() -> str:
+    return f"nav-{uuid.uuid4().hex[:8]}"
+
+
+@dataclass
+class _Drive:
+    task_id: str
+    goal: DriveGoal
+    triggers: list[Trigger]
+    est_duration_s: float
+    fired: set[int] = field(default_factory=set)
+    last_pct: float | None = None
+    last_progress_at: float = 0.0
+    latest: dict[str, Any] | None = None
+    cancel_reason: str | None = None
+    runner: asyncio.Task[TaskInfo] | None = None
+
+
+class Navigator:
+    def __init__(
+        self,
+        nav_map: NavMap,
+        base: MotionBase,
+        events: EventSink,
+        tasks: TaskTable,
+        settings: NavigatorSettings | None = None,
+        task_ids: Callable[[], str] = new_task_id,
+    ) -> None:
+        self._map = nav_map
+        self._base = base
+        self._events = events
+        self._tasks = tasks
+        self._settings = settings or NavigatorSettings()
+        self._task_ids = task_ids
+        self._active: _Drive | None = None
+
+    # -- queries -------------------------------------------------------------------------
+
+    def locations(self) -> dict[str, Any]:
+        here = self._base.current_pose()
+        return {
+            "map": self._map.name,
+            "frame": self._map.frame,
+            "speed_mps": self._map.speed_mps,
+            "locations": [
+                {
+                    "name": name,
+                    "description": loc.description,
+                    "aliases": list(loc.aliases),
+                    "x": loc.x,
+                    "y": loc.y,
+                    "distance_m": round(here.distance_to(loc.pose()), 2),
+                    "est_duration_s": round(self._base.estimate_duration_s(loc.pose()), 1),
+                }
+                for name, loc in self._map.locations.items()
+            ],
+        }
+
+    def pose(self) -> dict[str, Any]:
+        pose = self._base.current_pose()
+        at = next(
+            (
+                name
+                for name, loc in self._map.locations.items()
+                if pose.distance_to(loc.pose()) <= AT_LOCATION_TOLERANCE_M
+            ),
+            None,
+        )
+        active = self._active
+        return {
+            **pose.as_dict(),
+            "frame": self._map.frame,
+            "at_location": at,
+            "moving": active is not None,
+            "task_id": active.task_id if active else None,
+            "destination": active.goal.name if active else None,
+        }
+
+    def get_task(self, task_id: str) -> TaskInfo:
+        info = self._tasks.get(task_id)
+        if info is None:
+            raise UnknownTaskError(f"no task {task_id!r} on this server (it may predate a restart)")
+        active = self._active
+        if active is not None and active.task_id == task_id and active.latest is not None:
+            return info.model_copy(update={"progress": active.latest})
+        return info
+
+    def list_tasks(self, states: Iterable[TaskState] | None = None) -> list[TaskInfo]:
+        return self._tasks.list(states)
+
+    # -- commands ------------------------------------------------------------------------
+
+    async def navigate_to(self, location: str, triggers: Iterable[Trigger] = ()) -> TaskInfo:
+        name = self._map.resolve(location)
+        if name is None:
+            known = ", ".join(sorted(self._map.locations))
+            raise UnknownLocationError(f"unknown location {location!r}; known: {known}")
+        active = self._active
+        if active is not None:
+            raise NavigationBusyError(
+                f"already navigating to {active.goal.name!r} (task {active.task_id}); "
+                "call stop_navigation or cancel_task first"
+            )
+        goal = DriveGoal(name, self._map.locations[name].pose())
+        est = round(self._base.estimate_duration_s(goal.pose), 2)
+        trigger_list = list(triggers)
+        info = self._tasks.create(
+            TOOL,
+            est_duration_s=est,
+            task_id=self._task_ids(),
+            destination=name,
+            triggers=[t.model_dump() for t in trigger_list],
+        )
+        drive = _Drive(info.task_id, goal, trigger_list, est)
+        self._active = drive
+        drive.runner = asyncio.create_task(self._run(drive), name=f"drive-{info.task_id}")
+        logger.info("navigation_started", task_id=info.task_id, destination=name, est_s=est)
+        return info
+
+    async def stop(self, reason: str = "stop_navigation") -> TaskInfo | None:
+        """Halt at once; cancel the running navigation (if any) and return its final state."""
+        started = time.monotonic()
+        active = self._active
+        if active is not None and active.cancel_reason is None:
+            active.cancel_reason = reason
+        await self._base.stop()
+        final = await self._wait_finished(active)
+        logger.info(
+            "navigation_stopped",
+            reason=reason,
+            task_id=active.task_id if active else None,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
+        return final
+
+    async def cancel_task(self, task_id: str) -> TaskInfo:
+        """Cancel ``task_id``; a task that already ended is returned unchanged."""
+        info = self.get_task(task_id)
+        active = self._active
+        if active is None or active.task_id != task_id:
+            return info
+        final = await self.stop(reason="cancel_task")
+        return final if final is not None else self.get_task(task_id)
+
+    async def close(self) -> None:
+        await self.stop(reason="shutdown")
+
+    # -- the drive -------------------------------------------------------------------------
+
+    async def _wait_finished(self, drive: _Drive | None) -> TaskInfo | None:
+        if drive is None or drive.runner is None:
+            return None
+        try:
+            return await asyncio.wait_for(
+                asyncio.shield(drive.runner), self._settings.stop_timeout_s
+            )
+        except TimeoutError:
+            logger.warning("navigation_stop_slow", task_id=drive.task_id)
+            return self._tasks.get(drive.task_id)
+
+    def _drive_timeout_s(self, drive: _Drive) -> float:
+        s = self._settings
+        robot_s = drive.est_duration_s * s.drive_timeout_factor + s.drive_timeout_margin_s
+        return robot_s / s.time_scale
+
+    async def _run(self, drive: _Drive) -> TaskInfo:
+        started = time.monotonic()
+        result: DriveResult | None = None
+        failure: DriveFailure | None = None
+        try:
+            async with asyncio.timeout(self._drive_timeout_s(drive)):
+                result = await self._base.drive_to(drive.goal, partial(self._on_progress, drive))
+        except TimeoutError:
+            await self._base.stop()
+            failure = DriveFailure(
+                "NAVIGATION_TIMEOUT",
+                f"the drive to {drive.goal.name} took far longer than expected and was halted",
+                recoverable=True,
+                suggestions=["check for obstacles, then call navigate_to again"],
+            )
+        except Exception:  # the base is an adapter boundary: a crash must end the task cleanly
+            logger.exception("drive_crashed", task_id=drive.task_id)
+            await self._base.stop()
+            failure = DriveFailure(
+                "BASE_ERROR", "the robot base reported an internal error", recoverable=False
+            )
+        try:
+            final = await self._finish(drive, result, failure)
+        finally:
+            self._active = None
+        logger.info(
+            "navigation_finished",
+            task_id=drive.task_id,
+            state=final.state,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
+        return final
+
+    async def _finish(
+        self, drive: _Drive, result: DriveResult | None, failure: DriveFailure | None
+    ) -> TaskInfo:
+        pose = self._base.current_pose().as_dict()
+        common = {"destination": drive.goal.name, "pose": pose}
+        if result is not None and result.status == "arrived":
+            done = {**common, "duration_s": round(result.elapsed_s, 2)}
+            info = self._tasks.finish(drive.task_id, "succeeded", result=done)
+            await self._emit(drive, "task_done", done)
+            return info
+        state: TaskState = "failed"
+        if result is not None and result.status == "failed":
+            failure = result.failure
+        elif result is not None and result.status == "stopped":
+            if drive.cancel_reason is not None:
+                state = "cancelled"
+                failure = DriveFailure(
+                    "CANCELLED",
+                    f"navigation to {drive.goal.name} was cancelled ({drive.cancel_reason}); "
+                    "the robot halted where it is",
+                    recoverable=True,
+                    suggestions=[f'call navigate_to("{drive.goal.name}") to resume the drive'],
+                )
+            else:
+                failure = DriveFailure(
+                    "BASE_STOPPED",
+                    "the robot base halted on its own (e.g. an emergency stop)",
+                    recoverable=True,
+                    suggestions=["check the robot is safe to move, then call navigate_to again"],
+                )
+        assert failure is not None
+        task_failure = TaskFailure(
+            error_code=failure.error_code,
+            message=failure.message,
+            recoverable=failure.recoverable,
+            suggestions=list(failure.suggestions),
+        )
+        info = self._tasks.finish(drive.task_id, state, error=task_failure.model_dump())
+        await self._emit(
+            drive, "task_failed", {**task_failure.model_dump(), **common, "state": state}
+        )
+        return info
+
+    async def _on_progress(self, drive: _Drive, progress: DriveProgress) -> None:
+        if drive.cancel_reason is not None:
+            return
+        pct = round(progress.fraction * 100, 1)
+        snapshot = {
+            "destination": drive.goal.name,
+            "pct": pct,
+            "eta_s": round(progress.eta_s, 2),
+            "distance_remaining_m": round(progress.distance_remaining_m, 2),
+            "elapsed_s": round(progress.elapsed_s, 2),
+            "pose": progress.pose.as_dict(),
+        }
+        drive.latest = snapshot
+        for index, trigger in enumerate(drive.triggers):
+            if index not in drive.fired and trigger.is_met(progress):
+                drive.fired.add(index)
+                await self._emit_live(
+                    drive, "trigger_fired", {**snapshot, "trigger": trigger.model_dump()}
+                )
+        s = self._settings
+        if (
+            drive.last_pct is None
+            or pct - drive.last_pct >= s.progress_pct_step
+            or progress.elapsed_s - drive.last_progress_at >= s.progress_interval_s
+        ):
+            drive.last_pct = pct
+            drive.last_progress_at = progress.elapsed_s
+            await self._emit_live(drive, "progress", snapshot)
+
+    async def _emit_live(self, drive: _Drive, type: EventType, payload: dict[str, Any]) -> None:
+        """Emit a non-terminal event unless cancellation was requested meanwhile."""
+        if drive.cancel_reason is None:
+            await self._emit(drive, type, payload)
+
+    async def _emit(self, drive: _Drive, type: EventType, payload: dict[str, Any]) -> None:
+        try:
+            await self._events.emit(drive.task_id, TOOL, type, payload)
+        except Exception:  # an event-sink failure must never stop the robot's bookkeeping
+            logger.exception("event_emit_failed", task_id=drive.task_id, type=type)

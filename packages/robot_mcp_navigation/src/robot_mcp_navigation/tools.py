@@ -1,0 +1,107 @@
+"""The MCP surface of the navigation server: thin tools over the Navigator."""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable
+from typing import Any, Literal, TypeVar
+
+from mcp.server.mcpserver import MCPServer
+
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
+from robot_mcp_kit.models import TaskState
+from robot_mcp_navigation.errors import NavigationError
+from robot_mcp_navigation.navigator import Navigator
+from robot_mcp_navigation.triggers import Trigger
+
+SERVER_NAME = "navigation"
+
+INSTRUCTIONS = """\
+Drives the robot base between named locations of the map. navigate_to is asynchronous: it
+returns a TaskInfo ({task_id, state: "running", est_duration_s, ...}) at once, then the
+server pushes progress, trigger_fired, task_done or task_failed events for that task_id.
+Only one navigation runs at a time; stop_navigation halts the robot immediately.
+Durations are robot seconds."""
+
+T = TypeVar("T")
+LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
+
+
+async def _guard(call: Awaitable[T]) -> T:
+    """Turn domain errors into tool errors the planner can read."""
+    try:
+        return await call
+    except NavigationError as exc:
+        raise tool_error(exc.code, exc.detail) from exc
+
+
+def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPServer:
+    server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
+    install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
+
+    @server.tool()
+    async def navigate_to(location: str, triggers: list[Trigger] | None = None) -> dict[str, Any]:
+        """Start driving the robot to a named location (see list_locations).
+
+        Returns at once with a TaskInfo: {"task_id", "state": "running", "est_duration_s",
+        "destination", ...}. The outcome arrives later as a task_done or task_failed event
+        for that task_id (task_failed carries error_code, message, recoverable and
+        suggestions, e.g. DOOR_CLOSED). Optional triggers each fire once as a trigger_fired
+        event: {"type": "eta_below", "seconds": 10} fires when the ETA drops below 10 s,
+        {"type": "distance_below", "meters": 2} when less than 2 m remain — use them to
+        prepare the next step before arrival. Refused with NAVIGATION_BUSY while another
+        navigation runs: call stop_navigation or cancel_task first.
+        """
+        info = await _guard(navigator.navigate_to(location, triggers or []))
+        return info.model_dump(mode="json")
+
+    @server.tool()
+    async def stop_navigation() -> dict[str, Any]:
+        """Halt the robot immediately and cancel the running navigation, if any.
+
+        Safe to call at any time (also when not moving). Returns the pose where the robot
+        stopped and the cancelled task (state "cancelled"), or null if none was running.
+        """
+        final = await navigator.stop()
+        return {
+            "stopped": True,
+            "pose": navigator.pose(),
+            "cancelled_task": final.model_dump(mode="json") if final else None,
+        }
+
+    @server.tool()
+    async def get_pose() -> dict[str, Any]:
+        """Where the robot is: x, y, theta (map frame), the named location it is at (or
+        null), whether it is moving and towards which destination."""
+        return navigator.pose()
+
+    @server.tool()
+    async def list_locations() -> dict[str, Any]:
+        """The named locations of the map, with description, aliases, distance from the
+        robot and estimated driving time in seconds."""
+        return navigator.locations()
+
+    @server.tool()
+    async def get_task(task_id: str) -> dict[str, Any]:
+        """The current TaskInfo of a navigation task: state (running, succeeded, failed,
+        cancelled), live progress while running, result or error when finished."""
+        try:
+            info = navigator.get_task(task_id)
+        except NavigationError as exc:
+            raise tool_error(exc.code, exc.detail) from exc
+        return info.model_dump(mode="json")
+
+    @server.tool()
+    async def cancel_task(task_id: str) -> dict[str, Any]:
+        """Cancel a navigation task: the robot halts where it is and the task ends as
+        cancelled. A task that already ended is returned unchanged."""
+        info = await _guard(navigator.cancel_task(task_id))
+        return info.model_dump(mode="json")
+
+    @server.tool()
+    async def list_tasks(states: list[TaskState] | None = None) -> dict[str, Any]:
+        """Navigation tasks known to this server (since it started), optionally filtered
+        by state, e.g. states=["running"] to reconcile after a restart."""
+        tasks = navigator.list_tasks(states)
+        return {"tasks": [t.model_dump(mode="json") for t in tasks]}
+
+    return server

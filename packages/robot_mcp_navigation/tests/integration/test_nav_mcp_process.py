@@ -1,0 +1,250 @@
+"""The navigation server as a real process, driven over real MCP transports, posting signed
+events to a local receiver that verifies every HMAC."""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+import uvicorn
+from mcp import Client
+from mcp.client.sse import sse_client
+from mcp_types import CallToolResult, TextContent
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse
+from starlette.routing import Route
+
+from robot_mcp_kit.models import TaskEvent
+from robot_mcp_kit.signing import (
+    HEADER_SERVER,
+    HEADER_SIGNATURE,
+    HEADER_TIMESTAMP,
+    SignatureError,
+    verify,
+)
+from robot_stack_testing import (
+    LaunchedProcess,
+    ProcessLauncher,
+    async_wait_until,
+    free_tcp_port,
+    wait_for_tcp_port,
+    wait_until,
+)
+
+SECRET = "integration-test-secret"
+
+
+@dataclass
+class Receiver:
+    url: str
+    events: list[TaskEvent] = field(default_factory=list)
+    rejected: list[str] = field(default_factory=list)
+
+    def unique(self, task_id: str) -> list[TaskEvent]:
+        """The task's events in arrival order, duplicates (same event_id) dropped."""
+        seen: set[str] = set()
+        out: list[TaskEvent] = []
+        for event in list(self.events):
+            if event.task_id == task_id and event.event_id not in seen:
+                seen.add(event.event_id)
+                out.append(event)
+        return out
+
+    def terminal(self, task_id: str) -> TaskEvent | None:
+        return next(
+            (e for e in self.unique(task_id) if e.type in ("task_done", "task_failed")), None
+        )
+
+
+def _app(receiver: Receiver) -> Starlette:
+    async def ingest(request: Request) -> JSONResponse:
+        body = await request.body()
+        try:
+            verify(
+                SECRET,
+                request.headers.get(HEADER_TIMESTAMP, ""),
+                body,
+                request.headers.get(HEADER_SIGNATURE, ""),
+            )
+        except SignatureError as exc:
+            receiver.rejected.append(exc.reason)
+            return JSONResponse({"error": exc.reason}, status_code=401)
+        event = TaskEvent.model_validate_json(body)
+        if request.headers.get(HEADER_SERVER) != event.server:
+            receiver.rejected.append("server_mismatch")
+            return JSONResponse({"error": "server_mismatch"}, status_code=401)
+        receiver.events.append(event)
+        return JSONResponse({"status": "ok"})
+
+    return Starlette(routes=[Route("/api/agent/events", ingest, methods=["POST"])])
+
+
+@pytest.fixture
+def receiver(tcp_port: int) -> Iterator[Receiver]:
+    recv = Receiver(url=f"http://127.0.0.1:{tcp_port}/api/agent/events")
+    server = uvicorn.Server(
+        uvicorn.Config(_app(recv), host="127.0.0.1", port=tcp_port, log_level="warning")
+    )
+    thread = threading.Thread(target=server.run, name="event-receiver", daemon=True)
+    thread.start()
+    wait_until(lambda: server.started, 10, "the event receiver to start")
+    try:
+        yield recv
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+def start_navigation(
+    launcher: ProcessLauncher,
+    receiver: Receiver,
+    port: int,
+    tmp_path: Path,
+    transport: str,
+    **extra_env: str,
+) -> LaunchedProcess:
+    env = {
+        "MCP_TRANSPORT": transport,
+        "MCP_PORT": str(port),
+        "RVC_EVENTS_URL": receiver.url,
+        "RVC_EVENT_SECRET": SECRET,
+        "NAV_OUTBOX": str(tmp_path / "outbox.sqlite3"),
+        "NAV_TIME_SCALE": "40",
+        "NAV_TICK_S": "0.02",
+        "NAV_PROGRESS_INTERVAL_S": "1.0",
+        **extra_env,
+    }
+    process = launcher.start("navigation", [sys.executable, "-m", "robot_mcp_navigation"], env=env)
+    try:
+        wait_for_tcp_port(port, 20)
+    except TimeoutError:
+        raise AssertionError(f"navigation server did not start:\n{process.log()}") from None
+    return process
+
+
+def payload(result: CallToolResult) -> dict[str, Any]:
+    (content,) = result.content
+    assert isinstance(content, TextContent)
+    assert not result.is_error, content.text
+    value: dict[str, Any] = json.loads(content.text)
+    return value
+
+
+def assert_ordered(receiver: Receiver, task_id: str) -> None:
+    seqs = [e.seq for e in receiver.unique(task_id)]
+    assert seqs == sorted(seqs), f"events of {task_id} arrived out of order: {seqs}"
+    assert len(set(seqs)) == len(seqs), f"seq reused in {task_id}: {seqs}"
+
+
+async def test_navigation_over_streamable_http_posts_signed_ordered_events_and_fires_triggers(
+    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+) -> None:
+    port = free_tcp_port()
+    start_navigation(launcher, receiver, port, tmp_path, "streamable-http")
+
+    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+        info = payload(
+            await client.call_tool(
+                "navigate_to",
+                {"location": "kitchen", "triggers": [{"type": "eta_below", "seconds": 5}]},
+            )
+        )
+        assert info["state"] == "running"
+        task_id = info["task_id"]
+        await async_wait_until(lambda: receiver.terminal(task_id), 30, "task_done at receiver")
+        final = payload(await client.call_tool("get_task", {"task_id": task_id}))
+        pose = payload(await client.call_tool("get_pose", {}))
+
+    events = receiver.unique(task_id)
+    types = [e.type for e in events]
+    assert types[0] == "progress"
+    assert types[-1] == "task_done"
+    assert types.count("trigger_fired") == 1
+    fired = next(e for e in events if e.type == "trigger_fired")
+    assert fired.payload["trigger"] == {"type": "eta_below", "seconds": 5.0}
+    assert fired.payload["eta_s"] < 5
+    assert all(e.server == "navigation" and e.tool == "navigate_to" for e in events)
+    assert_ordered(receiver, task_id)
+    assert receiver.rejected == []
+    assert final["state"] == "succeeded"
+    assert pose["at_location"] == "kitchen"
+
+
+async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse(
+    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+) -> None:
+    port = free_tcp_port()
+    start_navigation(launcher, receiver, port, tmp_path, "sse")
+
+    async with Client(sse_client(f"http://127.0.0.1:{port}/sse")) as client:
+        first = payload(await client.call_tool("navigate_to", {"location": "mailroom"}))
+        await async_wait_until(lambda: receiver.terminal(first["task_id"]), 30, "task_failed")
+        failed = payload(await client.call_tool("get_task", {"task_id": first["task_id"]}))
+        retry = payload(await client.call_tool("navigate_to", {"location": "mailroom"}))
+        await async_wait_until(lambda: receiver.terminal(retry["task_id"]), 30, "task_done")
+
+    terminal = receiver.terminal(first["task_id"])
+    assert terminal is not None
+    assert terminal.type == "task_failed"
+    assert terminal.payload["error_code"] == "DOOR_CLOSED"
+    assert terminal.payload["recoverable"] is True
+    assert any("open" in s for s in terminal.payload["suggestions"])
+    assert any("corridor_b" in s for s in terminal.payload["suggestions"])
+    assert failed["state"] == "failed"
+    retried = receiver.terminal(retry["task_id"])
+    assert retried is not None
+    assert retried.type == "task_done"
+    assert_ordered(receiver, first["task_id"])
+    assert_ordered(receiver, retry["task_id"])
+    assert receiver.rejected == []
+
+
+async def test_stop_navigation_mid_drive_cancels_the_task_and_ends_its_events(
+    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+) -> None:
+    port = free_tcp_port()
+    start_navigation(
+        launcher,
+        receiver,
+        port,
+        tmp_path,
+        "streamable-http",
+        NAV_TIME_SCALE="4",
+        NAV_FAILURES="off",
+    )
+
+    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+        info = payload(await client.call_tool("navigate_to", {"location": "meeting_room"}))
+        task_id = info["task_id"]
+        await async_wait_until(
+            lambda: len([e for e in receiver.unique(task_id) if e.type == "progress"]) >= 2,
+            30,
+            "two progress events",
+        )
+        stopped = payload(await client.call_tool("stop_navigation", {}))
+        await async_wait_until(lambda: receiver.terminal(task_id), 30, "the terminal event")
+        pose_after_stop = payload(await client.call_tool("get_pose", {}))
+        # A later navigation's completion proves the server kept running past the stop;
+        # the stopped task must still have posted nothing after its terminal event.
+        later = payload(await client.call_tool("navigate_to", {"location": "dock"}))
+        await async_wait_until(lambda: receiver.terminal(later["task_id"]), 60, "later drive")
+        listing = payload(await client.call_tool("list_tasks", {"states": ["cancelled"]}))
+
+    assert stopped["cancelled_task"]["state"] == "cancelled"
+    assert pose_after_stop["moving"] is False
+    assert pose_after_stop["at_location"] is None
+    events = receiver.unique(task_id)
+    assert events[-1].type == "task_failed"
+    assert events[-1].payload["error_code"] == "CANCELLED"
+    assert events[-1].payload["state"] == "cancelled"
+    assert events[-1].seq == max(e.seq for e in events)
+    assert [e.type for e in events].count("task_failed") == 1
+    assert_ordered(receiver, task_id)
+    assert [t["task_id"] for t in listing["tasks"]] == [task_id]

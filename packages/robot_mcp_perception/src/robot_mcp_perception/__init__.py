@@ -1,1 +1,2 @@
-"""The ROS 2 vision node: runtime-configured skills, a grounder and a segmenter, results on /vision/**."""
+"""The ROS 2 vision node: runtime-configured skills, a grounder and a segmenter, results on
+/vision/**."""

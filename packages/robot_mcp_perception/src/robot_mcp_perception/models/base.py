@@ -85,6 +85,14 @@ class Grounder(ABC):
         """Point at every instance matching ``query`` (used per tile by segment_all)."""
 
 
+@dataclass(frozen=True)
+class SegmentPrompt:
+    """One object to segment: a box, points, or both (a box-capable segmenter uses the box)."""
+
+    box: Box | None = None
+    points: list[Point] = field(default_factory=list)
+
+
 class Segmenter(ABC):
     """Produces pixels from prompts. Calls are synchronous and may be slow; the node runs them
     in a worker thread."""
@@ -98,3 +106,17 @@ class Segmenter(ABC):
     @abstractmethod
     def segment_points(self, image: Image, points: list[Point]) -> Mask:
         """Full-image boolean mask of the object under ``points``."""
+
+    def segment_many(self, image: Image, prompts: list[SegmentPrompt]) -> list[Mask]:
+        """One full-image mask per prompt, all on the same image, in one call.
+
+        The tiled pipeline segments every instance with a single call so that segmenters
+        with an image encoder (SAM) embed the frame once. The default loops over
+        :meth:`segment_box` / :meth:`segment_points`.
+        """
+        return [
+            self.segment_box(image, p.box)
+            if p.box is not None
+            else self.segment_points(image, p.points)
+            for p in prompts
+        ]

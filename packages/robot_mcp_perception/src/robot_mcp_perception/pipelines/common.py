@@ -6,18 +6,29 @@ decides *how* (which model calls, in which order) and returns a :class:`SkillRes
 
 from __future__ import annotations
 
+import asyncio
+import time
+from collections.abc import Awaitable, Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
+
+import structlog
 
 from robot_mcp_perception.models.base import (
     Box,
+    CostClass,
     Grounder,
     GroundingResult,
     Mask,
+    ModelError,
     Point,
     Segmenter,
     TargetKind,
 )
+
+log = structlog.get_logger("robot_mcp_perception.pipelines")
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -35,6 +46,12 @@ class PipelineSettings:
     """Plausibility: masks smaller than this fraction of the box are rejected."""
     max_mask_fraction: float = 0.9
     """Plausibility / background filter: masks covering more of the image are rejected."""
+    max_outside_box_fraction: float = 0.5
+    """Plausibility: a mask with more of its pixels outside the prompt box leaks to background."""
+    speck_fraction: float = 0.0005
+    """Post-processing: mask components smaller than this fraction of the image are specks."""
+    segment_all_query: str = "every distinct object"
+    """Pointing query of a segment_all skill that has no ``grounding`` text."""
 
 
 @dataclass
@@ -65,3 +82,59 @@ class SkillResult:
     """What the grounder said; the node caches it (prewarm, ground-once-segment-at-rate)."""
     timings_ms: dict[str, float] = field(default_factory=dict)
     """duration per stage, e.g. {"ground": 812.0, "segment": 21.4}."""
+
+
+class SkillModeError(ValueError):
+    """The skill cannot run (unknown mode, missing watched output, …) — a configuration error."""
+
+
+@contextmanager
+def model_call(
+    stage: str, skill: str, cost_class: CostClass, timings: dict[str, float]
+) -> Iterator[None]:
+    """Time one model call: log ``model_call`` {stage, skill, cost_class, duration_ms} and add
+    the duration to ``timings[stage]`` (also when the call fails)."""
+    started = time.perf_counter()
+    ok = False
+    try:
+        yield
+        ok = True
+    finally:
+        duration_ms = round(1000 * (time.perf_counter() - started), 2)
+        timings[stage] = round(timings.get(stage, 0.0) + duration_ms, 2)
+        log.info(
+            "model_call",
+            stage=stage,
+            skill=skill,
+            cost_class=cost_class,
+            duration_ms=duration_ms,
+            ok=ok,
+        )
+
+
+async def call_grounder(
+    stage: str, skill: str, grounder: Grounder, timings: dict[str, float], call: Awaitable[T]
+) -> T:
+    """Await a grounder call under :func:`model_call`.
+
+    Grounder failures reach the node as :class:`ModelError` (it republishes the stale
+    result): ModelError passes through, a timeout becomes ModelError.
+    """
+    with model_call(stage, skill, grounder.cost_class, timings):
+        try:
+            return await call
+        except TimeoutError as exc:
+            raise ModelError(f"{stage} call of skill {skill!r} timed out") from exc
+
+
+async def call_segmenter(
+    stage: str,
+    skill: str,
+    segmenter: Segmenter,
+    timings: dict[str, float],
+    fn: Callable[..., T],
+    *args: Any,
+) -> T:
+    """Run a (synchronous, possibly slow) segmenter call in a worker thread, timed."""
+    with model_call(stage, skill, segmenter.cost_class, timings):
+        return await asyncio.to_thread(fn, *args)

@@ -1,0 +1,209 @@
+"""Artifacts HTTP endpoint (ARCHITECTURE §4.2): ``/healthz``, recent masks and overlays.
+
+Masks travel on ROS; this endpoint only lets the UI / brain-side tools fetch a picture by
+``mask_ref``. Memory is bounded: the last ``masks_per_skill`` results' masks are kept
+bit-packed (≈38 KB per 640×480 mask) and the last ``overlays_per_skill`` overlays are kept as
+(frame, result) and rendered to PNG on request.
+
+Routes (all GET, bound to 127.0.0.1):
+- ``/healthz`` — node up, latest frame age, skills;
+- ``/skills/{skill}/masks`` — the kept mask refs of a skill;
+- ``/masks/{skill}/{stamp_ns}/{index}.png`` — one mask (mono8 PNG);
+- ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``.
+"""
+
+from __future__ import annotations
+
+import io
+import threading
+import time
+from collections import OrderedDict, deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import structlog
+import uvicorn
+from PIL import Image as PILImage
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route
+
+from robot_mcp_perception.frames import Frame
+from robot_mcp_perception.models.base import Image
+from robot_mcp_perception.pipelines.common import SkillResult
+
+logger = structlog.get_logger("robot_mcp_perception.artifacts")
+
+OverlayRenderer = Callable[[Image, SkillResult], Image]
+HealthProvider = Callable[[], dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class _StoredMask:
+    shape: tuple[int, int]
+    bits: npt.NDArray[np.uint8]
+
+    def to_png(self) -> bytes:
+        count = self.shape[0] * self.shape[1]
+        flat = np.unpackbits(self.bits, count=count).astype(bool)
+        pixels = np.where(flat.reshape(self.shape), np.uint8(255), np.uint8(0))
+        return _png(pixels.astype(np.uint8))
+
+
+def _png(pixels: Image | npt.NDArray[np.uint8]) -> bytes:
+    buffer = io.BytesIO()
+    PILImage.fromarray(pixels).save(buffer, format="PNG", compress_level=1)
+    return buffer.getvalue()
+
+
+class ArtifactStore:
+    """Recent masks/overlays per skill (thread-safe, bounded)."""
+
+    def __init__(
+        self,
+        base_url: str,
+        masks_per_skill: int = 8,
+        overlays_per_skill: int = 2,
+        renderer: OverlayRenderer | None = None,
+    ) -> None:
+        self.base_url = base_url.rstrip("/")
+        self.masks_per_skill = masks_per_skill
+        self.overlays_per_skill = overlays_per_skill
+        self.renderer = renderer
+        self._masks: dict[str, OrderedDict[tuple[int, int], _StoredMask]] = {}
+        self._overlays: dict[str, deque[tuple[int, Frame, SkillResult]]] = {}
+        self._lock = threading.Lock()
+
+    def mask_path(self, skill: str, stamp_ns: int, index: int) -> str:
+        return f"/masks/{skill}/{stamp_ns}/{index}.png"
+
+    def add(
+        self, skill: str, topic: str, frame: Frame, result: SkillResult
+    ) -> list[dict[str, Any]]:
+        """Keep this result's masks/overlay; returns one ``mask_ref`` (or {}) per detection."""
+        refs: list[dict[str, Any]] = []
+        with self._lock:
+            masks = self._masks.setdefault(skill, OrderedDict())
+            for index, detection in enumerate(result.detections):
+                if detection.mask is None:
+                    refs.append({})
+                    continue
+                mask = np.asarray(detection.mask, dtype=bool)
+                masks[(frame.stamp_ns, index)] = _StoredMask(
+                    (mask.shape[0], mask.shape[1]), np.packbits(mask)
+                )
+                path = self.mask_path(skill, frame.stamp_ns, index)
+                refs.append(
+                    {
+                        "topic": topic,
+                        "stamp": frame.stamp_ns / 1e9,
+                        "stamp_ns": frame.stamp_ns,
+                        "index": index,
+                        "url": self.base_url + path,
+                        "path": path,
+                    }
+                )
+            stamps = list(dict.fromkeys(stamp for stamp, _ in masks))
+            for old in stamps[: max(0, len(stamps) - self.masks_per_skill)]:
+                for key in [k for k in masks if k[0] == old]:
+                    del masks[key]
+            overlays = self._overlays.setdefault(skill, deque(maxlen=self.overlays_per_skill))
+            overlays.append((frame.stamp_ns, frame, result))
+        return refs
+
+    def forget(self, skill: str) -> None:
+        with self._lock:
+            self._masks.pop(skill, None)
+            self._overlays.pop(skill, None)
+
+    def mask_png(self, skill: str, stamp_ns: int, index: int) -> bytes | None:
+        with self._lock:
+            stored = self._masks.get(skill, OrderedDict()).get((stamp_ns, index))
+        return stored.to_png() if stored else None
+
+    def mask_refs(self, skill: str) -> list[dict[str, Any]]:
+        with self._lock:
+            keys = list(self._masks.get(skill, OrderedDict()))
+        return [
+            {"stamp_ns": s, "index": i, "url": self.base_url + self.mask_path(skill, s, i)}
+            for s, i in keys
+        ]
+
+    def overlay_png(self, skill: str, stamp_ns: int | None) -> bytes | None:
+        with self._lock:
+            kept = list(self._overlays.get(skill, ()))
+        for stamp, frame, result in reversed(kept):
+            if stamp_ns is None or stamp == stamp_ns:
+                image = self.renderer(frame.image, result) if self.renderer else frame.image
+                return _png(np.asarray(image, dtype=np.uint8))
+        return None
+
+    def approx_bytes(self) -> int:
+        with self._lock:
+            return sum(m.bits.nbytes for per in self._masks.values() for m in per.values())
+
+
+def build_app(store: ArtifactStore, health: HealthProvider) -> Starlette:
+    async def healthz(request: Request) -> JSONResponse:
+        return JSONResponse(health())
+
+    async def list_masks(request: Request) -> JSONResponse:
+        skill = request.path_params["skill"]
+        return JSONResponse({"skill": skill, "masks": store.mask_refs(skill)})
+
+    async def mask(request: Request) -> Response:
+        params = request.path_params
+        png = store.mask_png(params["skill"], params["stamp_ns"], params["index"])
+        return _png_or_404(png, "mask")
+
+    async def overlay(request: Request) -> Response:
+        params = request.path_params
+        return _png_or_404(store.overlay_png(params["skill"], params.get("stamp_ns")), "overlay")
+
+    return Starlette(
+        routes=[
+            Route("/healthz", healthz),
+            Route("/skills/{skill}/masks", list_masks),
+            Route("/masks/{skill}/{stamp_ns:int}/{index:int}.png", mask),
+            Route("/overlays/{skill}/latest.png", overlay),
+            Route("/overlays/{skill}/{stamp_ns:int}.png", overlay),
+        ]
+    )
+
+
+def _png_or_404(png: bytes | None, what: str) -> Response:
+    if png is None:
+        return JSONResponse(
+            {"error": "not_found", "detail": f"that {what} is no longer kept (or never was)."},
+            status_code=404,
+        )
+    return Response(png, media_type="image/png")
+
+
+class ArtifactServer:
+    """uvicorn in a daemon thread; ``stop`` returns within its timeout."""
+
+    def __init__(self, app: Starlette, host: str, port: int) -> None:
+        config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False)
+        self._server = uvicorn.Server(config)
+        self._thread = threading.Thread(target=self._server.run, name="artifacts", daemon=True)
+        self.host, self.port = host, port
+
+    def start(self, timeout_s: float = 5.0) -> None:
+        self._thread.start()
+        deadline = time.monotonic() + timeout_s
+        while not self._server.started:
+            if not self._thread.is_alive() or time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the artifacts server could not listen on {self.host}:{self.port}"
+                )
+            time.sleep(0.02)
+        logger.info("artifacts_listening", url=f"http://{self.host}:{self.port}")
+
+    def stop(self, timeout_s: float = 5.0) -> None:
+        self._server.should_exit = True
+        self._thread.join(timeout=timeout_s)

@@ -1,0 +1,245 @@
+"""The skill engine: decides per skill and frame whether to run, reuse or republish stale.
+
+ROS-free. The node feeds it frames (``dispatch``) and gives it a :class:`ResultSink`; model
+work goes through the :class:`~robot_mcp_perception.scheduler.Scheduler`. Rules:
+
+- per-skill ``rate_hz`` (default: the node's processing_frequency), newest frame only;
+- §8 cost policy for cloud stages (once / gate / per-skill cloud rate / global budget); a
+  skipped cloud grounding is replaced by "segment locally with the last grounding" when the
+  skill segments with a local segmenter, else the last result is republished stale;
+- the frame-difference gate for watch skills and ambient_scene;
+- ``once`` publishes once then disables; ``prewarm`` grounds once into the prewarm cache;
+- a failed or timed-out run leaves the skill running and republishes its last result stale.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import threading
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from functools import partial
+from typing import Literal, Protocol
+
+import structlog
+
+from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache
+from robot_mcp_perception.frames import Frame
+from robot_mcp_perception.models.base import GroundingResult, Image
+from robot_mcp_perception.pipelines.common import PipelineContext, SkillResult
+from robot_mcp_perception.registry import SkillRegistry, SkillState
+from robot_mcp_perception.scheduler import JobTimeoutError, Scheduler
+from robot_mcp_perception.skills import Skill
+
+logger = structlog.get_logger("robot_mcp_perception.engine")
+
+SkillRunner = Callable[
+    [Skill, Image, PipelineContext, GroundingResult | None], Awaitable[SkillResult]
+]
+
+
+class ResultSink(Protocol):
+    def publish(
+        self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None
+    ) -> None: ...
+
+
+@dataclass(frozen=True)
+class TickPlan:
+    action: Literal["run", "stale"]
+    reuse: GroundingResult | None = None
+    reason: str = ""
+    cloud_skipped: bool = False
+
+
+class SkillEngine:
+    def __init__(
+        self,
+        *,
+        registry: SkillRegistry,
+        scheduler: Scheduler,
+        policy: CostPolicy,
+        prewarm: PrewarmCache,
+        context: PipelineContext,
+        runner: SkillRunner,
+        sink: ResultSink,
+        default_rate_hz: float,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.registry = registry
+        self.scheduler = scheduler
+        self.policy = policy
+        self.prewarm = prewarm
+        self.context = context
+        self.runner = runner
+        self.sink = sink
+        self.default_rate_hz = default_rate_hz
+        self._clock = clock
+        self.lock = threading.RLock()
+        self.grounder_cloud = context.grounder.cost_class == "cloud"
+        self.segmenter_cloud = context.segmenter.cost_class == "cloud"
+        self.out_of_order_dropped = 0
+
+    def period_s(self, skill: Skill) -> float:
+        return 1.0 / (skill.rate_hz or self.default_rate_hz)
+
+    def needs_cloud(self, skill: Skill, reuse: GroundingResult | None = None) -> bool:
+        grounder = self.grounder_cloud and reuse is None
+        return grounder or (self.segmenter_cloud and skill.segments)
+
+    def dispatch(self, frame: Frame | None) -> None:
+        """Run every enabled skill that is due on ``frame`` (the newest frame)."""
+        if frame is None:
+            return
+        with self.lock:
+            now = self._clock()
+            for state in self.registry.states():
+                if state.enabled and not state.once_pending:
+                    self._maybe_run(state, frame, now)
+
+    def _maybe_run(self, state: SkillState, frame: Frame, now: float) -> None:
+        if now < state.next_due:
+            return
+        period = self.period_s(state.skill)
+        if frame.seq == state.last_seq and now < state.next_due + period / 2:
+            return  # wait a little for a newer frame before reprocessing this one
+        late = state.next_due <= now - period
+        state.next_due = now + period if late else state.next_due + period
+        plan = self.plan(state, frame)
+        if plan.cloud_skipped:
+            state.skips[plan.reason] += 1
+            logger.warning("cloud_call_skipped", skill=state.skill.name, reason=plan.reason)
+        if plan.action == "run":
+            self._submit(state, frame, plan.reuse)
+        else:
+            self._republish_stale(state, plan.reason)
+
+    def plan(self, state: SkillState, frame: Frame) -> TickPlan:
+        """The §8 decision for this tick (side effects: gate reference, cloud-call count)."""
+        skill = state.skill
+        if state.runs == 0 and state.grounding is None and not skill.prewarm:
+            cached = self.prewarm.get(skill)
+            if cached is not None:
+                state.grounding = cached
+                if state.gate is not None:
+                    state.gate.passes(frame.image)  # the cached grounding is for this scene
+                logger.info("prewarm_hit", skill=skill.name)
+                return TickPlan("run", reuse=cached)
+        cloud = self.needs_cloud(skill)
+        gated = (
+            state.gate is not None
+            and (
+                skill.watch is not None
+                or state.always_gated
+                or (cloud and self.policy.needs_gate(skill))
+            )
+            and not (skill.once or skill.prewarm)
+        )
+        if cloud:
+            decision = self.policy.check(skill)
+            if not decision.allowed:
+                return self._skipped(state, decision.reason, cloud)
+        if gated and state.gate is not None and not state.gate.passes(frame.image):
+            return self._skipped(state, SKIP_GATE, cloud)
+        if cloud:
+            self.policy.record(skill)
+        return TickPlan("run")
+
+    def _skipped(self, state: SkillState, reason: str, cloud: bool) -> TickPlan:
+        if not cloud:
+            state.skips[reason] += 1
+            return TickPlan("stale", reason=reason)
+        reusable = (
+            state.grounding is not None
+            and state.skill.segments
+            and self.grounder_cloud
+            and not self.segmenter_cloud
+        )
+        if reusable:
+            return TickPlan("run", reuse=state.grounding, reason=reason, cloud_skipped=True)
+        return TickPlan("stale", reason=reason, cloud_skipped=True)
+
+    def _submit(self, state: SkillState, frame: Frame, reuse: GroundingResult | None) -> None:
+        skill = state.skill
+        to_run = dataclasses.replace(skill, segment=False) if skill.prewarm else skill
+        state.last_seq = frame.seq
+        state.once_pending = skill.once or skill.prewarm
+        context, runner = self.context, self.runner
+
+        def job() -> Awaitable[SkillResult]:
+            return runner(to_run, frame.image, context, reuse)
+
+        future = self.scheduler.submit(skill.name, job)
+        if future is None:
+            state.once_pending = False
+            state.skips["overloaded"] += 1
+            return
+        state.in_flight += 1
+        future.add_done_callback(partial(self._on_done, state, frame, reuse))
+
+    def _on_done(
+        self,
+        state: SkillState,
+        frame: Frame,
+        reuse: GroundingResult | None,
+        future: concurrent.futures.Future[SkillResult],
+    ) -> None:
+        with self.lock:
+            state.in_flight -= 1
+            if future.cancelled():
+                state.once_pending = False
+                state.skips["dropped"] += 1
+                return
+            if self.registry.find(state.skill.name) is not state:
+                return  # deleted while running
+            error = future.exception()
+            if error is not None:
+                self._on_failure(state, error)
+                return
+            self._on_result(state, frame, reuse, future.result())
+
+    def _on_failure(self, state: SkillState, error: BaseException) -> None:
+        state.failures += 1
+        state.once_pending = False
+        if state.gate is not None:
+            state.gate.reset()
+        reason = "model_timeout" if isinstance(error, JobTimeoutError) else "model_error"
+        logger.warning(
+            "skill_run_failed",
+            skill=state.skill.name,
+            reason=reason,
+            error=str(error) or type(error).__name__,
+            error_type=type(error).__name__,
+        )
+        self._republish_stale(state, reason)
+
+    def _on_result(
+        self, state: SkillState, frame: Frame, reuse: GroundingResult | None, result: SkillResult
+    ) -> None:
+        skill = state.skill
+        state.runs += 1
+        if result.grounding is not None and reuse is None:
+            state.grounding = result.grounding
+        if skill.prewarm:
+            if result.grounding is not None:
+                self.prewarm.put(skill, result.grounding)
+            state.enabled = False
+            state.once_pending = False
+            logger.info("prewarm_cached", skill=skill.name, ttl_s=self.prewarm.ttl_s)
+            return
+        if frame.stamp_ns < state.last_published_stamp_ns:
+            self.out_of_order_dropped += 1
+            return
+        state.last_result, state.last_frame = result, frame
+        self.sink.publish(state, frame, result, None)
+        if skill.once:
+            state.enabled = False
+            state.once_pending = False
+            logger.info("skill_once_done", skill=skill.name)
+
+    def _republish_stale(self, state: SkillState, reason: str) -> None:
+        if state.last_result is None or state.last_frame is None:
+            return
+        self.sink.publish(state, state.last_frame, state.last_result, reason)

@@ -1,0 +1,108 @@
+"""Pydantic models of the composed Hydra config, validated at start-up (fail fast).
+
+The adapter blocks (``grounder``, ``segmenter``, ``frame_source``) are validated only for
+the keys the node itself reads (``_target_``, ``cost_class``); the adapter's own arguments
+are checked by its constructor when Hydra instantiates it.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AdapterSettings(BaseModel):
+    model_config = ConfigDict(extra="allow", frozen=True, populate_by_name=True)
+
+    target: str = Field(alias="_target_", min_length=1)
+    cost_class: Literal["local", "cloud"] = "local"
+
+
+class NodeSettings(_Strict):
+    node_name: str = "vision_node"
+    camera_topic: str = "/camera/image_raw"
+    topic_namespace: str = "/vision"
+    processing_frequency: float = Field(1.0, gt=0, le=30)
+    """Default rate_hz of a skill that gives none."""
+    max_in_flight: int = Field(4, ge=1, le=64)
+    workers: int = Field(2, ge=1, le=32)
+    model_timeout_s: float = Field(30.0, gt=0)
+    tick_hz: float = Field(50.0, gt=0, le=500)
+    """How often due skills are checked when no new frame arrives."""
+    default_skills: list[dict[str, Any]] = Field(default_factory=list)
+    stats_period_s: float = Field(2.0, gt=0)
+
+    @field_validator("topic_namespace")
+    @classmethod
+    def _namespace_is_absolute(cls, value: str) -> str:
+        if not value.startswith("/") or (value.endswith("/") and value != "/"):
+            raise ValueError("topic_namespace must start with '/' and not end with '/'")
+        return value
+
+
+class AmbientSceneSettings(_Strict):
+    enabled: bool = False
+    name: str = "ambient_scene"
+    rate_hz: float = Field(0.2, gt=0)
+    grounding: str = "a brief description of the scene and the main objects"
+
+
+class CostSettings(_Strict):
+    max_cloud_calls_per_min: int = Field(60, ge=0)
+    max_cloud_rate_hz: float = Field(1.0, gt=0)
+    cloud_requires_gate: bool = True
+    ambient_scene: AmbientSceneSettings = Field(default_factory=AmbientSceneSettings)
+
+
+class WatchSettings(_Strict):
+    gate_threshold: float = Field(0.02, ge=0)
+
+
+class PrewarmSettings(_Strict):
+    prewarm_ttl_s: float = Field(60.0, gt=0)
+
+
+class ArtifactsSettings(_Strict):
+    enabled: bool = True
+    host: Literal["127.0.0.1", "localhost", "::1"] = "127.0.0.1"
+    port: int = Field(9112, ge=0, le=65535)
+    masks_per_skill: int = Field(8, ge=1, le=256)
+    overlays_per_skill: int = Field(2, ge=1, le=32)
+
+
+class LoggingSettings(_Strict):
+    json_logs: bool = True
+    level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = "INFO"
+
+
+class PipelineBlock(_Strict):
+    crop_margin: float = 0.15
+    tile_grid: tuple[int, int] = (2, 2)
+    tile_overlap: float = 0.1
+    dedupe_radius_px: int = 12
+    nms_iou: float = 0.5
+    min_mask_fraction: float = 0.0005
+    max_mask_fraction: float = 0.9
+
+
+class PerceptionSettings(BaseModel):
+    """The whole composed config."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    grounder: AdapterSettings
+    segmenter: AdapterSettings
+    frame_source: AdapterSettings
+    node: NodeSettings = Field(default_factory=NodeSettings)
+    cost: CostSettings = Field(default_factory=CostSettings)
+    watch: WatchSettings = Field(default_factory=WatchSettings)
+    prewarm: PrewarmSettings = Field(default_factory=PrewarmSettings)
+    artifacts: ArtifactsSettings = Field(default_factory=ArtifactsSettings)
+    logging: LoggingSettings = Field(default_factory=LoggingSettings)
+    pipeline: PipelineBlock = Field(default_factory=PipelineBlock)
+    deployment: dict[str, Any] | None = None

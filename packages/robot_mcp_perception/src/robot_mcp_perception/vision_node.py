@@ -1,0 +1,309 @@
+"""The ROS 2 vision node (spec 000 §6, §7): services, per-skill publishers, diagnostics.
+
+Threads: the ROS executor (services, timers, camera callbacks), the frame source's own
+reader thread (folder/v4l2/rtsp), the model loop (scheduler). Results are published from the
+model loop thread (rclpy publish is thread-safe); the skill engine's lock guards skill state.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections import deque
+from typing import Any
+
+import rclpy
+import structlog
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from ros2_vision_interfaces.msg import StampedString
+from ros2_vision_interfaces.srv import VisionTask
+from std_msgs.msg import Header
+
+from robot_mcp_perception.artifacts import ArtifactServer, ArtifactStore, build_app
+from robot_mcp_perception.conversions import frame_header, json_to_msg, ns_to_stamp
+from robot_mcp_perception.cost import CostPolicy, PrewarmCache
+from robot_mcp_perception.engine import SkillEngine
+from robot_mcp_perception.frames import Frame
+from robot_mcp_perception.pipelines.common import PipelineContext, PipelineSettings, SkillResult
+from robot_mcp_perception.publishers import DIAGNOSTICS_QOS, SkillPublishers
+from robot_mcp_perception.registry import SkillRegistry, SkillState, topics_for
+from robot_mcp_perception.runtime import Runtime
+from robot_mcp_perception.scheduler import Scheduler
+from robot_mcp_perception.skills import Skill, SkillError
+from robot_mcp_perception.task_service import Operation, TaskService, serve
+
+logger = structlog.get_logger("robot_mcp_perception.vision_node")
+
+
+class VisionNode(Node):
+    def __init__(self, runtime: Runtime, *, context: Context | None = None) -> None:
+        settings = runtime.settings
+        super().__init__(settings.node.node_name, context=context)
+        self.runtime = runtime
+        self._declare_parameters()
+        self.namespace: str = self.get_parameter("topic_namespace").value
+        default_rate: float = self.get_parameter("processing_frequency").value
+        self.registry = SkillRegistry()
+        self.scheduler = Scheduler(
+            workers=settings.node.workers,
+            max_in_flight=int(self.get_parameter("max_in_flight").value),
+            timeout_s=settings.node.model_timeout_s,
+        )
+        self.policy = CostPolicy(settings.cost)
+        self.prewarm = PrewarmCache(settings.prewarm.prewarm_ttl_s)
+        art = settings.artifacts
+        self.artifacts = ArtifactStore(
+            f"http://{art.host}:{art.port}",
+            art.masks_per_skill,
+            art.overlays_per_skill,
+            runtime.overlay_renderer,
+        )
+        self.engine = SkillEngine(
+            registry=self.registry,
+            scheduler=self.scheduler,
+            policy=self.policy,
+            prewarm=self.prewarm,
+            context=PipelineContext(
+                runtime.grounder,
+                runtime.segmenter,
+                runtime.pipeline_settings or PipelineSettings(),
+            ),
+            runner=runtime.runner,
+            sink=self,
+            default_rate_hz=default_rate,
+        )
+        self.tasks = TaskService(
+            self.registry,
+            self.namespace,
+            attach=self._attach,
+            detach=self._detach,
+            make_state=self._make_state,
+        )
+        self.latencies_ms: deque[float] = deque(maxlen=512)
+        self._started = time.monotonic()
+        self._stats_pub = self.create_publisher(
+            StampedString, f"{self.namespace}/stats", DIAGNOSTICS_QOS
+        )
+        self._latency_pub = self.create_publisher(
+            StampedString, f"{self.namespace}/latency", DIAGNOSTICS_QOS
+        )
+        services = MutuallyExclusiveCallbackGroup()
+        for name, operation in (
+            ("create_vision_task", self.tasks.create),
+            ("manage_vision_task", self.tasks.manage),
+            ("list_vision_tasks", self.tasks.list),
+        ):
+            self.create_service(
+                VisionTask, f"~/{name}", self._service(name, operation), callback_group=services
+            )
+        timers = MutuallyExclusiveCallbackGroup()
+        self.create_timer(1.0 / settings.node.tick_hz, self._tick, callback_group=timers)
+        self.create_timer(settings.node.stats_period_s, self.publish_stats, callback_group=timers)
+        self._server: ArtifactServer | None = None
+        self.scheduler.start()
+        self._create_default_skills()
+        if art.enabled and runtime.serve_artifacts:
+            self._server = ArtifactServer(
+                build_app(self.artifacts, self.health), art.host, art.port
+            )
+            self._server.start()
+        runtime.frame_source.start(self, on_frame=self.engine.dispatch)
+        logger.info("vision_node_started", namespace=self.namespace, skills=len(self.registry))
+
+    # -- parameters and start-up skills -------------------------------------------------
+    def _declare_parameters(self) -> None:
+        node = self.runtime.settings.node
+        self.declare_parameter("camera_topic", node.camera_topic)
+        self.declare_parameter("topic_namespace", node.topic_namespace)
+        self.declare_parameter("processing_frequency", node.processing_frequency)
+        self.declare_parameter("max_in_flight", node.max_in_flight)
+        self.declare_parameter("default_skills", json.dumps(node.default_skills))
+
+    def _create_default_skills(self) -> None:
+        raw = self.get_parameter("default_skills").value
+        skills: list[Any] = json.loads(raw) if raw else []
+        ambient = self.runtime.settings.cost.ambient_scene
+        for data in skills:
+            ok, message = serve("create_vision_task", self.tasks.create, json.dumps(data))
+            if not ok:
+                logger.error("default_skill_rejected", skill=data, reply=message)
+        if ambient.enabled:
+            skill = Skill(
+                name=ambient.name,
+                mode="describe",
+                description="ambient scene description (cost.ambient_scene)",
+                grounding=ambient.grounding,
+                rate_hz=ambient.rate_hz,
+            )
+            ok, message = serve("create_vision_task", self.tasks.create, skill.to_json())
+            if ok:
+                self.registry.get(ambient.name).always_gated = True
+            else:
+                logger.error("ambient_scene_rejected", reply=message)
+
+    # -- services ---------------------------------------------------------------------------
+    def _service(self, name: str, operation: Operation) -> Any:
+        def callback(request: VisionTask.Request, response: VisionTask.Response) -> Any:
+            with self.engine.lock:
+                response.success, response.message = serve(name, operation, request.data)
+            return response
+
+        return callback
+
+    def _make_state(self, skill: Skill) -> SkillState:
+        gate_factory = self.runtime.gate_factory
+        threshold = self.runtime.settings.watch.gate_threshold
+        return SkillState(
+            skill,
+            topics_for(self.namespace, skill),
+            gate=gate_factory(threshold) if gate_factory else None,
+        )
+
+    def _attach(self, state: SkillState) -> None:
+        state.publishers = SkillPublishers(self, state.skill.name, state.topics)
+
+    def _detach(self, state: SkillState) -> None:
+        if isinstance(state.publishers, SkillPublishers):
+            state.publishers.destroy()
+        self.artifacts.forget(state.skill.name)
+        self.policy.forget(state.skill.name)
+
+    # -- frames and results -------------------------------------------------------------------
+    def _tick(self) -> None:
+        self.engine.dispatch(self.runtime.frame_source.latest())
+
+    def publish(
+        self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None
+    ) -> None:
+        """ResultSink: called by the engine with its lock held."""
+        publishers = state.publishers
+        if not isinstance(publishers, SkillPublishers):
+            return
+        if stale_reason is None:
+            refs = self.artifacts.add(state.skill.name, state.topics.detections, frame, result)
+            state.last_extras = [{"mask_ref": ref} if ref else {} for ref in refs]
+            extras = state.last_extras
+            renderer = self.runtime.overlay_renderer
+            render = (lambda: renderer(frame.image, result)) if renderer else (lambda: frame.image)
+        else:
+            extras = [
+                {**extra, "stale": True, "reason": stale_reason} for extra in state.last_extras
+            ]
+            render = None
+        if not publishers.publish(frame, result, extras, render):
+            return
+        state.published += 1
+        state.last_publish_wall = time.monotonic()
+        if stale_reason is None:
+            state.last_published_stamp_ns = frame.stamp_ns
+            latency_ms = (time.time_ns() - frame.stamp_ns) / 1e6
+            self.latencies_ms.append(latency_ms)
+            self._latency_pub.publish(
+                json_to_msg(
+                    {
+                        "skill": state.skill.name,
+                        "latency_ms": round(latency_ms, 3),
+                        "timings_ms": result.timings_ms,
+                    },
+                    frame_header(frame),
+                )
+            )
+
+    # -- diagnostics --------------------------------------------------------------------------
+    def health(self) -> dict[str, Any]:
+        frame = self.runtime.frame_source.latest()
+        now = time.monotonic()
+        return {
+            "status": "ok",
+            "node": self.get_name(),
+            "uptime_s": round(now - self._started, 3),
+            "frame_age_s": round((time.time_ns() - frame.stamp_ns) / 1e9, 3) if frame else None,
+            "frame_seq": frame.seq if frame else None,
+            "in_flight": self.scheduler.in_flight,
+            "cloud_calls_last_min": self.policy.budget.used(),
+            "skills": [
+                {
+                    "name": s.skill.name,
+                    "mode": s.skill.mode,
+                    "enabled": s.enabled,
+                    "published": s.published,
+                    "last_publish_age_s": round(now - s.last_publish_wall, 3)
+                    if s.last_publish_wall is not None
+                    else None,
+                }
+                for s in self.registry.states()
+            ],
+        }
+
+    def stats(self) -> dict[str, Any]:
+        latencies = sorted(self.latencies_ms)
+        return {
+            "skills": {
+                s.skill.name: {
+                    "enabled": s.enabled,
+                    "runs": s.runs,
+                    "published": s.published,
+                    "failures": s.failures,
+                    "skips": dict(s.skips),
+                }
+                for s in self.registry.states()
+            },
+            "scheduler": self.scheduler.stats.as_dict(),
+            "in_flight": self.scheduler.in_flight,
+            "cloud_calls_last_min": self.policy.budget.used(),
+            "cloud_calls_total": self.policy.budget.total,
+            "latency_p50_ms": round(latencies[len(latencies) // 2], 3) if latencies else None,
+            "prewarm_entries": len(self.prewarm),
+        }
+
+    def publish_stats(self) -> None:
+        payload = self.stats()
+        header = Header(stamp=ns_to_stamp(time.time_ns()), frame_id="")
+        self._stats_pub.publish(json_to_msg(payload, header))
+        logger.info("vision_stats", **payload)
+
+    def shutdown(self) -> None:
+        """Stop the frame source, the model loop and the artifacts server (bounded time)."""
+        self.runtime.frame_source.stop()
+        self.scheduler.stop()
+        if self._server is not None:
+            self._server.stop()
+        for state in self.registry.states():
+            self._detach(state)
+
+
+def main(args: list[str] | None = None) -> None:
+    from robot_mcp_perception.composition import ConfigError, build_runtime_from_env
+
+    try:
+        runtime = build_runtime_from_env()
+    except ConfigError as error:
+        logger.error("config_invalid", detail=str(error))
+        print(f"vision_node: {error}", file=sys.stderr)  # noqa: T201 - the operator's fix-it line
+        sys.exit(2)
+    rclpy.init(args=args)
+    node: VisionNode | None = None
+    executor = MultiThreadedExecutor(num_threads=4)
+    try:
+        node = VisionNode(runtime)
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except SkillError as error:
+        logger.error("vision_node_start_failed", detail=error.detail)
+        sys.exit(2)
+    finally:
+        if node is not None:
+            node.shutdown()
+            node.destroy_node()
+        executor.shutdown(timeout_sec=2.0)
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,140 @@
+"""Composition root: Hydra tree, overrides, deployment presets, validation, secrets rule."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from PIL import Image as PILImage
+
+from robot_mcp_perception.composition import (
+    ConfigError,
+    build_runtime,
+    check_secrets,
+    compose_config,
+    default_config_dir,
+    overrides_from_env,
+    validate_config,
+)
+from robot_mcp_perception.frames import FolderFrameSource
+from robot_mcp_perception.models.fakes import FakeGrounder
+from robot_mcp_perception.models.null import NullSegmenter
+
+
+@pytest.fixture
+def config_dir(tmp_path: Path) -> Path:
+    """The package's config tree plus test adapters (fake grounder, null segmenter)."""
+    target = tmp_path / "config"
+    shutil.copytree(default_config_dir(), target)
+    (target / "grounder").mkdir(exist_ok=True)
+    (target / "segmenter").mkdir(exist_ok=True)
+    (target / "grounder" / "test_fake.yaml").write_text(
+        "_target_: robot_mcp_perception.models.fakes.FakeGrounder\ncost_class: cloud\n"
+    )
+    (target / "grounder" / "test_keyed.yaml").write_text(
+        "_target_: robot_mcp_perception.models.fakes.FakeGrounder\ncost_class: cloud\n"
+        "api_key: ${oc.env:TEST_PERCEPTION_KEY,''}\n"
+    )
+    (target / "grounder" / "test_literal.yaml").write_text(
+        "_target_: robot_mcp_perception.models.fakes.FakeGrounder\napi_key: sk-123\n"
+    )
+    (target / "segmenter" / "test_none.yaml").write_text(
+        "_target_: robot_mcp_perception.models.null.NullSegmenter\ncost_class: local\n"
+    )
+    (target / "deployment" / "test_preset.yaml").write_text(
+        "# @package _global_\n"
+        "node:\n  processing_frequency: 3.0\n"
+        "cost:\n  max_cloud_calls_per_min: 7\n"
+    )
+    return target
+
+
+@pytest.fixture
+def frames_dir(tmp_path: Path) -> Path:
+    directory = tmp_path / "frames"
+    directory.mkdir()
+    PILImage.new("RGB", (32, 24)).save(directory / "f.png")
+    return directory
+
+
+def _overrides(frames_dir: Path, *extra: str) -> list[str]:
+    return [
+        "grounder=test_fake",
+        "segmenter=test_none",
+        "frame_source=folder",
+        f"frame_source.directory={frames_dir}",
+        *extra,
+    ]
+
+
+def test_adapters_are_built_from_the_selected_yaml_with_their_cost_class(
+    config_dir: Path, frames_dir: Path
+) -> None:
+    runtime = build_runtime(_overrides(frames_dir), config_dir)
+
+    assert isinstance(runtime.grounder, FakeGrounder)
+    assert runtime.grounder.cost_class == "cloud"
+    assert isinstance(runtime.segmenter, NullSegmenter)
+    assert runtime.segmenter.cost_class == "local"
+    assert isinstance(runtime.frame_source, FolderFrameSource)
+    assert runtime.frame_source.directory == frames_dir
+    assert runtime.settings.node.default_skills[0]["name"] == "scene"
+    assert runtime.gate_factory is not None
+    assert runtime.runner is not None
+
+
+def test_a_deployment_preset_overrides_the_root_config(config_dir: Path, frames_dir: Path) -> None:
+    runtime = build_runtime(["deployment=test_preset", *_overrides(frames_dir)], config_dir)
+
+    assert runtime.settings.node.processing_frequency == 3.0
+    assert runtime.settings.cost.max_cloud_calls_per_min == 7
+
+
+def test_invalid_values_fail_fast_with_the_offending_key(
+    config_dir: Path, frames_dir: Path
+) -> None:
+    with pytest.raises(ConfigError, match=r"node\.max_in_flight"):
+        build_runtime(_overrides(frames_dir, "node.max_in_flight=0"), config_dir)
+
+
+def test_unknown_adapter_is_a_clear_error(config_dir: Path, frames_dir: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot compose"):
+        build_runtime(_overrides(frames_dir, "segmenter=does_not_exist"), config_dir)
+
+
+def test_missing_frame_folder_says_how_to_generate_it(config_dir: Path, tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="sample_scenes"):
+        build_runtime(_overrides(tmp_path / "missing"), config_dir)
+
+
+def test_secrets_must_come_from_the_environment(
+    config_dir: Path, frames_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    literal = compose_config(_overrides(frames_dir, "grounder=test_literal"), config_dir)
+    with pytest.raises(ConfigError, match="must come from the environment"):
+        check_secrets(literal)
+
+    keyed = compose_config(_overrides(frames_dir, "grounder=test_keyed"), config_dir)
+    monkeypatch.delenv("TEST_PERCEPTION_KEY", raising=False)
+    with pytest.raises(ConfigError, match="TEST_PERCEPTION_KEY"):
+        validate_config(keyed)
+    monkeypatch.setenv("TEST_PERCEPTION_KEY", "secret-value")
+    check_secrets(keyed)
+
+
+def test_overrides_and_deployment_come_from_the_environment() -> None:
+    env = {
+        "PERCEPTION_CONFIG_OVERRIDES": (
+            "frame_source=folder frame_source.directory=/x segmenter=none"
+        ),
+        "PERCEPTION_DEPLOYMENT": "robot",
+    }
+
+    assert overrides_from_env(env) == [
+        "deployment=robot",
+        "frame_source=folder",
+        "frame_source.directory=/x",
+        "segmenter=none",
+    ]
+    assert overrides_from_env({}) == []

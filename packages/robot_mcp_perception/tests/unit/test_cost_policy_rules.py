@@ -1,0 +1,104 @@
+"""CostPolicy, CloudBudget and PrewarmCache with a fake clock (spec 000 §8)."""
+
+from __future__ import annotations
+
+from robot_mcp_perception.cost import (
+    SKIP_BUDGET,
+    SKIP_RATE,
+    CloudBudget,
+    CostPolicy,
+    PrewarmCache,
+    grounding_key,
+)
+from robot_mcp_perception.models.base import GroundingResult
+from robot_mcp_perception.settings import CostSettings
+from robot_mcp_perception.skills import Skill
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+CONTINUOUS = Skill(name="scene", mode="describe", rate_hz=5.0)
+ONCE = Skill(name="find", mode="describe", once=True)
+
+
+def test_budget_window_slides_over_sixty_seconds() -> None:
+    clock = Clock()
+    budget = CloudBudget(2, clock)
+    budget.record()
+    budget.record()
+
+    assert not budget.has_headroom()
+    clock.now += 60.0
+    assert budget.has_headroom()
+    assert budget.total == 2
+
+
+def test_per_skill_cloud_rate_is_capped() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_rate_hz=1.0, max_cloud_calls_per_min=100), clock)
+    policy.record(CONTINUOUS)
+
+    clock.now += 0.5
+    assert policy.check(CONTINUOUS).reason == SKIP_RATE
+    clock.now += 0.5
+    assert policy.check(CONTINUOUS).allowed
+
+
+def test_budget_exhaustion_skips_continuous_but_not_once_skills() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_calls_per_min=1, max_cloud_rate_hz=10.0), clock)
+    policy.record(Skill(name="other", mode="describe"))
+
+    assert policy.check(CONTINUOUS).reason == SKIP_BUDGET
+    assert policy.check(ONCE).allowed
+
+
+def test_gate_applies_to_continuous_skills_only_when_configured() -> None:
+    gated = CostPolicy(CostSettings(cloud_requires_gate=True))
+    ungated = CostPolicy(CostSettings(cloud_requires_gate=False))
+
+    assert gated.needs_gate(CONTINUOUS)
+    assert not gated.needs_gate(ONCE)
+    assert not ungated.needs_gate(CONTINUOUS)
+    assert ungated.needs_gate(CONTINUOUS, always_gated=True)
+
+
+def test_forgetting_a_skill_clears_its_rate_history() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_rate_hz=0.1), clock)
+    policy.record(CONTINUOUS)
+    policy.forget("scene")
+
+    assert policy.check(CONTINUOUS).allowed
+
+
+def test_prewarm_cache_hits_within_ttl_and_expires_after() -> None:
+    clock = Clock()
+    cache = PrewarmCache(ttl_s=10.0, clock=clock)
+    warm = Skill(name="warm", mode="ground_and_segment", grounding="The mug ", prewarm=True)
+    later = Skill(name="grab", mode="ground_and_segment", grounding="the mug")
+    grounding = GroundingResult(answer="mug")
+    cache.put(warm, grounding)
+
+    assert grounding_key(warm) == grounding_key(later)
+    assert cache.get(later) is grounding
+    assert cache.get(Skill(name="x", mode="region", grounding="the mug")) is None
+    clock.now += 11.0
+    assert cache.get(later) is None
+    assert len(cache) == 0
+
+
+def test_prewarm_cache_is_bounded() -> None:
+    cache = PrewarmCache(ttl_s=100.0, max_entries=2)
+    for index in range(5):
+        cache.put(
+            Skill(name=f"s{index}", mode="describe", grounding=f"g{index}"), GroundingResult()
+        )
+
+    assert len(cache) == 2

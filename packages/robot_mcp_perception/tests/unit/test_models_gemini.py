@@ -1,0 +1,357 @@
+"""GeminiERGrounder with the real google-genai SDK against a local fake Gemini HTTP server."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import threading
+from collections.abc import AsyncIterator, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+import uvicorn
+from pydantic import SecretStr
+
+from robot_mcp_perception.models.base import ModelError, ModelUnavailableError, SemanticRequest
+from robot_mcp_perception.models.gemini_er import DEFAULT_MODEL, GeminiERGrounder
+from robot_mcp_perception.prompt_builder import BadModelAnswerError
+from robot_stack_testing.ports import wait_for_tcp_port
+
+IMAGE = np.zeros((100, 200, 3), np.uint8)
+IMAGE[20:60, 40:120] = (200, 30, 30)
+
+
+@dataclass
+class FakeGemini:
+    """A tiny ASGI app speaking ``POST /v1beta/models/{model}:generateContent``."""
+
+    port: int
+    requests: list[dict[str, Any]] = field(default_factory=list)
+    replies: list[tuple[int, Any]] = field(default_factory=list)
+    """Scripted (status, body) pairs; the last one repeats. A str body is the model's text."""
+    hang: bool = False
+
+    @property
+    def base_url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
+        assert scope["type"] == "http"
+        body = b""
+        while True:
+            message = await receive()
+            body += message.get("body", b"")
+            if not message.get("more_body"):
+                break
+        headers = {k.decode(): v.decode() for k, v in scope["headers"]}
+        self.requests.append(
+            {
+                "method": scope["method"],
+                "path": scope["path"],
+                "headers": headers,
+                "json": json.loads(body or b"{}"),
+            }
+        )
+        if self.hang:
+            await asyncio.sleep(1)
+        status, reply = self.replies[min(len(self.requests) - 1, len(self.replies) - 1)]
+        if isinstance(reply, str):
+            reply = {
+                "candidates": [
+                    {
+                        "content": {"role": "model", "parts": [{"text": reply}]},
+                        "finishReason": "STOP",
+                    }
+                ]
+            }
+        payload = json.dumps(reply).encode()
+        await send(
+            {
+                "type": "http.response.start",
+                "status": status,
+                "headers": [(b"content-type", b"application/json")],
+            }
+        )
+        await send({"type": "http.response.body", "body": payload})
+
+
+@pytest.fixture
+def gemini(tcp_port: int) -> Iterator[FakeGemini]:
+    app = FakeGemini(tcp_port)
+    config = uvicorn.Config(
+        app,
+        host="127.0.0.1",
+        port=tcp_port,
+        lifespan="off",
+        ws="none",
+        log_level="warning",
+        timeout_graceful_shutdown=1,
+    )
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    wait_for_tcp_port(tcp_port, timeout_s=10)
+    yield app
+    server.should_exit = True
+    thread.join(timeout=10)
+
+
+@pytest.fixture
+async def grounder(gemini: FakeGemini) -> AsyncIterator[GeminiERGrounder]:
+    g = GeminiERGrounder(
+        api_key=SecretStr("test-key"),
+        thinking_budget=128,
+        timeout_s=5.0,
+        retries=2,
+        retry_backoff_s=0.01,
+        base_url=gemini.base_url,
+    )
+    yield g
+    await g.aclose()
+
+
+WELL_FORMED = json.dumps(
+    {
+        "answer": "a red mug",
+        "reasoning": "it is red",
+        "targets": [
+            {
+                "label": "red mug",
+                "point": [400, 400],
+                "box_2d": [200, 200, 600, 600],
+                "confidence": 0.9,
+            }
+        ],
+        "results": [
+            {"name": "found", "value": True},
+            {"name": "count", "value": "2"},
+            {"name": "where", "value": {"y": 500, "x": 250}},
+        ],
+    }
+)
+OUTPUTS = [
+    SemanticRequest("found", "boolean"),
+    SemanticRequest("count", "number"),
+    SemanticRequest("where", "position"),
+]
+
+
+async def test_a_well_formed_answer_becomes_pixel_targets_and_typed_outputs(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(200, WELL_FORMED)]
+    result = await grounder.ground(IMAGE, "the red mug", OUTPUTS)
+    [target] = result.targets
+    assert target.label == "red mug"
+    assert target.box == (40, 20, 120, 60)  # box_2d [ymin, xmin, ymax, xmax] /1000 → pixels
+    assert target.points == [(80, 40)]  # [y, x] /1000 → (x, y) pixels
+    assert target.confidence == 0.9
+    assert target.kind == "object"
+    assert result.outputs == {"found": True, "count": 2, "where": {"x": 50.0, "y": 50.0}}
+    assert (result.answer, result.reasoning) == ("a red mug", "it is red")
+
+
+async def test_the_request_carries_model_jpeg_prompt_thinking_and_json_mode(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(200, WELL_FORMED)]
+    await grounder.ground(IMAGE, "the red mug", OUTPUTS)
+    [request] = gemini.requests
+    assert request["method"] == "POST"
+    assert request["path"] == f"/v1beta/models/{DEFAULT_MODEL}:generateContent"
+    assert request["headers"]["x-goog-api-key"] == "test-key"
+    parts = request["json"]["contents"][0]["parts"]
+    image_part = next(
+        p.get("inlineData", p.get("inline_data"))
+        for p in parts
+        if {"inlineData", "inline_data"} & set(p)
+    )
+    assert image_part.get("mimeType", image_part.get("mime_type")) == "image/jpeg"
+    decoded = cv2.imdecode(
+        np.frombuffer(base64.urlsafe_b64decode(image_part["data"] + "=="), np.uint8),
+        cv2.IMREAD_COLOR,
+    )
+    assert decoded is not None
+    assert decoded.shape == (100, 200, 3)
+    text = next(p["text"] for p in parts if "text" in p)
+    assert "Request: the red mug" in text
+    assert '"found" (boolean' in text
+    assert "box_2d" in text
+    config = request["json"]["generationConfig"]
+    thinking = config["thinkingConfig"]  # the SDK sends this inner key in snake case
+    assert thinking.get("thinkingBudget", thinking.get("thinking_budget")) == 128
+    assert config["responseMimeType"] == "application/json"
+
+
+async def test_a_fenced_answer_with_prose_is_parsed(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(200, f"Sure! Here it is:\n```json\n{WELL_FORMED}\n```\nAnything else?")]
+    result = await grounder.ground(IMAGE, "the red mug", OUTPUTS)
+    assert len(result.targets) == 1
+    assert result.outputs["found"] is True
+
+
+async def test_a_malformed_answer_is_a_model_error_without_retry(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(200, "I cannot see anything, sorry.")]
+    with pytest.raises(BadModelAnswerError):
+        await grounder.ground(IMAGE, "the red mug")
+    assert len(gemini.requests) == 1
+    gemini.replies = [(200, '"just a string"')]
+    with pytest.raises(BadModelAnswerError, match="no JSON"):
+        await grounder.ground(IMAGE, "the red mug")
+
+
+async def test_bad_targets_are_skipped_and_good_ones_kept(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [
+        (
+            200,
+            json.dumps(
+                {
+                    "targets": [
+                        "nonsense",
+                        {"label": "a", "point": [5000, 1]},
+                        {"label": "b", "box_2d": [1, 2, 3]},
+                        {"label": "c"},
+                        {"label": "d", "box_2d": [10, 10, 10, 10]},
+                        {"label": "ok", "point": [500, 500]},
+                    ]
+                }
+            ),
+        )
+    ]
+    result = await grounder.ground(IMAGE, "things")
+    assert [(t.label, t.points, t.box) for t in result.targets] == [("ok", [(100, 50)], None)]
+    gemini.replies = [(200, json.dumps({"targets": "none"}))]
+    with pytest.raises(BadModelAnswerError, match="targets must be a list"):
+        await grounder.ground(IMAGE, "things")
+
+
+async def test_server_errors_are_retried_then_answered(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    error = {"error": {"code": 503, "message": "overloaded", "status": "UNAVAILABLE"}}
+    gemini.replies = [
+        (503, error),
+        (429, {"error": {"code": 429, "message": "slow down"}}),
+        (200, WELL_FORMED),
+    ]
+    result = await grounder.ground(IMAGE, "the red mug", OUTPUTS)
+    assert len(gemini.requests) == 3
+    assert result.outputs["found"] is True
+
+
+async def test_persistent_server_errors_become_a_model_error(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(500, {"error": {"code": 500, "message": "internal", "status": "INTERNAL"}})]
+    with pytest.raises(ModelError, match="HTTP 500"):
+        await grounder.ground(IMAGE, "the red mug")
+    assert len(gemini.requests) == 3  # 1 + 2 retries
+
+
+async def test_client_errors_are_not_retried(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [
+        (400, {"error": {"code": 400, "message": "bad request", "status": "INVALID_ARGUMENT"}})
+    ]
+    with pytest.raises(ModelError, match="HTTP 400"):
+        await grounder.ground(IMAGE, "q")
+    gemini.replies = [
+        (403, {"error": {"code": 403, "message": "denied", "status": "PERMISSION_DENIED"}})
+    ]
+    with pytest.raises(ModelUnavailableError, match="refused the API key"):
+        await grounder.ground(IMAGE, "q")
+    assert len(gemini.requests) == 2
+
+
+async def test_a_hanging_server_times_out_as_a_model_error(gemini: FakeGemini) -> None:
+    gemini.hang = True
+    gemini.replies = [(200, WELL_FORMED)]
+    g = GeminiERGrounder(
+        "k", timeout_s=0.2, retries=1, retry_backoff_s=0.0, base_url=gemini.base_url
+    )
+    with pytest.raises(ModelError, match="timed out"):
+        await g.ground(IMAGE, "q")
+    assert len(gemini.requests) == 2
+    await g.aclose()
+
+
+async def test_an_unreachable_server_is_a_model_error(tcp_port: int) -> None:
+    g = GeminiERGrounder(
+        "k", timeout_s=2.0, retries=1, retry_backoff_s=0.0, base_url=f"http://127.0.0.1:{tcp_port}"
+    )
+    with pytest.raises(ModelError, match="unreachable"):
+        await g.ground(IMAGE, "q")
+    await g.aclose()
+
+
+async def test_point_returns_every_instance_in_pixels(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [
+        (
+            200,
+            json.dumps(
+                [
+                    {"point": [100, 100], "label": "mug"},
+                    {"point": [900, 900], "box_2d": [800, 800, 1000, 1000], "label": "box"},
+                ]
+            ),
+        )
+    ]
+    targets = await grounder.point(IMAGE, "every object")
+    assert [(t.label, t.points, t.box) for t in targets] == [
+        ("mug", [(20, 10)], None),
+        ("box", [(180, 90)], (160, 80, 200, 100)),
+    ]
+    text = next(
+        p["text"] for p in gemini.requests[0]["json"]["contents"][0]["parts"] if "text" in p
+    )
+    assert "Point to every instance of: every object" in text
+    gemini.replies = [(200, json.dumps({"points": [{"point": [500, 500], "label": "x"}]}))]
+    assert len(await grounder.point(IMAGE, "x")) == 1
+
+
+async def test_region_and_describe_modes_shape_the_targets(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    gemini.replies = [(200, json.dumps([{"label": "free space", "box_2d": [0, 0, 500, 500]}]))]
+    [region] = (await grounder.ground(IMAGE, "free space", mode="region")).targets
+    assert region.kind == "region"
+    assert region.box == (0, 0, 100, 50)
+    gemini.replies = [(200, WELL_FORMED)]
+    described = await grounder.ground(
+        IMAGE, "what is there", [SemanticRequest("pose", "pose")], mode="describe"
+    )
+    assert described.targets == []
+
+
+def test_an_empty_api_key_is_refused_at_start_up() -> None:
+    with pytest.raises(ModelUnavailableError, match="GEMINI_API_KEY"):
+        GeminiERGrounder(api_key="")
+    with pytest.raises(ModelUnavailableError):
+        GeminiERGrounder(api_key=SecretStr("  "))
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"model": ""}, {"timeout_s": 0}, {"retries": -1}, {"jpeg_quality": 0}]
+)
+def test_bad_settings_are_refused(kwargs: dict[str, Any]) -> None:
+    with pytest.raises(ValueError):
+        GeminiERGrounder(api_key="k", **kwargs)
+
+
+def test_the_key_is_not_shown_in_the_grounder_repr() -> None:
+    g = GeminiERGrounder(api_key="secret-value")
+    assert "secret-value" not in repr(vars(g)["_api_key"])
+    assert g.cost_class == "cloud"

@@ -1,0 +1,229 @@
+"""RosBridge against real rclpy service nodes, in this process and in another one."""
+
+import asyncio
+import sys
+import uuid
+from collections.abc import Iterator
+
+import pytest
+
+from robot_ros_bridge import (
+    BridgeClosedError,
+    RemoteError,
+    RosBridge,
+    ServiceTimeoutError,
+    ServiceUnavailableError,
+)
+from robot_ros_bridge.testing import FakeVisionNode
+from robot_ros_bridge.vision_tasks import RosVisionTasks
+from robot_stack_testing import async_wait_until
+
+pytestmark = pytest.mark.ros
+
+
+def _unique(prefix: str) -> str:
+    return f"{prefix}_{uuid.uuid4().hex[:8]}"
+
+
+@pytest.fixture
+def bridge() -> Iterator[RosBridge]:
+    with RosBridge(_unique("client")) as b:
+        yield b
+
+
+@pytest.fixture
+def vision() -> Iterator[FakeVisionNode]:
+    with FakeVisionNode(_unique("vision")) as node:
+        yield node
+
+
+async def test_a_call_to_an_in_process_service_returns_its_response(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    created = await tasks.create({"name": "mug", "mode": "describe"})
+    assert created["name"] == "mug"
+    assert created["topics"]["detections"] == "/vision/mug/detections"
+    assert [s["name"] for s in await tasks.list()] == ["mug"]
+    await tasks.manage("mug", "disable")
+    assert vision.enabled("mug") is False
+    await tasks.manage("mug", "delete")
+    assert await tasks.list() == []
+
+
+async def test_a_failed_reply_is_raised_as_a_remote_error_with_the_nodes_code(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    with pytest.raises(RemoteError) as info:
+        await tasks.manage("nope", "delete")
+    assert info.value.code == "unknown_skill"
+
+
+async def test_a_missing_service_fails_fast_with_service_unavailable(bridge: RosBridge) -> None:
+    tasks = RosVisionTasks(bridge, _unique("absent"), timeout_s=30.0, wait_for_service_s=0.3)
+    with pytest.raises(ServiceUnavailableError) as info:
+        await asyncio.wait_for(tasks.list(), timeout=5.0)
+    assert "list_vision_tasks" in info.value.detail
+    assert info.value.code == "service_unavailable"
+
+
+async def test_a_slow_service_times_out_and_its_request_is_dropped(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.list()  # discovered
+    vision.reply_delay_s = 1.5
+    slow = RosVisionTasks(bridge, vision.name, timeout_s=0.3, wait_for_service_s=5.0)
+    with pytest.raises(ServiceTimeoutError):
+        await slow.list()
+    client = slow._clients["list"]
+    assert client._pending_requests == {}
+    vision.reply_delay_s = 0.0
+    assert await tasks.list() == []
+
+
+async def test_a_cancelled_call_drops_its_pending_request(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.list()
+    vision.reply_delay_s = 1.0
+    call = asyncio.create_task(tasks.list())
+    await async_wait_until(lambda: len(vision.requests) >= 2, 5.0, "the request to arrive")
+    call.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await call
+    assert tasks._clients["list"]._pending_requests == {}
+
+
+async def test_graph_helpers_see_a_new_skills_topics(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.create(
+        {"name": "cup", "mode": "describe", "outputs": [{"name": "found", "type": "boolean"}]}
+    )
+    await async_wait_until(
+        lambda: "/vision/cup/found" in bridge.topic_names_and_types(),
+        10.0,
+        "the output topic in the graph",
+    )
+    topics = bridge.topic_names_and_types()
+    assert topics["/vision/cup/detections_meta"] == [
+        "ros2_vision_interfaces/msg/VisionDetectionArray"
+    ]
+    assert f"/{vision.name}/create_vision_task" in bridge.service_names_and_types()
+    assert bridge.publisher_count("/vision/cup/found") == 1
+
+
+async def test_a_subscription_delivers_messages_on_an_executor_thread(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    from ros2_vision_interfaces.msg import StampedString
+
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.create(
+        {"name": "door", "mode": "describe", "outputs": [{"name": "open", "type": "boolean"}]}
+    )
+    got: list[str] = []
+    sub = bridge.create_subscription(
+        StampedString, "/vision/door/open", lambda m: got.append(m.data)
+    )
+
+    def published() -> bool:
+        vision.publish_output("door", "open", True)
+        return bool(got)
+
+    await async_wait_until(published, 10.0, "a message", interval_s=0.1)
+    assert got[0] == "true"
+    bridge.destroy_subscription(sub)
+
+
+async def test_a_closed_bridge_refuses_calls_cleanly(vision: FakeVisionNode) -> None:
+    b = RosBridge(_unique("closing")).start()
+    tasks = RosVisionTasks(b, vision.name)
+    b.close()
+    b.close()  # idempotent
+    assert b.closed
+    with pytest.raises(BridgeClosedError):
+        await tasks.list()
+    with pytest.raises(BridgeClosedError):
+        _ = b.node
+    with pytest.raises(BridgeClosedError):
+        b.start()
+
+
+def test_an_unstarted_bridge_has_no_node() -> None:
+    with pytest.raises(BridgeClosedError):
+        _ = RosBridge("never_started").node
+
+
+async def test_a_service_in_another_process_answers_and_survives_a_restart(
+    bridge: RosBridge, launcher: "object"
+) -> None:
+    from robot_stack_testing import ProcessLauncher
+
+    assert isinstance(launcher, ProcessLauncher)
+    name = _unique("remote_vision")
+    argv = [sys.executable, "-m", "robot_ros_bridge.testing", "--name", name]
+    proc = launcher.start("fake-vision", argv)
+    tasks = RosVisionTasks(bridge, name, timeout_s=10.0, wait_for_service_s=8.0)
+    created = await tasks.create({"name": "box", "mode": "region"})
+    assert created["name"] == "box"
+    launcher.stop(proc)
+    quick = RosVisionTasks(bridge, name, timeout_s=2.0, wait_for_service_s=0.5)
+    await async_wait_until(
+        lambda: not quick._clients["list"].service_is_ready(), 10.0, "the service to vanish"
+    )
+    with pytest.raises(ServiceUnavailableError):
+        await quick.list()
+    launcher.start("fake-vision-again", argv)
+    assert await tasks.list() == []  # same client objects, new server process
+
+
+async def test_the_fake_vision_node_auto_publishes_meta_without_masks_and_outputs(
+    bridge: RosBridge,
+) -> None:
+    from ros2_vision_interfaces.msg import StampedString, VisionDetectionArray
+
+    with FakeVisionNode(_unique("auto"), auto_publish_hz=20.0) as vision:
+        tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+        await tasks.create(
+            {
+                "name": "scene",
+                "mode": "describe",
+                "grounding": "a mug",
+                "watch": {"output": "seen", "equals": True},
+                "outputs": [{"name": "seen", "type": "boolean"}],
+            }
+        )
+        metas: list[VisionDetectionArray] = []
+        fulls: list[VisionDetectionArray] = []
+        outs: list[str] = []
+        bridge.create_subscription(
+            VisionDetectionArray, "/vision/scene/detections_meta", metas.append
+        )
+        bridge.create_subscription(VisionDetectionArray, "/vision/scene/detections", fulls.append)
+        bridge.create_subscription(
+            StampedString, "/vision/scene/seen", lambda m: outs.append(m.data)
+        )
+        await async_wait_until(lambda: metas and fulls and outs, 10.0, "auto-published results")
+        assert metas[0].detections[0].label == "a mug"
+        assert len(metas[0].detections[0].mask.data) == 0
+        assert len(fulls[0].detections[0].mask.data) == 16
+        assert outs[0] == "false"
+        listed = await tasks.list()
+        assert listed[0]["watch"] == {"output": "seen", "equals": True}
+        vision.fail_next["create"] = ("cloud_down", "the grounder is unreachable")
+        with pytest.raises(RemoteError) as info:
+            await tasks.create({"name": "other", "mode": "describe"})
+        assert info.value.code == "cloud_down"
+        with pytest.raises(RemoteError) as info:
+            await tasks.create({"name": "scene", "mode": "describe"})
+        assert info.value.code == "duplicate_name"
+        with pytest.raises(RemoteError):
+            await tasks.create({"name": "bad", "mode": "dance"})
+        with pytest.raises(RemoteError):
+            await tasks.manage("scene", "explode")  # type: ignore[arg-type]
+        assert vision.skills()["scene"]["mode"] == "describe"

@@ -1,0 +1,5 @@
+"""``python -m mcp_perception_buffer``: same as the console script."""
+
+from mcp_perception_buffer.server import main
+
+main()

@@ -1,0 +1,172 @@
+"""The ROS side of the buffer: message -> domain conversion (pure functions) and the
+:class:`TopicFollower`, which keeps one subscription per discovered skill topic.
+
+A topic is followed while it has publishers; a skill whose topics all lost their publishers
+for ``gone_grace_s`` is unsubscribed and its buffer dropped. Subscriptions copy the
+publisher's reliability and durability (a transient-local publisher's last result is
+received even when the buffer subscribes after it was published).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import structlog
+
+from mcp_perception_buffer.buffer import RollingBuffer
+from mcp_perception_buffer.discovery import SkillTopics, skills_in_graph
+from robot_ros_bridge import RosBridge
+
+logger = structlog.get_logger(__name__)
+
+
+# -- conversions (pure) ------------------------------------------------------------------
+def stamp_seconds(header: Any) -> float:
+    return float(header.stamp.sec) + float(header.stamp.nanosec) * 1e-9
+
+
+def decode_extra(text: str) -> dict[str, Any]:
+    if not text:
+        return {}
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError:
+        return {"raw": text[:200]}
+    return value if isinstance(value, dict) else {"value": value}
+
+
+def detections_from_msg(msg: Any) -> tuple[float, list[dict[str, Any]]]:
+    """A VisionDetectionArray as ``(stamp, [detection dicts])``; mask pixels are never read."""
+    detections = [
+        {
+            "label": det.label,
+            "score": round(float(det.score), 4),
+            "kind": det.kind or "object",
+            "box": {
+                "x": int(det.box.x_offset),
+                "y": int(det.box.y_offset),
+                "width": int(det.box.width),
+                "height": int(det.box.height),
+            },
+            "point": {"x": float(det.point.x), "y": float(det.point.y)},
+            "extra": decode_extra(det.extra),
+        }
+        for det in msg.detections
+    ]
+    return stamp_seconds(msg.header), detections
+
+
+def value_from_msg(msg: Any) -> tuple[float, Any]:
+    """A StampedString as ``(stamp, value)``; ``data`` is the JSON encoding of the value."""
+    try:
+        value = json.loads(msg.data)
+    except json.JSONDecodeError:
+        value = msg.data
+    return stamp_seconds(msg.header), value
+
+
+# -- subscriptions -----------------------------------------------------------------------
+class TopicFollower:
+    """Graph polling -> subscriptions -> buffer writes. ``sync()`` is one poll."""
+
+    def __init__(
+        self,
+        bridge: RosBridge,
+        buffer: RollingBuffer,
+        *,
+        gone_grace_s: float = 2.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        from ros2_vision_interfaces.msg import StampedString, VisionDetectionArray
+
+        self._meta_type = VisionDetectionArray
+        self._output_type = StampedString
+        self._bridge = bridge
+        self._buffer = buffer
+        self._grace = gone_grace_s
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._subs: dict[str, dict[str, Any]] = {}  # skill -> topic -> subscription
+        self._silent_since: dict[str, float] = {}
+
+    def followed(self) -> dict[str, list[str]]:
+        with self._lock:
+            return {skill: sorted(subs) for skill, subs in self._subs.items()}
+
+    def sync(self) -> None:
+        """Subscribe to new skill topics; drop skills whose publishers are gone."""
+        graph = skills_in_graph(self._bridge.topic_names_and_types())
+        now = self._clock()
+        with self._lock:
+            for skill, topics in graph.items():
+                self._follow(skill, topics)
+            for skill in list(self._subs):
+                publishers = sum(self._bridge.publisher_count(t) for t in self._subs[skill])
+                if publishers:
+                    self._silent_since.pop(skill, None)
+                    continue
+                since = self._silent_since.setdefault(skill, now)
+                if now - since >= self._grace:
+                    self._unfollow(skill)
+
+    def close(self) -> None:
+        with self._lock:
+            for skill in list(self._subs):
+                self._unfollow(skill, drop=False)
+
+    def _follow(self, skill: str, topics: SkillTopics) -> None:
+        subs = self._subs.setdefault(skill, {})
+        if topics.meta and topics.meta not in subs:
+            subs[topics.meta] = self._bridge.create_subscription(
+                self._meta_type, topics.meta, self._on_meta(skill), self._qos(topics.meta)
+            )
+            logger.info("buffer_subscribed", skill=skill, topic=topics.meta)
+        for output, topic in topics.outputs.items():
+            if topic not in subs:
+                subs[topic] = self._bridge.create_subscription(
+                    self._output_type, topic, self._on_output(skill, output), self._qos(topic)
+                )
+                logger.info("buffer_subscribed", skill=skill, topic=topic)
+
+    def _unfollow(self, skill: str, *, drop: bool = True) -> None:
+        for sub in self._subs.pop(skill, {}).values():
+            self._bridge.destroy_subscription(sub)
+        self._silent_since.pop(skill, None)
+        if drop:
+            self._buffer.drop(skill)
+            logger.info("buffer_dropped", skill=skill, reason="topics_gone")
+
+    def _qos(self, topic: str) -> Any:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        infos = self._bridge.node.get_publishers_info_by_topic(topic)
+        profiles = [info.qos_profile for info in infos]
+        reliable = bool(profiles) and all(
+            p.reliability == ReliabilityPolicy.RELIABLE for p in profiles
+        )
+        latched = bool(profiles) and all(
+            p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in profiles
+        )
+        return QoSProfile(
+            depth=10,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
+
+    def _on_meta(self, skill: str) -> Callable[[Any], None]:
+        def callback(msg: Any) -> None:
+            stamp, detections = detections_from_msg(msg)
+            self._buffer.add_result(skill, stamp, detections)
+
+        return callback
+
+    def _on_output(self, skill: str, output: str) -> Callable[[Any], None]:
+        def callback(msg: Any) -> None:
+            stamp, value = value_from_msg(msg)
+            self._buffer.add_output(skill, output, value, stamp)
+
+        return callback

@@ -1,0 +1,252 @@
+"""The buffer against a fake vision node in real rclpy: discovery, subscriptions, drops,
+recovery after a vision node restart, and signed watch events at a real HTTP receiver."""
+
+import json
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcp import Client
+
+from mcp_perception_buffer.composition import build_app
+from mcp_perception_buffer.config import PerceptionConfig
+from mcp_perception_buffer.events import PosterEventSink
+from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
+from robot_ros_bridge import RosBridge
+from robot_ros_bridge.testing import FakeVisionNode
+from robot_ros_bridge.vision_tasks import RosVisionTasks
+from robot_stack_testing import async_wait_until
+
+pytestmark = pytest.mark.ros
+
+SECRET = "watch-secret"
+MUG = {
+    "label": "mug",
+    "score": 0.8,
+    "box": [10, 20, 30, 40],
+    "extra": {"mask_url": "http://127.0.0.1:9112/masks/find/0.png"},
+}
+
+
+async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    result = await client.call_tool(tool, args or {})
+    text = result.content[0].text  # type: ignore[union-attr]
+    payload = json.loads(text)
+    return {"_error": payload, "_text": text} if result.is_error else {**payload, "_text": text}
+
+
+def _name(prefix: str) -> str:
+    return f"{prefix}_{uuid.uuid4().hex[:8]}"
+
+
+@pytest.fixture
+def vision() -> Iterator[FakeVisionNode]:
+    with FakeVisionNode(_name("vision")) as node:
+        yield node
+
+
+@pytest.fixture
+def bridge() -> Iterator[RosBridge]:
+    with RosBridge(_name("buffer")) as b:
+        yield b
+
+
+def _config(vision: FakeVisionNode, **extra: Any) -> PerceptionConfig:
+    values: dict[str, Any] = {
+        "vision_node_name": vision.name,
+        "graph_poll_s": 0.1,
+        "watch_poll_s": 0.2,
+        "gone_grace_s": 0.3,
+        "stale_after_s": 30.0,
+    }
+    return PerceptionConfig(**{**values, **extra})
+
+
+async def test_a_new_skill_is_discovered_buffered_and_dropped_when_its_topics_go(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    app = build_app(_config(vision), bridge=bridge)
+    tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+    await app.perception.start()
+    try:
+        await tasks.create(
+            {
+                "name": "find",
+                "mode": "ground_and_segment",
+                "grounding": "mug",
+                "outputs": [{"name": "found", "type": "boolean"}],
+            }
+        )
+        async with Client(app.server) as client:
+            await async_wait_until(
+                lambda: (
+                    "find" in app.perception.list_buffers()["following"]
+                    and len(app.perception.list_buffers()["following"]) == 1
+                ),
+                10.0,
+                "the skill to be followed",
+            )
+
+            def publish_and_check() -> bool:
+                vision.publish_detections("find", [MUG])
+                vision.publish_output("find", "found", True)
+                snap = app.buffer.snapshot("find")
+                return bool(snap and snap.results and snap.outputs.get("found"))
+
+            await async_wait_until(publish_and_check, 10.0, "a buffered result", interval_s=0.1)
+            latest = await call(client, "get_latest", {"skill": "find"})
+            det = latest["detections"][0]
+            assert det["label"] == "mug"
+            assert det["box"] == {"x": 10, "y": 20, "width": 30, "height": 40}
+            assert det["mask_ref"]["url"] == "http://127.0.0.1:9112/masks/find/0.png"
+            assert det["mask_ref"]["topic"] == "/vision/find/detections"
+            assert latest["outputs"]["found"]["value"] is True
+            assert "mask" not in det
+            assert '"data"' not in latest["_text"]
+            buffers = await call(client, "list_buffers")
+            assert buffers["buffers"][0]["topics"] == [
+                "/vision/find/detections_meta",
+                "/vision/find/found",
+            ]
+
+            await tasks.manage("find", "delete")
+            await async_wait_until(
+                lambda: app.buffer.snapshot("find") is None, 10.0, "the buffer to be dropped"
+            )
+            gone = await call(client, "get_latest", {"skill": "find"})
+            assert gone["_error"]["error"] == "unknown_skill"
+    finally:
+        await app.perception.close()
+
+
+async def test_wait_for_result_discovers_a_just_created_skill_and_returns_its_first_result(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    app = build_app(_config(vision, graph_poll_s=30.0), bridge=bridge)
+    tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+    await app.perception.start()
+    try:
+        await tasks.create({"name": "once", "mode": "region", "grounding": "shelf"})
+        async with Client(app.server) as client:
+            import threading
+
+            stop = threading.Event()
+
+            def keep_publishing() -> None:
+                while not stop.wait(0.1):
+                    vision.publish_detections("once", [MUG])
+
+            publisher = threading.Thread(target=keep_publishing, daemon=True)
+            publisher.start()
+            try:
+                got = await call(client, "wait_for_result", {"skill": "once", "timeout_s": 15})
+            finally:
+                stop.set()
+                publisher.join(timeout=5)
+            assert got["detections"][0]["label"] == "mug"
+    finally:
+        await app.perception.close()
+
+
+async def test_the_buffer_recovers_when_the_vision_node_restarts(bridge: RosBridge) -> None:
+    name = _name("restarting")
+    app = build_app(
+        PerceptionConfig(
+            vision_node_name=name,
+            graph_poll_s=0.1,
+            watch_poll_s=0.2,
+            gone_grace_s=0.3,
+            call_timeout_s=1.0,
+            wait_for_service_s=0.2,
+        ),
+        bridge=bridge,
+    )
+    await app.perception.start()
+    try:
+        async with Client(app.server) as client:
+            cold = await call(client, "what_do_you_see")
+            assert cold["mode"] == "cold"
+            absent = await call(client, "cancel_task", {"task_id": "watch-x"})
+            assert absent["_error"]["error"] == "unknown_task"
+            for attempt in range(2):
+                with FakeVisionNode(name) as vision:
+                    tasks = RosVisionTasks(bridge, name, wait_for_service_s=5.0)
+                    await tasks.create(
+                        {
+                            "name": "scene",
+                            "mode": "describe",
+                            "outputs": [{"name": "scene_description", "type": "text"}],
+                        }
+                    )
+
+                    def warm(v: FakeVisionNode = vision, n: int = attempt) -> bool:
+                        v.publish_output("scene", "scene_description", f"a desk {n}")
+                        snap = app.buffer.snapshot("scene")
+                        values = snap.outputs.get("scene_description") if snap else None
+                        return bool(values) and values[-1].value == f"a desk {n}"  # type: ignore[index]
+
+                    await async_wait_until(warm, 15.0, "the scene in the buffer", interval_s=0.1)
+                    seen = await call(client, "what_do_you_see")
+                    assert seen["scene_description"]["value"] == f"a desk {attempt}"
+                await async_wait_until(
+                    lambda: app.buffer.snapshot("scene") is None,
+                    10.0,
+                    "the buffer to drop the dead node's skill",
+                )
+    finally:
+        await app.perception.close()
+
+
+async def test_a_watcher_posts_one_signed_event_per_rising_edge_to_a_real_receiver(
+    vision: FakeVisionNode, bridge: RosBridge, tcp_port: int, tmp_path: Path
+) -> None:
+    receiver = RecordingReceiver({"perception": SECRET})
+    async with ReceiverServer(receiver, tcp_port) as server:
+        sink = PosterEventSink(server.url, SECRET, tmp_path / "outbox.sqlite3", "perception")
+        app = build_app(_config(vision), bridge=bridge, sink=sink)
+        tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+        await app.perception.start()
+        try:
+            await tasks.create(
+                {
+                    "name": "door",
+                    "mode": "describe",
+                    "outputs": [{"name": "open", "type": "boolean"}],
+                    "watch": {"output": "open", "equals": True},
+                }
+            )
+            await async_wait_until(
+                lambda: app.perception._watchers.get("watch-door"), 10.0, "the watcher to arm"
+            )
+
+            async def publish(value: bool) -> None:
+                before = app.buffer.seq("door")
+
+                def landed() -> bool:
+                    if app.buffer.seq("door") == before:
+                        vision.publish_output("door", "open", value)
+                    return app.buffer.seq("door") > before
+
+                await async_wait_until(landed, 10.0, f"value {value} buffered", interval_s=0.1)
+
+            await publish(False)
+            await publish(True)
+            await async_wait_until(lambda: len(receiver.accepted()) >= 1, 10.0, "one event")
+            for _ in range(3):
+                await publish(True)  # staying true posts nothing more
+            await publish(False)
+            assert len(receiver.accepted()) == 1
+            await publish(True)
+            await async_wait_until(lambda: len(receiver.accepted()) >= 2, 10.0, "second event")
+            events = [d.event for d in receiver.accepted()]
+            assert [(e.task_id, e.type, e.server, e.seq) for e in events] == [
+                ("watch-door", "watch_event", "perception", events[0].seq),
+                ("watch-door", "watch_event", "perception", events[0].seq + 1),
+            ]
+            assert events[0].payload["value"] is True
+            assert events[0].payload["skill"] == "door"
+            assert receiver.rejections == []
+        finally:
+            await app.perception.close()

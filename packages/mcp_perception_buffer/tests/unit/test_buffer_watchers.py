@@ -1,0 +1,115 @@
+import asyncio
+
+from mcp_perception_buffer.buffer import RollingBuffer
+from mcp_perception_buffer.events import LoggingEventSink, RecordingEventSink
+from mcp_perception_buffer.watchers import WatcherService, WatchEvaluator
+from robot_stack_testing import async_wait_until
+
+WATCHED = [{"name": "door", "watch": {"output": "open", "equals": True}}]
+
+
+def test_only_rising_edges_fire() -> None:
+    ev = WatchEvaluator()
+    ev.arm("door", "open", True)
+    values = [False, True, True, False, True, True]
+    fired = [ev.observe("door", "open", v) is not None for v in values]
+    assert fired == [False, True, False, False, True, False]
+    assert ev.observe("door", "other", True) is None
+    assert ev.observe("nobody", "open", True) is None
+    door = ev.get("door")
+    assert door is not None
+    assert door.fired == 2
+
+
+def test_the_first_true_after_arming_fires_and_re_arming_the_same_watch_keeps_state() -> None:
+    ev = WatchEvaluator()
+    first = ev.arm("door", "open", True)
+    assert ev.observe("door", "open", True) is first
+    assert ev.arm("door", "open", True) is first
+    assert ev.observe("door", "open", True) is None
+    assert ev.arm("door", "open", "yes") is not first
+
+
+async def test_a_watcher_posts_exactly_once_per_rising_edge() -> None:
+    buffer = RollingBuffer()
+    sink = RecordingEventSink()
+    service = WatcherService(buffer, sink)
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        assert service.get("watch-door") is not None
+        for value in (False, True, True, True):
+            buffer.add_output("door", "open", value, 1.0)
+        await async_wait_until(lambda: len(sink.events) >= 1, 5.0, "one event")
+        buffer.add_output("door", "open", False, 2.0)
+        buffer.add_output("door", "open", True, 3.0)
+        await async_wait_until(lambda: len(sink.events) >= 2, 5.0, "a second event")
+        await asyncio.sleep(0.05)
+        await service.drain()
+        assert [e[:3] for e in sink.events] == [
+            ("watch-door", "instantiate_skill", "watch_event")
+        ] * 2
+        assert sink.events[1][3]["stamp"] == 3.0
+        assert sink.events[1][3]["fired"] == 2
+        assert sink.events[0][3]["topic"] == "/vision/door/open"
+    finally:
+        await service.close()
+
+
+async def test_arming_evaluates_the_already_buffered_value() -> None:
+    buffer = RollingBuffer()
+    buffer.add_output("door", "open", True, 1.0)
+    sink = RecordingEventSink()
+    service = WatcherService(buffer, sink)
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        await service.drain()
+        assert len(sink.events) == 1
+    finally:
+        await service.close()
+
+
+async def test_cancel_disarms_and_polling_does_not_re_arm_it() -> None:
+    buffer = RollingBuffer()
+    sink = RecordingEventSink()
+    service = WatcherService(buffer, sink)
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        cancelled = service.cancel("watch-door")
+        assert cancelled is not None
+        assert cancelled.state == "cancelled"
+        again = service.cancel("watch-door")
+        assert again is not None
+        assert again.state == "cancelled"
+        service.refresh(WATCHED)
+        buffer.add_output("door", "open", True, 1.0)
+        await asyncio.sleep(0.05)
+        await service.drain()
+        assert sink.events == []
+        assert service.cancel("watch-nobody") is None
+        assert [t.task_id for t in service.list(["cancelled"])] == ["watch-door"]
+        assert service.list(["running"]) == []
+    finally:
+        await service.close()
+
+
+async def test_a_stopped_skill_ends_its_watcher_and_a_new_skill_of_that_name_re_arms() -> None:
+    buffer = RollingBuffer()
+    service = WatcherService(buffer, LoggingEventSink())
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        service.refresh([{"name": "door"}, {"name": "x", "watch": {"equals": 1}}, {"watch": {}}])
+        ended = service.get("watch-door")
+        assert ended is not None
+        assert ended.state == "cancelled"
+        assert ended.model_dump()["reason"] == "skill_stopped"
+        service.refresh(WATCHED)
+        again = service.get("watch-door")
+        assert again is not None
+        assert again.state == "running"
+        await service._sink.emit("watch-door", "instantiate_skill", "watch_event", {})
+    finally:
+        await service.close()

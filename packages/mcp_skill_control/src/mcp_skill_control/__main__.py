@@ -1,0 +1,5 @@
+"""``python -m mcp_skill_control``: same as the console script."""
+
+from mcp_skill_control.server import main
+
+main()

@@ -1,0 +1,61 @@
+"""The composition root of the ``mcp-skill-control`` process: the only place adapters are built."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mcp.server.mcpserver import MCPServer
+
+from mcp_skill_control.catalog import Catalog
+from mcp_skill_control.config import DEFAULT_PORT, SkillControlConfig
+from mcp_skill_control.server import build_server
+from mcp_skill_control.tools import SkillControl
+from robot_ros_bridge import RosBridge
+from robot_ros_bridge.vision_tasks import RosVisionTasks, VisionTasks
+
+
+@dataclass
+class SkillControlApp:
+    config: SkillControlConfig
+    server: MCPServer
+    control: SkillControl
+    bridge: RosBridge | None
+
+
+def build_app(
+    config: SkillControlConfig,
+    *,
+    bridge: RosBridge | None = None,
+    tasks: VisionTasks | None = None,
+) -> SkillControlApp:
+    """Wire the catalog, the VisionTask adapter and the MCP server.
+
+    ``tasks`` replaces the ROS adapter (tests); otherwise ``bridge`` (started by the caller)
+    carries the VisionTask clients.
+    """
+    catalog = Catalog.load(config.skills_catalog)
+    if tasks is None:
+        if bridge is None:
+            bridge = RosBridge(config.ros_node_name)
+        tasks = RosVisionTasks(
+            bridge.start(),
+            config.vision_node_name,
+            timeout_s=config.call_timeout_s,
+            wait_for_service_s=config.wait_for_service_s,
+        )
+    control = SkillControl(catalog, tasks)
+    return SkillControlApp(config, build_server(control), control, bridge)
+
+
+def run() -> None:
+    from robot_mcp_kit.logging import configure_logging
+    from robot_mcp_kit.mcp_runtime import run_server
+
+    config = SkillControlConfig.from_env()
+    configure_logging("mcp-skill-control", level=config.log_level)
+    app = build_app(config)
+    try:
+        run_server(app.server, DEFAULT_PORT)
+    finally:
+        if app.bridge is not None:
+            app.bridge.close()

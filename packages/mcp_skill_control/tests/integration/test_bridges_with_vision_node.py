@@ -1,0 +1,193 @@
+"""End to end over real transports: the SDK's MCP client -> mcp-skill-control and
+mcp-perception-buffer server processes (streamable-http on loopback) -> a real ``vision_node``
+process with its offline defaults (folder frames, annotation grounder, GrabCut).
+
+Spec 001 §8 acceptance items 1-2, plus the resilience checks: vision node absent -> clean
+errors in time; vision node restarted -> both servers recover without restarting.
+"""
+
+import importlib.util
+import json
+import sys
+import time
+import uuid
+from collections.abc import Iterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcp import Client
+
+from robot_ros_bridge import RosBridge
+from robot_stack_testing import (
+    LaunchedProcess,
+    ProcessLauncher,
+    async_wait_until,
+    free_tcp_port,
+    wait_for_tcp_port,
+)
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+REPO = Path(__file__).resolve().parents[4]
+FRAMES = REPO / "data" / "scenes"
+
+
+def _require_vision_node() -> None:
+    # Not a skip: without the vision node this end-to-end test cannot run and must fail.
+    assert importlib.util.find_spec("robot_mcp_perception.vision_node") is not None, (
+        "robot_mcp_perception.vision_node is missing: these end-to-end tests need it"
+    )
+
+
+def _vision_env(artifacts_port: int, node_name: str) -> dict[str, str]:
+    return {
+        "PERCEPTION_CONFIG_OVERRIDES": (
+            f"frame_source=folder artifacts.port={artifacts_port} node.node_name={node_name}"
+        ),
+        "PERCEPTION_FRAMES_DIR": str(FRAMES),
+    }
+
+
+def start_vision(launcher: ProcessLauncher, node_name: str) -> LaunchedProcess:
+    return launcher.start(
+        "vision",
+        [sys.executable, "-m", "robot_mcp_perception.vision_node"],
+        env=_vision_env(free_tcp_port(), node_name),
+    )
+
+
+def start_servers(launcher: ProcessLauncher, node_name: str) -> tuple[str, str]:
+    ports = free_tcp_port(), free_tcp_port()
+    common = {"MCP_TRANSPORT": "streamable-http", "VISION_NODE_NAME": node_name}
+    launcher.start(
+        "skill-control",
+        [sys.executable, "-m", "mcp_skill_control"],
+        env={**common, "MCP_PORT": str(ports[0]), "SKILL_CONTROL_CALL_TIMEOUT_S": "5"},
+    )
+    launcher.start(
+        "perception-buffer",
+        [sys.executable, "-m", "mcp_perception_buffer"],
+        env={**common, "MCP_PORT": str(ports[1]), "PERCEPTION_GRAPH_POLL_S": "0.2"},
+    )
+    for port in ports:
+        wait_for_tcp_port(port, 30.0)
+    return f"http://127.0.0.1:{ports[0]}/mcp", f"http://127.0.0.1:{ports[1]}/mcp"
+
+
+async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    result = await client.call_tool(tool, args or {})
+    text = result.content[0].text  # type: ignore[union-attr]
+    payload = json.loads(text)
+    return {"_error": payload, "_text": text} if result.is_error else {**payload, "_text": text}
+
+
+@asynccontextmanager
+async def clients(urls: tuple[str, str]) -> Any:
+    async with Client(urls[0]) as skills, Client(urls[1]) as perception:
+        yield skills, perception
+
+
+@pytest.fixture
+def graph() -> Iterator[RosBridge]:
+    with RosBridge(f"observer_{uuid.uuid4().hex[:6]}") as bridge:
+        yield bridge
+
+
+def _no_pixels(text: str) -> None:
+    assert '"mask":' not in text
+    assert '"data":' not in text
+    assert len(text) < 200_000
+
+
+async def test_find_object_end_to_end_over_real_transports_with_a_real_vision_node(
+    launcher: ProcessLauncher, graph: RosBridge
+) -> None:
+    _require_vision_node()
+    node_name = f"vision_{uuid.uuid4().hex[:6]}"
+    vision = start_vision(launcher, node_name)
+    urls = start_servers(launcher, node_name)
+    service = f"/{node_name}/create_vision_task"
+    try:
+        await async_wait_until(
+            lambda: service in graph.service_names_and_types(), 60.0, "the vision node's services"
+        )
+    except TimeoutError:
+        raise AssertionError(f"vision node did not come up:\n{vision.log()[-3000:]}") from None
+    async with clients(urls) as (skills, perception):
+        templates = await call(skills, "list_skill_templates")
+        assert {t["name"] for t in templates["templates"]} >= {"find_object", "watch_for"}
+
+        made = await call(
+            skills,
+            "instantiate_skill",
+            {"template": "find_object", "params": {"query": "scissors"}},
+        )
+        assert "_error" not in made, f"{made}\n--- vision log:\n{vision.log()[-3000:]}"
+        topic = made["topic"]
+        assert topic == f"/vision/{made['skill_id']}/detections"
+        await async_wait_until(
+            lambda: topic in graph.topic_names_and_types(),
+            15.0,
+            "the skill's topic in the ROS graph",
+        )
+
+        result = await call(
+            perception, "wait_for_result", {"skill": made["skill_id"], "timeout_s": 25}
+        )
+        assert "_error" not in result, result
+        assert result["detections"], result
+        det = result["detections"][0]
+        assert det["mask_ref"]["topic"] == topic
+        assert {"label", "score", "kind", "box", "point", "mask_ref"} <= set(det)
+        _no_pixels(result["_text"])
+        latest = await call(perception, "get_latest", {"skill": made["skill_id"]})
+        _no_pixels(latest["_text"])
+        seen = await call(perception, "what_do_you_see")
+        _no_pixels(seen["_text"])
+
+        stopped = await call(skills, "stop_skill", {"skill_id": made["skill_id"]})
+        assert stopped["stopped"] is True
+        await async_wait_until(
+            lambda: graph.publisher_count(topic) == 0, 15.0, "the skill's topic to go"
+        )
+
+
+async def test_both_servers_fail_cleanly_without_the_vision_node_and_recover_when_it_starts(
+    launcher: ProcessLauncher,
+) -> None:
+    _require_vision_node()
+    node_name = f"vision_{uuid.uuid4().hex[:6]}"
+    urls = start_servers(launcher, node_name)
+    async with clients(urls) as (skills, perception):
+        tool_calls: list[tuple[str, dict[str, Any]]] = [
+            ("list_running_skills", {}),
+            ("instantiate_skill", {"template": "describe_scene", "params": {}}),
+            ("stop_skill", {"skill_id": "scene"}),
+            ("set_skill_enabled", {"skill_id": "scene", "enabled": False}),
+        ]
+        for tool, args in tool_calls:
+            started = time.monotonic()
+            answer = await call(skills, tool, args)
+            assert answer["_error"]["error"] == "service_unavailable", (tool, answer)
+            assert time.monotonic() - started < 10.0
+        cold = await call(perception, "what_do_you_see")
+        assert cold["mode"] == "cold"
+        waited = await call(perception, "wait_for_result", {"skill": "scene", "timeout_s": 1})
+        assert waited["_error"]["error"] == "timeout"
+
+        for _life in range(2):
+            vision = start_vision(launcher, node_name)
+            running = await async_wait_until(
+                lambda: _ok(call(skills, "list_running_skills")), 30.0, "the vision node"
+            )
+            assert "scene" in {s["skill_id"] for s in running["skills"]}  # default skill
+            scene = await call(perception, "wait_for_result", {"skill": "scene", "timeout_s": 25})
+            assert "_error" not in scene, scene
+            launcher.stop(vision)
+
+
+async def _ok(pending: Any) -> Any:
+    answer = await pending
+    return None if "_error" in answer else answer

@@ -1,0 +1,136 @@
+"""The MCP surface of skill_control, through the SDK's in-memory client (no ROS)."""
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcp import Client
+
+from mcp_skill_control.composition import build_app
+from mcp_skill_control.config import DEFAULT_CATALOG, SkillControlConfig
+from robot_ros_bridge import ServiceTimeoutError
+from robot_ros_bridge.testing import FakeVisionTasks
+
+
+async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    result = await client.call_tool(tool, args or {})
+    text = result.content[0].text  # type: ignore[union-attr]
+    payload = json.loads(text)
+    if result.is_error:
+        return {"_error": payload}
+    return payload
+
+
+@pytest.fixture
+def tasks() -> FakeVisionTasks:
+    return FakeVisionTasks()
+
+
+@pytest.fixture
+def config() -> SkillControlConfig:
+    return SkillControlConfig()
+
+
+async def test_the_server_lists_its_tools_with_planner_docstrings(
+    config: SkillControlConfig, tasks: FakeVisionTasks
+) -> None:
+    app = build_app(config, tasks=tasks)
+    async with Client(app.server) as client:
+        tools = {t.name: t for t in (await client.list_tools()).tools}
+    assert set(tools) == {
+        "list_skill_templates",
+        "list_running_skills",
+        "instantiate_skill",
+        "instantiate_raw_skill",
+        "prewarm_skill",
+        "stop_skill",
+        "set_skill_enabled",
+    }
+    assert all("Call this" in (t.description or "") for t in tools.values())
+    assert app.server.name == "skill_control"
+
+
+async def test_the_tools_round_trip_through_mcp(
+    config: SkillControlConfig, tasks: FakeVisionTasks
+) -> None:
+    app = build_app(config, tasks=tasks)
+    async with Client(app.server) as client:
+        templates = await call(client, "list_skill_templates")
+        assert next(t["name"] for t in templates["templates"]) == "find_object"
+        made = await call(
+            client,
+            "instantiate_skill",
+            {"template": "watch_for", "params": {"condition": "door open"}},
+        )
+        assert made["task_id"] == "watch-watch_for"
+        assert made["state"] == "running"
+        raw = await call(
+            client,
+            "instantiate_raw_skill",
+            {"skill": {"name": "shelf", "mode": "region", "grounding": "shelf"}},
+        )
+        assert raw["topic"] == "/vision/shelf/detections"
+        warm = await call(
+            client, "prewarm_skill", {"template": "free_space", "params": {"what": "box"}}
+        )
+        assert warm["prewarm"] is True
+        assert await call(client, "set_skill_enabled", {"skill_id": "shelf", "enabled": False}) == {
+            "skill_id": "shelf",
+            "enabled": False,
+        }
+        running = await call(client, "list_running_skills")
+        assert {s["skill_id"] for s in running["skills"]} == {
+            "watch_for",
+            "shelf",
+            "prewarm_free_space",
+        }
+        assert await call(client, "stop_skill", {"skill_id": "shelf"}) == {
+            "skill_id": "shelf",
+            "stopped": True,
+        }
+
+
+async def test_catalog_and_node_refusals_are_clean_tool_errors(
+    config: SkillControlConfig, tasks: FakeVisionTasks
+) -> None:
+    app = build_app(config, tasks=tasks)
+    async with Client(app.server) as client:
+        missing = await call(client, "instantiate_skill", {"template": "find_object"})
+        assert missing["_error"]["error"] == "missing_params"
+        unknown = await call(client, "instantiate_skill", {"template": "teleport", "params": {}})
+        assert unknown["_error"]["error"] == "unknown_template"
+        ghost = await call(client, "stop_skill", {"skill_id": "ghost"})
+        assert ghost["_error"] == {"error": "unknown_skill", "detail": "no skill named 'ghost'"}
+        tasks.fail_with = ServiceTimeoutError("/vision_node/list_vision_tasks did not answer")
+        timeout = await call(client, "list_running_skills")
+        assert timeout["_error"]["error"] == "service_timeout"
+        assert "did not answer" in timeout["_error"]["detail"]
+
+
+def test_config_reads_the_spec_environment(tmp_path: Path) -> None:
+    catalog = tmp_path / "skills.yaml"
+    catalog.write_text(DEFAULT_CATALOG.read_text(encoding="utf-8"), encoding="utf-8")
+    config = SkillControlConfig.from_env(
+        {
+            "VISION_NODE_NAME": "eyes",
+            "SKILLS_CATALOG": str(catalog),
+            "SKILL_CONTROL_CALL_TIMEOUT_S": "2.5",
+        }
+    )
+    assert config.vision_node_name == "eyes"
+    assert config.skills_catalog == catalog
+    assert config.call_timeout_s == 2.5
+    assert SkillControlConfig.from_env({}).skills_catalog == DEFAULT_CATALOG
+
+
+def test_config_refuses_a_missing_catalog_at_start_up(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="not a file"):
+        SkillControlConfig.from_env({"SKILLS_CATALOG": str(tmp_path / "none.yaml")})
+    with pytest.raises(ValueError):
+        SkillControlConfig.from_env({"SKILL_CONTROL_CALL_TIMEOUT_S": "-1"})
+
+
+def test_the_catalog_ships_inside_the_package() -> None:
+    assert DEFAULT_CATALOG.is_file()
+    assert DEFAULT_CATALOG.parent.parent.name == "mcp_skill_control"

@@ -1,0 +1,120 @@
+"""The local-stack runner starts services in order, waits for readiness, and stops them."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from robot_stack_testing import free_tcp_port
+from robot_stack_testing.stack import StackError, load_stack, local_stack
+
+HTTP_SERVER = (
+    "import http.server, sys\n"
+    "class H(http.server.BaseHTTPRequestHandler):\n"
+    "    def do_GET(self):\n"
+    "        self.send_response(200); self.end_headers(); self.wfile.write(b'ok')\n"
+    "http.server.HTTPServer(('127.0.0.1', int(sys.argv[1])), H).serve_forever()\n"
+)
+
+
+def write_stack(path: Path, body: str) -> Path:
+    path.write_text(body)
+    return path
+
+
+def test_placeholders_expand_in_argv_env_and_urls(tmp_path: Path) -> None:
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        "  - name: a\n"
+        '    argv: ["{python}", "-m", "x", "{root}/data"]\n'
+        '    env: {DB: "{var}/a.sqlite3"}\n'
+        '    ready: {http: "http://127.0.0.1:1/{var}", timeout_s: 3}\n',
+    )
+    [service] = load_stack(stack, {"python": "/py", "root": "/r", "var": "/v"})
+    assert service.argv == ["/py", "-m", "x", "/r/data"]
+    assert service.env == {"DB": "/v/a.sqlite3"}
+    assert service.ready.http == "http://127.0.0.1:1//v"
+    assert service.ready.timeout_s == 3.0
+
+
+def test_services_start_in_order_become_ready_and_stop_on_exit(tmp_path: Path) -> None:
+    http_port, tcp_port = free_tcp_port(), free_tcp_port()
+    tcp_server = (
+        "import socket, sys\n"
+        "s = socket.socket(); s.bind(('127.0.0.1', int(sys.argv[1]))); s.listen()\n"
+        "while True: s.accept()[0].close()\n"
+    )
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        f'  - name: web\n    argv: ["{{python}}", "-c", {HTTP_SERVER!r}, "{http_port}"]\n'
+        f'    ready: {{http: "http://127.0.0.1:{http_port}/", timeout_s: 20}}\n'
+        f'  - name: tcp\n    argv: ["{{python}}", "-c", {tcp_server!r}, "{tcp_port}"]\n'
+        f"    ready: {{tcp: {tcp_port}, timeout_s: 20}}\n",
+    )
+    with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack) as running:
+        assert list(running) == ["web", "tcp"]
+        assert all(process.running() for process in running.values())
+    assert not any(process.running() for process in running.values())
+
+
+def test_only_starts_the_named_services(tmp_path: Path) -> None:
+    port = free_tcp_port()
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        '  - name: skipped\n    argv: ["{python}", "-c", "raise SystemExit(3)"]\n'
+        f'  - name: web\n    argv: ["{{python}}", "-c", {HTTP_SERVER!r}, "{port}"]\n'
+        f'    ready: {{http: "http://127.0.0.1:{port}/", timeout_s: 20}}\n',
+    )
+    with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack, only={"web"}) as running:
+        assert list(running) == ["web"]
+
+
+def test_a_service_that_dies_fails_fast_with_its_log(tmp_path: Path) -> None:
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        "  - name: broken\n"
+        '    argv: ["{python}", "-c", "print(\'config missing\'); raise SystemExit(2)"]\n'
+        f"    ready: {{tcp: {free_tcp_port()}, timeout_s: 30}}\n",
+    )
+    with (
+        pytest.raises(StackError, match="config missing"),
+        local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack),
+    ):
+        pass
+
+
+def test_a_service_that_never_gets_ready_times_out_with_its_log(tmp_path: Path) -> None:
+    sleeper = "print('still booting', flush=True); import time; time.sleep(60)"
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        f'  - name: slow\n    argv: ["{{python}}", "-c", {sleeper!r}]\n'
+        f'    ready: {{http: "http://127.0.0.1:{free_tcp_port()}/", timeout_s: 1}}\n',
+    )
+    with (
+        pytest.raises(StackError, match="slow not ready"),
+        local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack),
+    ):
+        pass
+
+
+def test_the_repository_stack_file_names_every_server() -> None:
+    root = Path(__file__).resolve().parents[4]
+    services = load_stack(
+        root / "deploy" / "local-stack.yaml", {"python": sys.executable, "root": "/r", "var": "/v"}
+    )
+    assert [s.name for s in services] == [
+        "vision_node",
+        "skill_control",
+        "perception",
+        "memory",
+        "navigation",
+        "brain",
+    ]
+    assert all(s.ready.tcp or s.ready.http for s in services)

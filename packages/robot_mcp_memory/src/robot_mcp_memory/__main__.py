@@ -1,0 +1,3 @@
+from robot_mcp_memory.server import main
+
+main()

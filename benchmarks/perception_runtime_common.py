@@ -140,6 +140,8 @@ def percentile(values: list[float], q: float) -> float:
 
 def write_result(name: str, result: dict[str, Any]) -> Path:
     RESULTS.mkdir(parents=True, exist_ok=True)
+    result = {**result, "loadavg_1_5_15": Path("/proc/loadavg").read_text().split()[:3]}
+    result.setdefault("cpu_count", os.cpu_count())
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps(result, indent=2))
     print(json.dumps(result, indent=2))

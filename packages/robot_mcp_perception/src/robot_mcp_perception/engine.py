@@ -3,7 +3,9 @@
 ROS-free. The node feeds it frames (``dispatch``) and gives it a :class:`ResultSink`; model
 work goes through the :class:`~robot_mcp_perception.scheduler.Scheduler`. Rules:
 
-- per-skill ``rate_hz`` (default: the node's processing_frequency), newest frame only;
+- per-skill ``rate_hz`` (default: the node's processing_frequency), newest frame only; a
+  new skill runs at once, later runs are phase-spread over the period; skills run on frame
+  arrival (``dispatch``), the timer (``tick``) only when frames stop or a skill waited long;
 - §8 cost policy for cloud stages (once / gate / per-skill cloud rate / global budget); a
   skipped cloud grounding is replaced by "segment locally with the last grounding" when the
   skill segments with a local segmenter, else the last result is republished stale;
@@ -16,6 +18,8 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import itertools
+import math
 import threading
 import time
 from collections.abc import Awaitable, Callable
@@ -34,6 +38,9 @@ from robot_mcp_perception.scheduler import JobTimeoutError, Scheduler
 from robot_mcp_perception.skills import Skill
 
 logger = structlog.get_logger("robot_mcp_perception.engine")
+
+_GOLDEN_RATIO = 0.6180339887498949
+_MAX_FRAME_INTERVAL_S = 5.0
 
 SkillRunner = Callable[
     [Skill, Image, PipelineContext, GroundingResult | None], Awaitable[SkillResult]
@@ -81,6 +88,16 @@ class SkillEngine:
         self.grounder_cloud = context.grounder.cost_class == "cloud"
         self.segmenter_cloud = context.segmenter.cost_class == "cloud"
         self.out_of_order_dropped = 0
+        self._phases = itertools.count()
+        self._last_arrival: float | None = None
+        self._frame_interval: float | None = None
+        """Moving average of the time between frame arrivals (s)."""
+
+    def _next_phase(self) -> float:
+        """Phase offset (fraction of a period) of the next started skill: the golden-ratio
+        sequence 0, .62, .24, .85, … spreads skills created together over their period, so
+        they do not all fall due on the same frame and queue behind each other."""
+        return (next(self._phases) * _GOLDEN_RATIO) % 1.0
 
     def period_s(self, skill: Skill) -> float:
         return 1.0 / (skill.rate_hz or self.default_rate_hz)
@@ -90,23 +107,53 @@ class SkillEngine:
         return grounder or (self.segmenter_cloud and skill.segments)
 
     def dispatch(self, frame: Frame | None) -> None:
-        """Run every enabled skill that is due on ``frame`` (the newest frame)."""
+        """A new frame arrived: run every enabled skill that is due on it."""
         if frame is None:
             return
         with self.lock:
             now = self._clock()
-            for state in self.registry.states():
-                if state.enabled and not state.once_pending:
-                    self._maybe_run(state, frame, now)
+            if self._last_arrival is not None:
+                gap = min(now - self._last_arrival, _MAX_FRAME_INTERVAL_S)
+                previous = self._frame_interval
+                self._frame_interval = gap if previous is None else 0.8 * previous + 0.2 * gap
+            self._last_arrival = now
+            self._run_due(frame, now, arrival=True)
 
-    def _maybe_run(self, state: SkillState, frame: Frame, now: float) -> None:
+    def tick(self, frame: Frame | None) -> None:
+        """Timer: run due skills on the newest frame when no newer frame is coming soon.
+
+        While frames arrive regularly a due skill waits (at most half its period) for the
+        next frame instead of processing the current one, which may be almost a frame
+        interval old; a new or re-enabled skill never waits.
+        """
+        if frame is None:
+            return
+        with self.lock:
+            self._run_due(frame, self._clock(), arrival=False)
+
+    def _next_frame_expected(self, now: float) -> bool:
+        interval, last = self._frame_interval, self._last_arrival
+        return interval is not None and last is not None and now - last < 1.5 * interval
+
+    def _run_due(self, frame: Frame, now: float, *, arrival: bool) -> None:
+        wait_for_frame = not arrival and self._next_frame_expected(now)
+        for state in self.registry.states():
+            if state.enabled and not state.once_pending:
+                self._maybe_run(state, frame, now, wait_for_frame)
+
+    def _maybe_run(self, state: SkillState, frame: Frame, now: float, wait: bool) -> None:
         if now < state.next_due:
             return
         period = self.period_s(state.skill)
-        if frame.seq == state.last_seq and now < state.next_due + period / 2:
-            return  # wait a little for a newer frame before reprocessing this one
-        late = state.next_due <= now - period
-        state.next_due = now + period if late else state.next_due + period
+        newer_soon = wait or frame.seq == state.last_seq
+        if newer_soon and state.next_due != 0.0 and now < state.next_due + period / 2:
+            return  # wait a little for a newer frame before processing an old one
+        if state.next_due == 0.0:  # first run since created / enabled: now, then phase in
+            state.next_due = now + period * (1.0 + self._next_phase())
+        elif state.next_due <= now - period:  # late: skip the missed runs, keep the phase
+            state.next_due += period * (math.floor((now - state.next_due) / period) + 1)
+        else:  # keep the phase (the rate stays exact despite frame jitter)
+            state.next_due += period
         plan = self.plan(state, frame)
         if plan.cloud_skipped:
             state.skips[plan.reason] += 1

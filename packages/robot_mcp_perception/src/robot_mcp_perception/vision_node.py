@@ -174,7 +174,7 @@ class VisionNode(Node):
 
     # -- frames and results -------------------------------------------------------------------
     def _tick(self) -> None:
-        self.engine.dispatch(self.runtime.frame_source.latest())
+        self.engine.tick(self.runtime.frame_source.latest())
 
     def publish(
         self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None

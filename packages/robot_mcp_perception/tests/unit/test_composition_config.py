@@ -138,3 +138,23 @@ def test_overrides_and_deployment_come_from_the_environment() -> None:
         "segmenter=none",
     ]
     assert overrides_from_env({}) == []
+
+
+def test_the_annotation_grounder_reads_the_folder_the_frames_come_from(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from omegaconf import OmegaConf
+
+    monkeypatch.delenv("PERCEPTION_ANNOTATIONS_DIR", raising=False)
+    monkeypatch.setenv("PERCEPTION_FRAMES_DIR", "/frames/default")
+
+    def grounder_directory(*overrides: str) -> str:
+        block = OmegaConf.to_container(compose_config(overrides).grounder, resolve=True)
+        assert isinstance(block, dict)
+        return str(block["directory"])
+
+    assert grounder_directory() == "/frames/default"
+    assert grounder_directory("frame_source.directory=/frames/other") == "/frames/other"
+    assert grounder_directory("frame_source=ros") == "/frames/default"
+    monkeypatch.setenv("PERCEPTION_ANNOTATIONS_DIR", "/annotations")
+    assert grounder_directory("frame_source.directory=/frames/other") == "/annotations"

@@ -197,6 +197,45 @@ def test_prewarm_grounds_once_and_a_later_skill_reuses_it_within_the_ttl(
     assert warm_meta == []
 
 
+def test_a_prewarm_once_skill_as_skill_control_sends_it_publishes_nothing_and_is_reused(
+    start_node: Any, scene_factory: Any
+) -> None:
+    harness = start_node()
+    find_object = {
+        "mode": "ground_and_segment",
+        "grounding": "the red mug",
+        "segment": True,
+        "outputs": [{"name": "found", "type": "boolean", "description": "the mug is visible"}],
+    }
+    warm_topics = [
+        harness.probe.subscribe(f"/vision/prewarm_find_object/{topic}", msg_type)
+        for topic, msg_type in (
+            ("detections", VisionDetectionArray),
+            ("detections_meta", VisionDetectionArray),
+            ("found", StampedString),
+        )
+    ]
+    harness.create({**find_object, "name": "prewarm_find_object", "prewarm": True, "once": True})
+    harness.pump(lambda: len(harness.node.prewarm) == 1, image=scene_factory(40), what="prewarm")
+    warm = harness.node.registry.get("prewarm_find_object")
+    assert warm.enabled is False
+    assert (warm.runs, warm.published) == (1, 0)
+    assert harness.grounder.ground_calls == 1
+
+    detections = harness.probe.subscribe("/vision/find_object/detections", VisionDetectionArray)
+    found = harness.probe.subscribe("/vision/find_object/found", StampedString)
+    harness.create({**find_object, "name": "find_object", "once": True})
+    harness.pump(lambda: detections and found, image=scene_factory(40), what="the find result")
+
+    assert harness.grounder.ground_calls == 1
+    assert harness.node.prewarm.hits == 1
+    assert [d.label for d in detections[0].detections] == ["red mug"]
+    assert detections[0].detections[0].mask.data
+    assert json.loads(found[0].data) is True
+    assert harness.node.registry.get("find_object").enabled is False
+    assert warm_topics == [[], [], []]
+
+
 def test_prewarm_entry_expires_after_the_ttl(
     start_node: Any, settings_factory: Any, scene_factory: Any
 ) -> None:

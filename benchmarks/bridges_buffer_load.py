@@ -87,6 +87,7 @@ def main() -> None:
     node = f"load_vision_{os.getpid()}"
     launcher = ProcessLauncher(Path(tempfile.mkdtemp(prefix="buffer-load-")))
     samples: list[dict[str, float]] = []
+    loadavg_start = Path("/proc/loadavg").read_text().split()[:3]
     try:
         launcher.start(
             "vision",
@@ -130,6 +131,7 @@ def main() -> None:
             )
             last_ticks, last_t = ticks, now
         end_state = asyncio.run(buffer_state(url))
+        loadavg_end = Path("/proc/loadavg").read_text().split()[:3]
     finally:
         launcher.stop_all()
     half = samples[len(samples) // 2 :]
@@ -141,6 +143,7 @@ def main() -> None:
         "messages_per_s": args.skills * args.hz * 2,
         "duration_s": duration,
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count()},
+        "loadavg": {"start": loadavg_start, "end": loadavg_end},
         "ts": time.time(),
         "cpu_pct": {
             "mean": round(statistics.mean(cpu), 1),

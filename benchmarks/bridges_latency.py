@@ -11,7 +11,7 @@ domain id of its own; every process is stopped by PID.
 
     uv run python benchmarks/bridges_latency.py [--skills 10] [--calls 200] [--vision fake|real]
 
-Writes benchmarks/results/bridges_latency.json.
+Writes benchmarks/results/bridges_latency.json (fake) or bridges_latency_real.json (real).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from mcp import Client
 
 from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_port
 
-RESULTS = Path(__file__).parent / "results" / "bridges_latency.json"
+RESULTS_DIR = Path(__file__).parent / "results"
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -64,9 +64,10 @@ async def measure(urls: tuple[str, str], skills: int, calls: int) -> dict[str, A
             deadline = time.monotonic() + 30
             while time.monotonic() < deadline:
                 error, latest = await call(perception, "get_latest", {"skill": made["skill_id"]})
-                # only a result stamped after the call counts (a same-named earlier skill's
-                # buffer may linger for the drop grace period)
-                if not error and latest.get("detections") and latest["detections_stamp"] >= wall:
+                # a result of a frame taken after the call; with the real node and its
+                # annotation grounder a frame without the object is a result with no detections
+                stamp = None if error else latest.get("detections_stamp")
+                if stamp is not None and stamp >= wall:
                     break
                 await asyncio.sleep(0.01)
             else:
@@ -104,6 +105,7 @@ def main() -> None:
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(60, 99))
     node = f"bench_vision_{os.getpid()}"
+    loadavg_start = Path("/proc/loadavg").read_text().split()[:3]
     launcher = ProcessLauncher(Path(tempfile.mkdtemp(prefix="bridges-bench-")))
     try:
         if args.vision == "fake":
@@ -158,11 +160,14 @@ def main() -> None:
         "transport": "streamable-http",
         "graph_poll_s": 0.2,
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count()},
+        "loadavg": {"start": loadavg_start, "end": Path("/proc/loadavg").read_text().split()[:3]},
         "ts": time.time(),
         **numbers,
     }
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    suffix = "" if args.vision == "fake" else "_real"
+    results = RESULTS_DIR / f"bridges_latency{suffix}.json"
+    results.parent.mkdir(parents=True, exist_ok=True)
+    results.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     print(json.dumps(report, indent=2))
 
 

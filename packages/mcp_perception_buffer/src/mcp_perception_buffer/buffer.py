@@ -20,6 +20,8 @@ class Result:
     stamp: float
     detections: tuple[dict[str, Any], ...]
     received: float
+    source: bytes | None = None
+    """The publisher's GID (which incarnation of the skill published it), if known."""
 
 
 @dataclass(frozen=True)
@@ -30,6 +32,7 @@ class OutputValue:
     value: Any
     stamp: float
     received: float
+    source: bytes | None = None
 
 
 @dataclass
@@ -77,8 +80,11 @@ class RollingBuffer:
         skill: str,
         stamp: float,
         detections: list[dict[str, Any]] | tuple[dict[str, Any], ...],
+        source: bytes | None = None,
     ) -> Result:
-        result = Result(stamp=stamp, detections=tuple(detections), received=self._clock())
+        result = Result(
+            stamp=stamp, detections=tuple(detections), received=self._clock(), source=source
+        )
         with self._lock:
             buf = self._ensure(skill)
             buf.results.append(result)
@@ -87,8 +93,12 @@ class RollingBuffer:
         self._notify(skill, result)
         return result
 
-    def add_output(self, skill: str, output: str, value: Any, stamp: float) -> OutputValue:
-        item = OutputValue(output=output, value=value, stamp=stamp, received=self._clock())
+    def add_output(
+        self, skill: str, output: str, value: Any, stamp: float, source: bytes | None = None
+    ) -> OutputValue:
+        item = OutputValue(
+            output=output, value=value, stamp=stamp, received=self._clock(), source=source
+        )
         with self._lock:
             buf = self._ensure(skill)
             values = buf.outputs.setdefault(output, deque(maxlen=self.max_count))
@@ -101,6 +111,31 @@ class RollingBuffer:
     def drop(self, skill: str) -> bool:
         with self._lock:
             return self._skills.pop(skill, None) is not None
+
+    def retire(self, skill: str, sources: set[bytes] | frozenset[bytes]) -> int:
+        """Forget every entry of ``skill`` published by one of ``sources`` (publishers that
+        are gone: a stopped skill, or the previous skill of the same name); a buffer left
+        empty is dropped. Returns how many entries went."""
+        with self._lock:
+            buf = self._skills.get(skill)
+            if buf is None or not sources:
+                return 0
+            before = len(buf.results) + sum(len(v) for v in buf.outputs.values())
+            buf.results = deque(
+                (r for r in buf.results if r.source not in sources), maxlen=self.max_count
+            )
+            for name, values in list(buf.outputs.items()):
+                kept = deque((v for v in values if v.source not in sources), maxlen=self.max_count)
+                if kept:
+                    buf.outputs[name] = kept
+                else:
+                    del buf.outputs[name]
+            after = len(buf.results) + sum(len(v) for v in buf.outputs.values())
+            if after == 0:
+                del self._skills[skill]
+            elif after != before:
+                buf.seq += 1
+            return before - after
 
     # -- reads ---------------------------------------------------------------------------
     def skills(self) -> list[str]:

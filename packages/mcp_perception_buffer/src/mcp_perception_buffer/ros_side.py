@@ -2,9 +2,15 @@
 :class:`TopicFollower`, which keeps one subscription per discovered skill topic.
 
 A topic is followed while it has publishers; a skill whose topics all lost their publishers
-for ``gone_grace_s`` is unsubscribed and its buffer dropped. Subscriptions copy the
-publisher's reliability and durability (a transient-local publisher's last result is
-received even when the buffer subscribes after it was published).
+for ``gone_grace_s`` is unsubscribed. Subscriptions copy the publisher's reliability and
+durability (a transient-local publisher's last result is received even when the buffer
+subscribes after it was published).
+
+Skill incarnations: every buffered entry carries its publisher's GID. When a publisher of a
+skill leaves the graph (the skill was stopped, possibly to be re-created under the same
+name), its entries are retired at once and its late messages ignored, so a new skill of the
+same name is never served the old one's results. This is checked on every graph poll and on
+every read of the skill (:meth:`TopicFollower.refresh`).
 """
 
 from __future__ import annotations
@@ -69,6 +75,13 @@ def value_from_msg(msg: Any) -> tuple[float, Any]:
     return stamp_seconds(msg.header), value
 
 
+def publisher_gid(info: Any) -> bytes | None:
+    """The publisher GID of an rclpy ``MessageInfo`` (same bytes as ``endpoint_gid``)."""
+    gid = info.get("publisher_gid") if isinstance(info, dict) else None
+    data = gid.get("data") if isinstance(gid, dict) else None
+    return bytes(data) if data is not None else None
+
+
 # -- subscriptions -----------------------------------------------------------------------
 class TopicFollower:
     """Graph polling -> subscriptions -> buffer writes. ``sync()`` is one poll."""
@@ -92,26 +105,51 @@ class TopicFollower:
         self._lock = threading.Lock()
         self._subs: dict[str, dict[str, Any]] = {}  # skill -> topic -> subscription
         self._silent_since: dict[str, float] = {}
+        self._live: dict[str, set[bytes]] = {}  # skill -> publisher GIDs seen in the graph
+        self._retired: dict[str, set[bytes]] = {}  # skill -> publisher GIDs that left
 
     def followed(self) -> dict[str, list[str]]:
         with self._lock:
             return {skill: sorted(subs) for skill, subs in self._subs.items()}
 
     def sync(self) -> None:
-        """Subscribe to new skill topics; drop skills whose publishers are gone."""
+        """Subscribe to new skill topics; retire gone publishers; drop skills gone for good."""
         graph = skills_in_graph(self._bridge.topic_names_and_types())
         now = self._clock()
         with self._lock:
             for skill, topics in graph.items():
                 self._follow(skill, topics)
             for skill in list(self._subs):
-                publishers = sum(self._bridge.publisher_count(t) for t in self._subs[skill])
-                if publishers:
+                if self._reconcile(skill):
                     self._silent_since.pop(skill, None)
                     continue
                 since = self._silent_since.setdefault(skill, now)
                 if now - since >= self._grace:
                     self._unfollow(skill)
+
+    def refresh(self, skill: str) -> None:
+        """Retire the entries of ``skill`` whose publishers left the graph (call before a
+        read, so a just-stopped or just-replaced skill's results are not served)."""
+        with self._lock:
+            if skill in self._subs:
+                self._reconcile(skill)
+
+    def _reconcile(self, skill: str) -> int:
+        """Compare the skill's publishers with the last poll; returns how many there are."""
+        current = {
+            bytes(info.endpoint_gid)
+            for topic in self._subs[skill]
+            for info in self._bridge.node.get_publishers_info_by_topic(topic)
+        }
+        gone = self._live.get(skill, set()) - current
+        self._live[skill] = current
+        if gone:
+            self._retired.setdefault(skill, set()).update(gone)
+            retired = self._buffer.retire(skill, gone)
+            logger.info(
+                "buffer_publishers_gone", skill=skill, publishers=len(gone), entries=retired
+            )
+        return len(current)
 
     def close(self) -> None:
         with self._lock:
@@ -136,6 +174,8 @@ class TopicFollower:
         for sub in self._subs.pop(skill, {}).values():
             self._bridge.destroy_subscription(sub)
         self._silent_since.pop(skill, None)
+        self._live.pop(skill, None)
+        self._retired.pop(skill, None)
         if drop:
             self._buffer.drop(skill)
             logger.info("buffer_dropped", skill=skill, reason="topics_gone")
@@ -157,16 +197,27 @@ class TopicFollower:
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
         )
 
-    def _on_meta(self, skill: str) -> Callable[[Any], None]:
-        def callback(msg: Any) -> None:
-            stamp, detections = detections_from_msg(msg)
-            self._buffer.add_result(skill, stamp, detections)
+    def _source(self, skill: str, info: Any) -> tuple[bytes | None, bool]:
+        """``(publisher GID, accept)``: a message from a publisher that left is dropped."""
+        gid = publisher_gid(info)
+        with self._lock:
+            retired = gid is not None and gid in self._retired.get(skill, ())
+        return gid, not retired
+
+    def _on_meta(self, skill: str) -> Callable[[Any, Any], None]:
+        def callback(msg: Any, info: Any) -> None:
+            source, accept = self._source(skill, info)
+            if accept:
+                stamp, detections = detections_from_msg(msg)
+                self._buffer.add_result(skill, stamp, detections, source)
 
         return callback
 
-    def _on_output(self, skill: str, output: str) -> Callable[[Any], None]:
-        def callback(msg: Any) -> None:
-            stamp, value = value_from_msg(msg)
-            self._buffer.add_output(skill, output, value, stamp)
+    def _on_output(self, skill: str, output: str) -> Callable[[Any, Any], None]:
+        def callback(msg: Any, info: Any) -> None:
+            source, accept = self._source(skill, info)
+            if accept:
+                stamp, value = value_from_msg(msg)
+                self._buffer.add_output(skill, output, value, stamp, source)
 
         return callback

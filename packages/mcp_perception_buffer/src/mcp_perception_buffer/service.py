@@ -128,11 +128,19 @@ class Perception:
     def _now(self) -> float:
         return self._clock()
 
+    def _refresh(self, skill: str) -> None:
+        """Retire entries of publishers that left the graph before reading ``skill``."""
+        if self._follower is not None:
+            self._follower.refresh(skill)
+
     def what_do_you_see(self) -> dict[str, Any]:
+        for skill in self._buffer.skills():
+            self._refresh(skill)
         buffers = [b for s in self._buffer.skills() if (b := self._buffer.snapshot(s))]
         return views.scene_view(buffers, self._now(), self._config.stale_after_s)
 
     def _snapshot(self, skill: str) -> Any:
+        self._refresh(skill)
         buf = self._buffer.snapshot(skill)
         if buf is None:
             known = ", ".join(self._buffer.skills()) or "none"
@@ -156,6 +164,8 @@ class Perception:
 
     def list_buffers(self) -> dict[str, Any]:
         followed = self._follower.followed() if self._follower is not None else {}
+        for skill in self._buffer.skills():
+            self._refresh(skill)
         now = self._now()
         entries = [
             views.buffer_summary(buf, followed.get(skill, []), now, self._config.stale_after_s)
@@ -194,6 +204,7 @@ class Perception:
     ) -> dict[str, Any]:
         while True:
             changed.clear()
+            self._refresh(skill)
             buf = self._buffer.snapshot(skill)
             if buf is not None:
                 last = buf.last_stamp()

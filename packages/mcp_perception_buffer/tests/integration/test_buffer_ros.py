@@ -250,3 +250,57 @@ async def test_a_watcher_posts_one_signed_event_per_rising_edge_to_a_real_receiv
             assert receiver.rejections == []
         finally:
             await app.perception.close()
+
+
+def _gids(bridge: RosBridge, topic: str) -> set[bytes]:
+    return {bytes(i.endpoint_gid) for i in bridge.node.get_publishers_info_by_topic(topic)}
+
+
+async def test_a_skill_recreated_under_the_same_name_is_never_served_the_old_ones_results(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    # No help from polling or the grace period: only the read path can catch the switch.
+    app = build_app(_config(vision, graph_poll_s=30.0, gone_grace_s=60.0), bridge=bridge)
+    tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+    spec = {"name": "find", "mode": "describe", "outputs": [{"name": "found", "type": "boolean"}]}
+    meta = "/vision/find/detections_meta"
+    await app.perception.start()
+    try:
+        async with Client(app.server) as client:
+            await tasks.create(spec)
+
+            def old_buffered() -> bool:
+                vision.publish_detections("find", [{**MUG, "label": "old mug"}])
+                vision.publish_output("find", "found", True)
+                snap = app.buffer.snapshot("find")
+                return bool(snap and snap.results and snap.outputs.get("found"))
+
+            await app.perception.sync_graph()
+            await async_wait_until(old_buffered, 10.0, "the old skill's results", interval_s=0.1)
+            old = _gids(bridge, meta)
+            assert old
+
+            await tasks.manage("find", "delete")
+            await tasks.create(spec)
+            await async_wait_until(
+                lambda: bool(_gids(bridge, meta)) and not (_gids(bridge, meta) & old),
+                10.0,
+                "the new skill's publishers to replace the old ones in the graph",
+            )
+            fresh = await call(client, "get_latest", {"skill": "find"})
+            assert fresh["_error"]["error"] == "unknown_skill"  # nothing of the old skill
+            seen = await call(client, "what_do_you_see")
+            assert "old mug" not in seen["_text"]
+
+            def new_buffered() -> bool:
+                vision.publish_detections("find", [{**MUG, "label": "new box"}])
+                return app.buffer.snapshot("find") is not None
+
+            await async_wait_until(new_buffered, 10.0, "the new skill's result", interval_s=0.1)
+            latest = await call(client, "get_latest", {"skill": "find"})
+            assert latest["detections"][0]["label"] == "new box"
+            assert "found" not in latest["outputs"]  # the old skill's value went with it
+            history = await call(client, "get_history", {"skill": "find", "seconds": 60})
+            assert "old mug" not in history["_text"]
+    finally:
+        await app.perception.close()

@@ -191,3 +191,46 @@ async def test_both_servers_fail_cleanly_without_the_vision_node_and_recover_whe
 async def _ok(pending: Any) -> Any:
     answer = await pending
     return None if "_error" in answer else answer
+
+
+def _log_events(process: LaunchedProcess, event: str) -> list[str]:
+    return [line for line in process.log().splitlines() if event in line]
+
+
+async def test_a_prewarmed_grounding_is_reused_by_the_next_instantiation_on_a_real_vision_node(
+    launcher: ProcessLauncher, graph: RosBridge
+) -> None:
+    _require_vision_node()
+    node_name = f"vision_{uuid.uuid4().hex[:6]}"
+    vision = start_vision(launcher, node_name)
+    urls = start_servers(launcher, node_name)
+    await async_wait_until(
+        lambda: f"/{node_name}/create_vision_task" in graph.service_names_and_types(),
+        60.0,
+        "the vision node's services",
+    )
+    params = {"template": "find_object", "params": {"query": "red mug"}}
+    async with clients(urls) as (skills, perception):
+        warmed = await call(skills, "prewarm_skill", params)
+        assert "_error" not in warmed, f"{warmed}\n--- vision log:\n{vision.log()[-3000:]}"
+        assert (warmed["skill_id"], warmed["prewarm"]) == ("prewarm_find_object", True)
+        assert warmed["grounding"] == "the red mug"
+        await async_wait_until(
+            lambda: _log_events(vision, "prewarm_cached"), 30.0, "the grounding to be cached"
+        )
+
+        made = await call(skills, "instantiate_skill", params)
+        assert "_error" not in made, made
+        result = await call(
+            perception, "wait_for_result", {"skill": "find_object", "timeout_s": 25}
+        )
+        assert "_error" not in result, result
+        await async_wait_until(
+            lambda: [line for line in _log_events(vision, "prewarm_hit") if "find_object" in line],
+            10.0,
+            "the instantiated skill to reuse the cached grounding",
+        )
+        assert len(_log_events(vision, "prewarm_cached")) == 1  # one grounder call cached
+        running = await call(skills, "list_running_skills")
+        prewarm = next(s for s in running["skills"] if s["skill_id"] == "prewarm_find_object")
+        assert prewarm["enabled"] is False  # a prewarm disables itself after grounding

@@ -4,6 +4,16 @@ asyncio side of it (ARCHITECTURE.md §3).
 Service futures are handed to the event loop with ``call_soon_threadsafe`` and awaited under
 ``asyncio.wait_for``; a timed-out request is removed from the client's pending table. A
 service nobody serves is a fast, clean :class:`ServiceUnavailableError`, never a hang.
+
+First call after discovery: ``service_is_ready()`` only says that *this* side has matched
+the server (request writer and reply reader). The server matches our reply reader on its
+own, asynchronously; if our request reaches it first, rmw_fastrtps waits the reply writer's
+``max_blocking_time`` (100 ms) and then drops the reply ("failed to send response (timeout):
+client will not receive response"), and the call can only time out. Under CPU load that gap
+exceeds 100 ms. So a service must have been ready for ``discovery_settle_s`` before a request
+is sent (:class:`ReadinessTracker`); the bridge observes every client it created on a timer,
+so only a call made right after the server appeared waits. Requests are never retried (a
+create must not run twice).
 """
 
 from __future__ import annotations
@@ -11,6 +21,7 @@ from __future__ import annotations
 import asyncio
 import threading
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
@@ -18,6 +29,7 @@ import rclpy
 import structlog
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -28,6 +40,35 @@ logger = structlog.get_logger(__name__)
 
 T = TypeVar("T")
 _SERVICE_POLL_S = 0.05
+DEFAULT_DISCOVERY_SETTLE_S = 1.0
+"""How long a service must have been continuously ready before the first request."""
+
+
+class ReadinessTracker:
+    """Per client: since when its service has been continuously ready (pure, thread-safe).
+
+    ``observe(client, ready, now)`` records one observation and returns the time the service
+    became ready (``None`` when it is not ready); a not-ready observation resets it.
+    """
+
+    def __init__(self, settle_s: float) -> None:
+        if settle_s < 0:
+            raise ValueError("settle_s must be >= 0")
+        self.settle_s = settle_s
+        self._since: weakref.WeakKeyDictionary[Any, float] = weakref.WeakKeyDictionary()
+        self._lock = threading.Lock()
+
+    def observe(self, client: Any, ready: bool, now: float) -> float | None:
+        with self._lock:
+            if not ready:
+                self._since.pop(client, None)
+                return None
+            return self._since.setdefault(client, now)
+
+    def settled_at(self, client: Any, ready: bool, now: float) -> float | None:
+        """When the service counts as settled (``<= now``: send), or ``None`` if not ready."""
+        since = self.observe(client, ready, now)
+        return None if since is None else since + self.settle_s
 
 
 class RosBridge:
@@ -43,6 +84,7 @@ class RosBridge:
         namespace: str = "",
         num_threads: int = 2,
         args: Sequence[str] | None = None,
+        discovery_settle_s: float = DEFAULT_DISCOVERY_SETTLE_S,
     ) -> None:
         self._node_name = node_name
         self._namespace = namespace
@@ -54,6 +96,9 @@ class RosBridge:
         self._thread: threading.Thread | None = None
         self._group = ReentrantCallbackGroup()
         self._closed = False
+        self._readiness = ReadinessTracker(discovery_settle_s)
+        self._watched: weakref.WeakSet[Any] = weakref.WeakSet()
+        self._watch_timer: Any = None
 
     # -- lifecycle -----------------------------------------------------------------------
     def start(self) -> RosBridge:
@@ -75,14 +120,20 @@ class RosBridge:
         return self
 
     def _spin(self) -> None:
-        executor = self._executor
+        """Spin until shutdown. A callback that raises is logged and spinning goes on: one
+        bad callback must not take the whole ROS side of the process down."""
+        executor, context = self._executor, self._context
         assert executor is not None
-        try:
-            executor.spin()
-        except ExternalShutdownException:
-            pass
-        except Exception:  # the spin thread is a process boundary
-            logger.exception("ros_spin_crashed")
+        assert context is not None
+        while not self._closed and context.ok():
+            try:
+                executor.spin()
+            except ExternalShutdownException:
+                return
+            except Exception:  # the spin thread is a process boundary
+                if self._closed or not context.ok():
+                    return
+                logger.exception("ros_callback_failed")
 
     def close(self, timeout_s: float = 5.0) -> None:
         """Stop spinning, destroy the node, shut the context down. Idempotent."""
@@ -90,6 +141,9 @@ class RosBridge:
             return
         self._closed = True
         executor, node, context, thread = self._executor, self._node, self._context, self._thread
+        if self._watch_timer is not None and node is not None:
+            node.destroy_timer(self._watch_timer)
+            self._watch_timer = None
         if executor is not None:
             executor.shutdown(timeout_sec=timeout_s)
         if node is not None:
@@ -120,8 +174,26 @@ class RosBridge:
 
     # -- entities ------------------------------------------------------------------------
     def create_client(self, srv_type: Any, service_name: str) -> Any:
-        """A service client in the bridge's reentrant callback group."""
-        return self.node.create_client(srv_type, service_name, callback_group=self._group)
+        """A service client in the bridge's reentrant callback group; its service's readiness
+        is observed in the background so the first call does not wait to settle."""
+        client: Any = self.node.create_client(srv_type, service_name, callback_group=self._group)
+        self._watched.add(client)
+        if self._watch_timer is None:
+            self._watch_timer = self.node.create_timer(
+                _SERVICE_POLL_S, self._observe_clients, callback_group=self._group
+            )
+        return client
+
+    def _observe_clients(self) -> None:
+        if self._closed:
+            return
+        now = time.monotonic()
+        for client in list(self._watched):
+            try:
+                ready = bool(client.service_is_ready())
+            except InvalidHandle:  # destroyed while closing
+                continue
+            self._readiness.observe(client, ready, now)
 
     def create_service(
         self, srv_type: Any, service_name: str, handler: Callable[[Any, Any], Any]
@@ -133,10 +205,11 @@ class RosBridge:
         self,
         msg_type: Any,
         topic: str,
-        callback: Callable[[Any], None],
+        callback: Callable[[Any], None] | Callable[[Any, Any], None],
         qos: QoSProfile | int = 10,
     ) -> Any:
-        """A subscription whose callback runs on an executor thread (keep it short)."""
+        """A subscription whose callback runs on an executor thread (keep it short); a
+        two-argument callback also gets the rclpy ``MessageInfo`` (publisher GID, ...)."""
         return self.node.create_subscription(
             msg_type, topic, callback, qos, callback_group=self._group
         )
@@ -173,6 +246,9 @@ class RosBridge:
 
         ``wait_for_service_s`` (bounded by ``timeout_s``) tolerates a server that is still
         being discovered; after it, a missing server raises :class:`ServiceUnavailableError`.
+        A server that appeared less than ``discovery_settle_s`` ago is given the rest of that
+        time (at most half of ``timeout_s``) to match our reply reader before the request is
+        sent.
         No answer within ``timeout_s`` (measured from the call) raises
         :class:`ServiceTimeoutError` and drops the pending request.
         """
@@ -182,11 +258,16 @@ class RosBridge:
         started = time.monotonic()
         deadline = started + timeout_s
         wait_deadline = started + min(wait_for_service_s, timeout_s)
-        while not client.service_is_ready():
-            if time.monotonic() >= wait_deadline:
-                raise ServiceUnavailableError(
-                    f"no server for {service} (is the node running in this ROS domain?)"
-                )
+        while True:
+            now = time.monotonic()
+            settled_at = self._readiness.settled_at(client, bool(client.service_is_ready()), now)
+            if settled_at is None:
+                if now >= wait_deadline:
+                    raise ServiceUnavailableError(
+                        f"no server for {service} (is the node running in this ROS domain?)"
+                    )
+            elif now >= min(settled_at, started + timeout_s / 2):
+                break  # settled, or half the call's time is spent: send (never retried)
             await asyncio.sleep(_SERVICE_POLL_S)
 
         loop = asyncio.get_running_loop()

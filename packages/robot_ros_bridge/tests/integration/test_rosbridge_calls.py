@@ -227,3 +227,52 @@ async def test_the_fake_vision_node_auto_publishes_meta_without_masks_and_output
         with pytest.raises(RemoteError):
             await tasks.manage("scene", "explode")  # type: ignore[arg-type]
         assert vision.skills()["scene"]["mode"] == "describe"
+
+
+async def test_the_first_call_to_a_server_that_just_appeared_is_answered_exactly_once() -> None:
+    for _ in range(3):
+        with RosBridge(_unique("fresh_client"), discovery_settle_s=0.5) as fresh:
+            tasks = RosVisionTasks(fresh, _unique("fresh_vision"), timeout_s=10.0)
+            with FakeVisionNode(tasks._clients["list"].service_name.split("/")[1]) as node:
+                created = await tasks.create({"name": "mug", "mode": "describe"})
+                assert created["name"] == "mug"
+                assert [key for key, _ in node.requests] == ["create"]
+
+
+async def test_a_request_is_held_back_until_the_service_has_settled(
+    vision: FakeVisionNode,
+) -> None:
+    with RosBridge(_unique("settling"), discovery_settle_s=3600.0) as settling:
+        tasks = RosVisionTasks(settling, vision.name, timeout_s=6.0, wait_for_service_s=5.0)
+        call = asyncio.create_task(tasks.list())
+        await async_wait_until(
+            lambda: tasks._clients["list"].service_is_ready(), 5.0, "the service to be ready"
+        )
+        assert vision.requests == []  # ready, but not settled: nothing sent yet
+        assert await call == []  # sent after half the timeout at the latest
+        assert [key for key, _ in vision.requests] == ["list"]
+
+
+async def test_a_callback_that_raises_does_not_stop_the_bridge(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    from ros2_vision_interfaces.msg import StampedString
+
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.create(
+        {"name": "lamp", "mode": "describe", "outputs": [{"name": "on", "type": "boolean"}]}
+    )
+    calls: list[str] = []
+
+    def broken(msg: StampedString) -> None:
+        calls.append(msg.data)
+        raise RuntimeError("a buggy callback")
+
+    bridge.create_subscription(StampedString, "/vision/lamp/on", broken)
+
+    def delivered() -> bool:
+        vision.publish_output("lamp", "on", True)
+        return bool(calls)
+
+    await async_wait_until(delivered, 20.0, "the broken callback to run", interval_s=0.1)
+    assert [s["name"] for s in await tasks.list()] == ["lamp"]  # still spinning

@@ -1,0 +1,369 @@
+"""MissionExecutor (spec §5): one asyncio task per mission running the planner loop."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections import deque
+from collections.abc import Coroutine
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from robot_mcp_kit.models import TaskEvent
+from robot_voice_chat.agent import bargein, dispatch
+from robot_voice_chat.agent.memory import MemoryClient
+from robot_voice_chat.agent.mission import Mission, MissionStore
+from robot_voice_chat.agent.plan_tools import DEFINITIONS, PlanTools, inject_step_id
+from robot_voice_chat.agent.prompt import load_prompt, system_prompt
+from robot_voice_chat.agent.run import (
+    MissionBusyError,
+    MissionFailure,
+    MissionRun,
+    MissionsDisabledError,
+)
+from robot_voice_chat.agent.task_registry import TaskRegistry
+from robot_voice_chat.agent.teaching import Teaching
+from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.llm.base import (
+    LLMError,
+    LLMProvider,
+    LLMResponse,
+    Message,
+    ToolCall,
+    ToolDefinition,
+    ToolResult,
+)
+from robot_voice_chat.services.speech.base import SpeechOutput
+from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.settings import AgentConfig
+from robot_voice_chat.socket_events import MissionEventLine, MissionFinished, MissionStarted
+
+logger = structlog.get_logger(__name__)
+
+
+class MissionExecutor:
+    """Singleton built by the composition root; see spec §5 for the loop."""
+
+    def __init__(
+        self,
+        *,
+        planner: LLMProvider | None,
+        tools: ToolBackend,
+        emitter: EventEmitter,
+        speech: SpeechOutput,
+        memory: MemoryClient,
+        trace: TraceRecorder,
+        teaching: Teaching,
+        config: AgentConfig,
+        prompt_path: Path,
+        store: MissionStore | None = None,
+        registry: TaskRegistry | None = None,
+    ) -> None:
+        self.planner = planner
+        self.tools = tools
+        self.emitter = emitter
+        self.speech = speech
+        self.memory = memory
+        self.trace = trace
+        self.teaching = teaching
+        self.config = config
+        self.prompt_path = prompt_path
+        self.store = store or MissionStore()
+        self.registry = registry or TaskRegistry()
+        self.plan_tools = PlanTools(on_plan=self.emit_plan, on_say=self.say)
+        self.run: MissionRun | None = None
+        self._background: set[asyncio.Task[None]] = set()
+        # Events can overtake the tool result that names their task: keep them briefly.
+        self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
+
+    @property
+    def enabled(self) -> bool:
+        return self.config.enabled and self.planner is not None
+
+    @property
+    def active(self) -> Mission | None:
+        return self.run.mission if self.run is not None else None
+
+    # --- entry points -------------------------------------------------------------------
+    async def start(self, instruction: str) -> Mission:
+        if not self.enabled:
+            raise MissionsDisabledError("missions are disabled (no planner configured)")
+        if self.run is not None:
+            raise MissionBusyError(self.run.mission)
+        prompt = await load_prompt(self.prompt_path)
+        if self.run is not None:  # another start won the race while the prompt loaded
+            raise MissionBusyError(self.run.mission)
+        mission = Mission.new(instruction, teaching=await self.teaching.take())
+        self.store.add(mission)
+        run = MissionRun(mission=mission, prompt=prompt)
+        self.run = run
+        self.trace.record(
+            mission.id, "instruction", instruction=instruction, teaching=mission.teaching
+        )
+        await self.emitter.emit(
+            MissionStarted(
+                mission_id=mission.id, instruction=instruction, teaching=mission.teaching
+            )
+        )
+        with structlog.contextvars.bound_contextvars(mission_id=mission.id):
+            logger.info("mission_started", instruction=instruction)
+            run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
+        return mission
+
+    async def on_user_turn(self, text: str) -> None:
+        run = self.run
+        if run is None:
+            raise RuntimeError("no active mission")
+        if self.is_stop(text):
+            await self.safety_stop(reason=f"user said {text!r}")
+            return
+        await self.log_line(run, "user_turn", text)
+        self.trace.record(run.mission.id, "user_turn", text=text)
+        run.awaiting_user = False
+        if run.mission.state == "paused":
+            run.post(f"{run.prompt.paused_note}\nUser: {text}")
+        else:
+            run.post(f"[user] {text}")
+
+    # --- the loop (§5.2) ------------------------------------------------------------------
+    async def _run(self, run: MissionRun) -> None:
+        try:
+            await self._prepare(run)
+            while run.finished is None:
+                if run.suspended:
+                    await self._suspend(run)
+                self._drain(run)
+                response = await self._llm_step(run)
+                if response is None or run.finished is not None:
+                    continue
+                await self._handle_response(run, response)
+                await self.trace.flush()
+        except MissionFailure as exc:
+            logger.warning("mission_failed", code=exc.code, summary=exc.summary)
+            run.finished = ("failed", exc.summary)
+        except LLMError as exc:
+            run.finished = ("failed", f"The planner failed: {exc}")
+        except asyncio.CancelledError:
+            run.finished = run.finished or ("cancelled", "The mission was cancelled.")
+            await self._finalize(run)
+            raise
+        except Exception:
+            logger.exception("mission_crashed")
+            run.finished = ("failed", "The mission stopped on an internal error.")
+        await self._finalize(run)
+
+    async def _prepare(self, run: MissionRun) -> None:
+        mission = run.mission
+        started = time.monotonic()
+        processes = await self.memory.find_processes(mission.instruction, self.config.processes_k)
+        mission.used_process_ids = [p.id for p in processes]
+        logger.info(
+            "processes_retrieved",
+            ids=mission.used_process_ids,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
+        self.trace.record(
+            mission.id, "processes", processes=[{"id": p.id, "score": p.score} for p in processes]
+        )
+        run.messages = [
+            Message(role="system", content=system_prompt(run.prompt, processes)),
+            Message(role="user", content=mission.instruction),
+        ]
+
+    def remaining_s(self, run: MissionRun) -> float:
+        return self.config.max_wall_clock_s - (time.monotonic() - run.started)
+
+    def _check_wall_clock(self, run: MissionRun) -> float:
+        remaining = self.remaining_s(run)
+        if remaining <= 0:
+            raise MissionFailure(
+                "BUDGET_WALL_CLOCK",
+                f"Stopped: the mission exceeded its time budget of "
+                f"{self.config.max_wall_clock_s:g} s.",
+            )
+        return remaining
+
+    async def _suspend(self, run: MissionRun) -> None:
+        while run.finished is None and (
+            not run.inbox or (run.mission.state == "paused" and run.awaiting_user)
+        ):
+            timeout = min(self.config.wakeup_timeout_s, self._check_wall_clock(run))
+            try:
+                await asyncio.wait_for(run.wakeup.wait(), timeout)
+            except TimeoutError:
+                self._check_wall_clock(run)
+                if run.mission.state != "paused":
+                    snapshot = self.registry.snapshot(run.mission.id)
+                    run.inbox.append(
+                        f"[timeout] still waiting after {timeout:g} s; tasks: {snapshot}"
+                    )
+            run.wakeup.clear()
+        run.suspended = False
+
+    def _drain(self, run: MissionRun) -> None:
+        run.wakeup.clear()
+        if run.inbox:
+            run.messages.append(Message(role="user", content="\n".join(run.inbox)))
+            run.inbox.clear()
+
+    async def _llm_step(self, run: MissionRun) -> LLMResponse | None:
+        assert self.planner is not None
+        remaining = self._check_wall_clock(run)
+        if run.llm_steps >= self.config.max_llm_steps:
+            raise MissionFailure(
+                "BUDGET_STEPS",
+                f"Stopped: the mission used its budget of "
+                f"{self.config.max_llm_steps} planner steps.",
+            )
+        run.llm_steps += 1
+        tools = self.planner_tools()
+        started = time.monotonic()
+        run.llm_call = asyncio.create_task(self.planner.chat(list(run.messages), tools))
+        done, _ = await asyncio.wait({run.llm_call}, timeout=remaining)
+        call, run.llm_call = run.llm_call, None
+        if not done:
+            call.cancel()
+            self._check_wall_clock(run)
+            raise MissionFailure("BUDGET_WALL_CLOCK", "Stopped: the time budget ran out.")
+        if call.cancelled():  # a safety stop interrupted this step (§9)
+            return None
+        response = call.result()
+        duration_ms = round((time.monotonic() - started) * 1000, 1)
+        logger.info(
+            "planner_step",
+            step=run.llm_steps,
+            tool_calls=[c.name for c in response.tool_calls],
+            duration_ms=duration_ms,
+        )
+        self.trace.record(
+            run.mission.id,
+            "llm_step",
+            step=run.llm_steps,
+            request_messages=len(run.messages),
+            request_chars=sum(len(m.content) for m in run.messages),
+            tool_calls=[c.model_dump() for c in response.tool_calls],
+            text=response.text,
+            duration_ms=duration_ms,
+        )
+        if response.usage.cost_usd is not None:
+            run.cost_usd += response.usage.cost_usd
+            if self.config.max_cost_usd is not None and run.cost_usd > self.config.max_cost_usd:
+                raise MissionFailure(
+                    "BUDGET_COST",
+                    f"Stopped: the cost budget of ${self.config.max_cost_usd:g} ran out.",
+                )
+        return response
+
+    async def _handle_response(self, run: MissionRun, response: LLMResponse) -> None:
+        run.messages.append(response.as_message())
+        if response.tool_calls:
+            results = await asyncio.gather(*(self.execute(run, c) for c in response.tool_calls))
+            run.messages.append(Message(role="user", tool_results=list(results)))
+            run.nudged = False
+        elif self.registry.live(run.mission.id) or run.awaiting_user:
+            run.suspended = True
+        elif not run.nudged:
+            run.nudged = True
+            run.inbox.append(run.prompt.nudge)
+        else:
+            raise MissionFailure(
+                "NO_PROGRESS",
+                "Stopped: the planner made no progress (no tool calls and nothing pending).",
+            )
+
+    def planner_tools(self) -> list[ToolDefinition]:
+        return DEFINITIONS + inject_step_id(self.tools.list_tools())
+
+    # --- UI helpers ---------------------------------------------------------------------
+    async def emit_plan(self, run: MissionRun) -> None:
+        snapshot = run.mission.snapshot()
+        self.trace.record(run.mission.id, "plan", plan=snapshot.model_dump(mode="json"))
+        await self.emitter.emit(snapshot)
+
+    async def say(self, run: MissionRun, text: str) -> None:
+        await self.log_line(run, "say", text)
+        await self.speech.say(text)
+
+    async def log_line(self, run: MissionRun, kind: str, text: str) -> None:
+        await self.emitter.emit(
+            MissionEventLine(mission_id=run.mission.id, kind=kind, text=text, ts=time.time())
+        )
+
+    # --- finalization (§5.6) ----------------------------------------------------------------
+    async def _finalize(self, run: MissionRun) -> None:
+        mission = run.mission
+        outcome, summary = run.finished or ("failed", "The mission ended unexpectedly.")
+        for handle in self.registry.live(mission.id):
+            self.registry.drop(handle.task_id)
+            await self.cancel_task(handle.server, handle.task_id)
+        for step in mission.steps:
+            if step.status == "pending":
+                step.set_status("skipped", "never run")
+            elif step.status == "running":
+                step.set_status(
+                    "succeeded" if outcome == "succeeded" else "failed",
+                    step.detail if outcome == "succeeded" else f"mission {outcome}",
+                )
+        mission.state = outcome
+        mission.summary = summary
+        mission.ended_at = mission.created_at.now(mission.created_at.tzinfo)
+        await self.emit_plan(run)
+        await self.emitter.emit(
+            MissionFinished(mission_id=mission.id, outcome=outcome, summary=summary)
+        )
+        logger.info("mission_finished", outcome=outcome, summary=summary, steps=run.llm_steps)
+        if summary:
+            await self.speech.say(summary)
+        for process_id in mission.used_process_ids:
+            await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
+        self.trace.record(
+            mission.id, "final", outcome=outcome, summary=summary, llm_steps=run.llm_steps
+        )
+        await self.trace.flush()
+        if self.run is run:
+            self.run = None
+        if mission.teaching and self.planner is not None:
+            records = await self.trace.read(mission.id)
+            await self.teaching.distill_and_save(self.planner, run.prompt, records)
+
+    async def wait_idle(self, timeout_s: float) -> None:
+        """Wait for the running mission task (tests, shutdown)."""
+        run = self.run
+        if run is not None and run.task is not None:
+            await asyncio.wait_for(asyncio.shield(run.task), timeout_s)
+
+    async def shutdown(self, timeout_s: float = 5.0) -> None:
+        run = self.run
+        if run is not None and run.task is not None:
+            run.finished = run.finished or ("cancelled", "The app shut down.")
+            run.task.cancel()
+            await asyncio.wait({run.task}, timeout=timeout_s)
+        for task in list(self._background):
+            task.cancel()
+
+    def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.create_task(coro)
+        self._background.add(task)
+        task.add_done_callback(self._background.discard)
+
+    # --- delegates (dispatch.py / bargein.py) ---------------------------------------------
+    async def execute(self, run: MissionRun, call: ToolCall) -> ToolResult:
+        return await dispatch.execute(self, run, call)
+
+    async def on_task_event(self, event: TaskEvent) -> bool:
+        return await dispatch.on_task_event(self, event)
+
+    async def cancel_task(self, server: str, task_id: str) -> None:
+        await dispatch.cancel_task(self, server, task_id)
+
+    async def reconcile(self, server: str) -> None:
+        await dispatch.reconcile(self, server)
+
+    def is_stop(self, text: str) -> bool:
+        return bargein.is_stop(self, text)
+
+    async def safety_stop(self, reason: str = "stop") -> None:
+        await bargein.safety_stop(self, reason)

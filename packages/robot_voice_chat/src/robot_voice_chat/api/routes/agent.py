@@ -1,0 +1,143 @@
+"""/api/agent/* — the signed event ingress (§3), missions, teaching."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import structlog
+from fastapi import APIRouter, HTTPException, Request
+from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ValidationError
+from slowapi import Limiter
+
+from robot_mcp_kit.models import SCHEMA_VERSION, TaskEvent
+from robot_mcp_kit.signing import (
+    HEADER_SERVER,
+    HEADER_SIGNATURE,
+    HEADER_TIMESTAMP,
+    SignatureError,
+    verify,
+)
+from robot_voice_chat.api.deps import ContainerDep
+from robot_voice_chat.api.ingress import BodyTooLargeError, DedupeLRU, read_limited, single_header
+from robot_voice_chat.settings import ApiConfig
+
+logger = structlog.get_logger(__name__)
+
+
+class TeachingRequest(BaseModel):
+    enabled: bool
+
+
+def _reject(status: int, reason: str, server: str | None) -> JSONResponse:
+    if status == 401:
+        logger.warning("agent_event_rejected", reason=reason, server=server)
+    else:
+        logger.info("agent_event_invalid", status=status, reason=reason, server=server)
+    return JSONResponse({"status": "rejected", "reason": reason}, status_code=status)
+
+
+def server_key(request: Request) -> str:
+    return f"events:{single_header(request, HEADER_SERVER) or '?'}"
+
+
+def build_router(limiter: Limiter, api: ApiConfig) -> APIRouter:
+    router = APIRouter(prefix="/api/agent", tags=["agent"])
+    seen = DedupeLRU(api.dedupe_size)
+
+    @router.post("/events", operation_id="post_task_event")
+    @limiter.limit(api.event_rate_limit, key_func=server_key)
+    async def post_event(request: Request, container: ContainerDep) -> JSONResponse:
+        server = single_header(request, HEADER_SERVER)
+        try:
+            body = await read_limited(request, api.max_event_body_bytes)
+        except BodyTooLargeError:
+            return _reject(413, "body_too_large", server)
+        if server is None:
+            return _reject(401, "malformed_header", None)
+        cfg = container.adapters.tools.servers().get(server)
+        if cfg is None:
+            return _reject(401, "unknown_server", server)
+        if not cfg.can_post_events or cfg.event_secret is None:
+            return _reject(401, "no_event_secret", server)
+        ts = single_header(request, HEADER_TIMESTAMP)
+        signature = single_header(request, HEADER_SIGNATURE)
+        if ts is None or signature is None:
+            return _reject(401, "malformed_header", server)
+        try:
+            verify(
+                cfg.event_secret.get_secret_value(),
+                ts,
+                body,
+                signature,
+                tolerance_s=api.signature_tolerance_s,
+            )
+        except SignatureError as exc:
+            return _reject(401, exc.reason, server)
+        try:
+            data = json.loads(body)
+        except (ValueError, UnicodeDecodeError):
+            return _reject(400, "malformed_json", server)
+        if not isinstance(data, dict):
+            return _reject(400, "body_must_be_an_object", server)
+        version = data.get("schema_version")
+        if isinstance(version, int) and not isinstance(version, bool) and version > SCHEMA_VERSION:
+            return _reject(400, f"unsupported_schema_version:{version}", server)
+        try:
+            event = TaskEvent.model_validate(data)
+        except ValidationError as exc:
+            fields = ",".join(".".join(map(str, e["loc"])) for e in exc.errors())
+            return _reject(400, f"invalid_event:{fields}"[:200], server)
+        if event.server != server:
+            return _reject(400, "server_mismatch", server)
+        if event.event_id in seen:
+            return JSONResponse({"status": "duplicate"})
+        try:
+            handled = await container.executor.on_task_event(event)
+        except Exception:  # boundary: never 500; the poster retries (event not marked seen)
+            logger.exception("agent_event_handling_failed", event_id=event.event_id)
+            return JSONResponse({"status": "retry"}, status_code=503)
+        seen.add(event.event_id)
+        logger.info("agent_event_accepted", server=server, type=event.type, task_id=event.task_id)
+        return JSONResponse({"status": "accepted" if handled else "orphan"})
+
+    @router.get("/missions", operation_id="list_missions")
+    async def list_missions(container: ContainerDep, limit: int = 20) -> dict[str, Any]:
+        live = [m.summary_row() for m in container.executor.store.recent(limit)]
+        ids = {row["id"] for row in live}
+        history = [r for r in container.trace.history(limit) if r["id"] not in ids]
+        active = container.executor.active
+        return {
+            "active": active.id if active else None,
+            "missions": (live + history)[:limit],
+        }
+
+    @router.get("/missions/{mission_id}", operation_id="get_mission")
+    async def get_mission(mission_id: str, container: ContainerDep) -> dict[str, Any]:
+        mission = container.executor.store.get(mission_id)
+        if mission is None:
+            raise HTTPException(404, f"no mission {mission_id}")
+        events = await container.trace.read(mission_id)
+        return {
+            **mission.snapshot().model_dump(mode="json"),
+            "instruction": mission.instruction,
+            "summary": mission.summary,
+            "teaching": mission.teaching,
+            "events": [
+                e
+                for e in events
+                if e.get("kind") in ("task_event", "tool_result", "user_turn", "reaction")
+            ],
+        }
+
+    @router.get("/teaching", operation_id="get_teaching")
+    async def get_teaching(container: ContainerDep) -> dict[str, bool]:
+        return {"enabled": container.teaching.armed}
+
+    @router.post("/teaching", operation_id="set_teaching")
+    async def set_teaching(body: TeachingRequest, container: ContainerDep) -> dict[str, bool]:
+        await container.teaching.arm(body.enabled)
+        return {"enabled": container.teaching.armed}
+
+    return router

@@ -1,0 +1,189 @@
+"""The single-turn fast path: user turn → fast LLM (+ MCP and local tools) → streamed reply.
+
+While a mission is active every turn is routed into the mission (§5.1).
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+from typing import Literal
+
+import structlog
+
+from robot_voice_chat.agent.executor import MissionExecutor
+from robot_voice_chat.agent.run import MissionBusyError, MissionsDisabledError
+from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
+from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.llm.base import (
+    LLMError,
+    LLMProvider,
+    LLMResponse,
+    Message,
+    ToolCall,
+    ToolDefinition,
+    ToolResult,
+)
+from robot_voice_chat.services.speech.base import SpeechOutput
+from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.settings import ChatConfig
+from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage
+
+logger = structlog.get_logger(__name__)
+Route = Literal["fast", "mission", "mission_started", "error"]
+
+
+@dataclass
+class TurnResult:
+    turn_id: str
+    reply: str
+    route: Route
+    mission_id: str | None = None
+
+
+def busy_message(executor: MissionExecutor) -> str:
+    mission = executor.active
+    assert mission is not None
+    return (
+        f"I'm busy with a mission right now ({mission.instruction}; it is {mission.state}). "
+        "Say stop if you want me to halt."
+    )
+
+
+class ChatPipeline:
+    def __init__(
+        self,
+        *,
+        llm: LLMProvider,
+        tools: ToolBackend,
+        executor: MissionExecutor,
+        emitter: EventEmitter,
+        speech: SpeechOutput,
+        config: ChatConfig,
+    ) -> None:
+        self._llm = llm
+        self._tools = tools
+        self._executor = executor
+        self._emitter = emitter
+        self._speech = speech
+        self._config = config
+        self._history: list[Message] = []
+
+    async def handle_turn(self, text: str, turn_id: str | None = None) -> TurnResult:
+        turn_id = turn_id or uuid.uuid4().hex[:8]
+        with structlog.contextvars.bound_contextvars(turn_id=turn_id):
+            started = time.monotonic()
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="user", text=text))
+            result = await self._route(text, turn_id)
+            logger.info(
+                "turn_handled",
+                route=result.route,
+                duration_ms=round((time.monotonic() - started) * 1000, 1),
+            )
+            return result
+
+    async def stop(self) -> None:
+        """``stop_pipeline`` / stop_mission: safety stop (motion first), then quiet."""
+        if self._executor.active is not None:
+            await self._executor.safety_stop(reason="stop_pipeline")
+        else:
+            await self._executor.safety_stop(reason="stop_pipeline (no mission)")
+
+    async def _route(self, text: str, turn_id: str) -> TurnResult:
+        mission = self._executor.active
+        if mission is not None:
+            await self._executor.on_user_turn(text)
+            return TurnResult(turn_id, "", "mission", mission.id)
+        try:
+            return await self._fast_turn(text, turn_id)
+        except LLMError as exc:
+            logger.warning("fast_path_failed", error=str(exc))
+            message = f"Sorry, I can't answer right now: {exc}"
+            await self._emitter.emit(ChatError(turn_id=turn_id, message=message))
+            return TurnResult(turn_id, message, "error")
+
+    async def _fast_turn(self, text: str, turn_id: str) -> TurnResult:
+        keep = self._config.history_turns * 2
+        messages = [
+            Message(role="system", content=self._config.system_prompt),
+            *(self._history[-keep:] if keep else []),
+            Message(role="user", content=text),
+        ]
+        tools = FAST_LOCAL_TOOLS + self._tools.list_tools()
+        reply = ""
+        for _ in range(self._config.max_tool_rounds):
+            response = await self._stream_reply(messages, tools, turn_id)
+            reply += response.text
+            messages.append(response.as_message())
+            if not response.tool_calls:
+                break
+            results, handoff = [], None
+            for call in response.tool_calls:
+                result, started = await self._call(call, turn_id)
+                results.append(result)
+                handoff = handoff or started
+            messages.append(Message(role="user", tool_results=results))
+            if handoff is not None:
+                self._remember(text, handoff.reply)
+                return handoff
+        await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=reply))
+        self._remember(text, reply)
+        return TurnResult(turn_id, reply, "fast")
+
+    async def _stream_reply(
+        self, messages: list[Message], tools: list[ToolDefinition], turn_id: str
+    ) -> LLMResponse:
+        final: LLMResponse | None = None
+
+        async def deltas() -> AsyncIterator[str]:
+            nonlocal final
+            async for event in self._llm.chat_stream(messages, tools):
+                if event.response is not None:
+                    final = event.response
+                elif event.delta:
+                    await self._emitter.emit(ChatDelta(turn_id=turn_id, text=event.delta))
+                    yield event.delta
+
+        await self._speech.say_stream(deltas())
+        if final is None:
+            raise LLMError("the fast-path stream ended without a final response")
+        return final
+
+    async def _call(self, call: ToolCall, turn_id: str) -> tuple[ToolResult, TurnResult | None]:
+        if call.name == "start_mission":
+            return await self._start_mission(call, turn_id)
+        if call.name == "stop_mission":
+            await self.stop()
+            return ToolResult(tool_call_id=call.id, content="stopped"), None
+        outcome = await self._tools.call_tool(call.name, call.arguments)
+        return ToolResult(
+            tool_call_id=call.id, content=outcome.text, is_error=outcome.is_error
+        ), None
+
+    async def _start_mission(self, call: ToolCall, turn_id: str) -> tuple[ToolResult, TurnResult]:
+        instruction = str(call.arguments.get("instruction", "")).strip()
+        ack = str(call.arguments.get("ack", "")).strip() or "On it."
+        try:
+            if not instruction:
+                raise ValueError("start_mission needs an instruction")
+            mission = await self._executor.start(instruction)
+        except MissionBusyError:
+            reply = busy_message(self._executor)
+            route: Route = "error"
+            mission_id = None
+        except (MissionsDisabledError, ValueError) as exc:
+            reply, route, mission_id = f"I can't start a mission: {exc}", "error", None
+        else:
+            reply, route, mission_id = ack, "mission_started", mission.id
+        await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=reply))
+        await self._speech.say(reply)
+        result = ToolResult(tool_call_id=call.id, content=reply, is_error=route == "error")
+        return result, TurnResult(turn_id, reply, route, mission_id)
+
+    def _remember(self, user: str, reply: str) -> None:
+        self._history += [
+            Message(role="user", content=user),
+            Message(role="assistant", content=reply),
+        ]

@@ -1,0 +1,25 @@
+"""Local tools of the fast path (intercepted by the dispatcher, never sent to MCP)."""
+
+from __future__ import annotations
+
+from robot_voice_chat.services.llm.base import ToolDefinition
+
+START_MISSION = ToolDefinition(
+    name="start_mission",
+    description=(
+        "Call this when the user asks for a multi-step physical task (fetch, deliver, patrol, "
+        "find-and-bring …) rather than a question or a single gesture. `instruction` is the "
+        "task restated with all context resolved; `ack` is one short sentence to say immediately."
+    ),
+    parameters={
+        "type": "object",
+        "properties": {"instruction": {"type": "string"}, "ack": {"type": "string"}},
+        "required": ["instruction", "ack"],
+    },
+)
+STOP_MISSION = ToolDefinition(
+    name="stop_mission",
+    description="Call this when the user wants the robot to stop moving or stop its task.",
+    parameters={"type": "object", "properties": {}},
+)
+FAST_LOCAL_TOOLS = [START_MISSION, STOP_MISSION]

@@ -1,0 +1,181 @@
+"""OpenAICompatLLM: any OpenAI-compatible chat endpoint (OpenAI, Groq, Ollama, vLLM) by base_url.
+
+Function names may not contain dots, so ``server.tool`` travels as ``server__tool``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import AsyncIterator
+from typing import Any
+
+import openai
+from pydantic import SecretStr
+
+from robot_voice_chat.services.llm.base import (
+    LLMError,
+    LLMProvider,
+    LLMResponse,
+    Message,
+    StreamEvent,
+    ToolCall,
+    ToolDefinition,
+    Usage,
+)
+
+SEP = "__"
+
+
+def wire_name(name: str) -> str:
+    return name.replace(".", SEP)
+
+
+def app_name(name: str) -> str:
+    return name.replace(SEP, ".", 1) if SEP in name else name
+
+
+def to_openai_messages(messages: list[Message]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for m in messages:
+        if m.role == "assistant":
+            item: dict[str, Any] = {"role": "assistant", "content": m.content or None}
+            if m.tool_calls:
+                item["tool_calls"] = [
+                    {
+                        "id": c.id,
+                        "type": "function",
+                        "function": {
+                            "name": wire_name(c.name),
+                            "arguments": json.dumps(c.arguments),
+                        },
+                    }
+                    for c in m.tool_calls
+                ]
+            out.append(item)
+            continue
+        out += [
+            {"role": "tool", "tool_call_id": r.tool_call_id, "content": r.content}
+            for r in m.tool_results
+        ]
+        if m.content:
+            out.append({"role": m.role, "content": m.content})
+    return out
+
+
+def _arguments(raw: str | None) -> dict[str, Any]:
+    try:
+        value = json.loads(raw or "{}")
+    except ValueError:
+        return {"_raw": raw}
+    return value if isinstance(value, dict) else {"_value": value}
+
+
+class OpenAICompatLLM(LLMProvider):
+    name = "openai_compat"
+
+    def __init__(
+        self,
+        base_url: str,
+        api_key: str | SecretStr,
+        model: str,
+        max_tokens: int = 1024,
+        request_timeout_s: float = 30.0,
+        max_retries: int = 2,
+        require_key: bool = True,
+    ) -> None:
+        key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
+        if require_key and not key.get_secret_value():
+            raise ValueError(f"the API key for {base_url} is empty but this adapter is selected")
+        self.model = model
+        self.max_tokens = max_tokens
+        self._client = openai.AsyncOpenAI(
+            base_url=base_url,
+            api_key=key.get_secret_value() or "unused",
+            timeout=request_timeout_s,
+            max_retries=max_retries,
+        )
+
+    def request(
+        self, messages: list[Message], tools: list[ToolDefinition] | None
+    ) -> dict[str, Any]:
+        params: dict[str, Any] = {
+            "model": self.model,
+            "max_tokens": self.max_tokens,
+            "messages": to_openai_messages(messages),
+        }
+        if tools:
+            params["tools"] = [
+                {
+                    "type": "function",
+                    "function": {
+                        "name": wire_name(t.name),
+                        "description": t.description,
+                        "parameters": t.parameters,
+                    },
+                }
+                for t in tools
+            ]
+        return params
+
+    async def chat(
+        self, messages: list[Message], tools: list[ToolDefinition] | None = None
+    ) -> LLMResponse:
+        try:
+            completion = await self._client.chat.completions.create(**self.request(messages, tools))
+        except openai.OpenAIError as exc:
+            raise LLMError(f"{self.model}: {type(exc).__name__}: {exc}") from exc
+        choice = completion.choices[0]
+        calls = [
+            ToolCall(
+                id=c.id, name=app_name(c.function.name), arguments=_arguments(c.function.arguments)
+            )
+            for c in choice.message.tool_calls or []
+            if c.type == "function"
+        ]
+        usage = completion.usage
+        return LLMResponse(
+            text=choice.message.content or "",
+            tool_calls=calls,
+            stop_reason="tool_use" if calls else (choice.finish_reason or "stop"),
+            usage=Usage(
+                input_tokens=usage.prompt_tokens if usage else 0,
+                output_tokens=usage.completion_tokens if usage else 0,
+            ),
+        )
+
+    async def chat_stream(
+        self, messages: list[Message], tools: list[ToolDefinition] | None = None
+    ) -> AsyncIterator[StreamEvent]:
+        text: list[str] = []
+        partial: dict[int, dict[str, str]] = {}
+        try:
+            stream = await self._client.chat.completions.create(
+                **self.request(messages, tools), stream=True
+            )
+            async for chunk in stream:
+                if not chunk.choices:
+                    continue
+                delta = chunk.choices[0].delta
+                if delta.content:
+                    text.append(delta.content)
+                    yield StreamEvent(delta=delta.content)
+                for tc in delta.tool_calls or []:
+                    slot = partial.setdefault(tc.index, {"id": "", "name": "", "arguments": ""})
+                    slot["id"] = tc.id or slot["id"]
+                    if tc.function is not None:
+                        slot["name"] += tc.function.name or ""
+                        slot["arguments"] += tc.function.arguments or ""
+        except openai.OpenAIError as exc:
+            raise LLMError(f"{self.model}: {type(exc).__name__}: {exc}") from exc
+        calls = [
+            ToolCall(id=s["id"], name=app_name(s["name"]), arguments=_arguments(s["arguments"]))
+            for _, s in sorted(partial.items())
+        ]
+        yield StreamEvent(
+            response=LLMResponse(
+                text="".join(text), tool_calls=calls, stop_reason="tool_use" if calls else "stop"
+            )
+        )
+
+    async def aclose(self) -> None:
+        await self._client.close()

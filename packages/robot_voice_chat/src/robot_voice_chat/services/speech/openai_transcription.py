@@ -1,0 +1,46 @@
+"""SpeechInput over an OpenAI-compatible ``audio/transcriptions`` endpoint."""
+
+from __future__ import annotations
+
+import openai
+from pydantic import SecretStr
+
+from robot_voice_chat.services.speech.base import SpeechInput, TranscriptionError
+
+_EXT = {
+    "audio/webm": "webm",
+    "audio/wav": "wav",
+    "audio/x-wav": "wav",
+    "audio/mpeg": "mp3",
+    "audio/ogg": "ogg",
+}
+
+
+class OpenAITranscriptionInput(SpeechInput):
+    def __init__(
+        self,
+        base_url: str,
+        api_key: str | SecretStr,
+        model: str = "whisper-1",
+        request_timeout_s: float = 30.0,
+    ) -> None:
+        key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
+        if not key.get_secret_value():
+            raise ValueError("OPENAI_API_KEY is empty but the openai speech_input is selected")
+        self.model = model
+        self._client = openai.AsyncOpenAI(
+            base_url=base_url,
+            api_key=key.get_secret_value(),
+            timeout=request_timeout_s,
+            max_retries=1,
+        )
+
+    async def transcribe(self, audio: bytes, mime_type: str) -> str:
+        name = f"utterance.{_EXT.get(mime_type.split(';')[0], 'webm')}"
+        try:
+            result = await self._client.audio.transcriptions.create(
+                model=self.model, file=(name, audio, mime_type)
+            )
+        except openai.OpenAIError as exc:
+            raise TranscriptionError(f"transcription failed: {exc}") from exc
+        return result.text.strip()

@@ -1,0 +1,73 @@
+"""The tool port: a flat list of dotted tools (``server.tool``) and one way to call them."""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Awaitable, Callable
+from typing import Literal
+
+from pydantic import BaseModel, Field, SecretStr
+
+from robot_voice_chat.services.llm.base import ToolDefinition
+
+Transport = Literal["stdio", "sse", "streamable_http"]
+ConnectionState = Literal["connected", "disconnected", "connecting"]
+ServerListener = Callable[[str], Awaitable[None]]
+
+
+class McpServerConfig(BaseModel):
+    """One entry of ``config/tools/mcp.yaml``."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_\-]+$")
+    transport: Transport = "sse"
+    url: str | None = None
+    command: str | None = None
+    args: list[str] = Field(default_factory=list)
+    env: dict[str, str] = Field(default_factory=dict)
+    event_secret: SecretStr | None = None
+    motion: bool = False
+    safety_stop_tool: str | None = None
+
+    @property
+    def can_post_events(self) -> bool:
+        return self.event_secret is not None and bool(self.event_secret.get_secret_value())
+
+
+class ToolOutcome(BaseModel):
+    """What a tool returned. Failures are values the LLM can read (``is_error``)."""
+
+    text: str
+    is_error: bool = False
+
+
+class ToolBackend(abc.ABC):
+    """Port for the capability tools (MCP servers behind it)."""
+
+    @abc.abstractmethod
+    def list_tools(self) -> list[ToolDefinition]:
+        """Tools of every connected server, dotted names, unchanged schemas."""
+
+    @abc.abstractmethod
+    async def call_tool(
+        self, name: str, arguments: dict[str, object], timeout_s: float | None = None
+    ) -> ToolOutcome:
+        """Call ``server.tool``; never raises for tool/transport failures."""
+
+    @abc.abstractmethod
+    def servers(self) -> dict[str, McpServerConfig]: ...
+
+    @abc.abstractmethod
+    def server_states(self) -> dict[str, ConnectionState]: ...
+
+    @abc.abstractmethod
+    def add_connect_listener(self, listener: ServerListener) -> None:
+        """``listener(server)`` runs whenever a server (re)connects (§5.4 reconciliation)."""
+
+    def has_tool(self, name: str) -> bool:
+        return any(tool.name == name for tool in self.list_tools())
+
+    async def start(self) -> None:  # noqa: B027 - optional hook
+        """Begin connecting; adapters without connections keep the default."""
+
+    async def aclose(self) -> None:  # noqa: B027 - optional hook
+        """Disconnect."""

@@ -1,0 +1,216 @@
+"""McpToolBackend: MCP servers from ``config/tools/mcp.yaml`` behind the ToolBackend port.
+
+One supervisor task per server owns its ClientSession (anyio contexts are entered and left in
+the same task). It connects, lists tools, health-checks with ``list_tools`` and, when a
+connection fails or drops, retries every ``reconnect_interval_s`` — servers may start in any
+order and restart at any time. Every (re)connect runs the connect listeners (§5.4).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import time
+from contextlib import AsyncExitStack
+from dataclasses import dataclass, field
+from typing import Any
+
+import structlog
+from mcp.client.session import ClientSession
+from mcp.client.sse import sse_client
+from mcp.client.stdio import StdioServerParameters, stdio_client
+from mcp.client.streamable_http import streamable_http_client
+
+from robot_voice_chat.services.llm.base import ToolDefinition
+from robot_voice_chat.services.tools.base import (
+    ConnectionState,
+    McpServerConfig,
+    ServerListener,
+    ToolBackend,
+    ToolOutcome,
+)
+
+logger = structlog.get_logger(__name__)
+
+
+@dataclass
+class _Connection:
+    config: McpServerConfig
+    state: ConnectionState = "disconnected"
+    session: ClientSession | None = None
+    tools: list[ToolDefinition] = field(default_factory=list)
+    wake: asyncio.Event = field(default_factory=asyncio.Event)
+    task: asyncio.Task[None] | None = None
+
+
+def _result_text(result: Any) -> str:
+    parts = []
+    for block in getattr(result, "content", []) or []:
+        text = getattr(block, "text", None)
+        parts.append(text if isinstance(text, str) else json.dumps(block.model_dump(mode="json")))
+    if not parts and getattr(result, "structured_content", None) is not None:
+        parts.append(json.dumps(result.structured_content))
+    return "\n".join(parts)
+
+
+class McpToolBackend(ToolBackend):
+    def __init__(
+        self,
+        servers: list[McpServerConfig],
+        *,
+        blocking_tools: list[str] | None = None,
+        call_timeout_s: float = 30.0,
+        connect_timeout_s: float = 10.0,
+        reconnect_interval_s: float = 30.0,
+        health_interval_s: float = 15.0,
+    ) -> None:
+        self._connections = {s.name: _Connection(config=s) for s in servers}
+        self.blocking_tools = set(blocking_tools or [])
+        self._call_timeout_s = call_timeout_s
+        self._connect_timeout_s = connect_timeout_s
+        self._reconnect_interval_s = reconnect_interval_s
+        self._health_interval_s = health_interval_s
+        self._listeners: list[ServerListener] = []
+        self._closing = False
+        self._listener_tasks: set[asyncio.Task[None]] = set()
+
+    # --- port ---------------------------------------------------------------------------
+    def list_tools(self) -> list[ToolDefinition]:
+        return [t for c in self._connections.values() if c.state == "connected" for t in c.tools]
+
+    def servers(self) -> dict[str, McpServerConfig]:
+        return {name: c.config for name, c in self._connections.items()}
+
+    def server_states(self) -> dict[str, ConnectionState]:
+        return {name: c.state for name, c in self._connections.items()}
+
+    def add_connect_listener(self, listener: ServerListener) -> None:
+        self._listeners.append(listener)
+
+    async def call_tool(
+        self, name: str, arguments: dict[str, object], timeout_s: float | None = None
+    ) -> ToolOutcome:
+        server, _, tool = name.partition(".")
+        conn = self._connections.get(server)
+        if conn is None or not tool:
+            return ToolOutcome(text=f"error: unknown tool {name!r}", is_error=True)
+        session = conn.session
+        if conn.state != "connected" or session is None:
+            return ToolOutcome(text=f"error: server {server!r} is not connected", is_error=True)
+        timeout = timeout_s or self._call_timeout_s
+        started = time.monotonic()
+        try:
+            result = await asyncio.wait_for(
+                session.call_tool(tool, dict(arguments), read_timeout_seconds=timeout), timeout
+            )
+        except TimeoutError:
+            outcome = ToolOutcome(
+                text=f"error: {name} timed out after {timeout:g} s", is_error=True
+            )
+        except Exception as exc:
+            outcome = ToolOutcome(text=f"error: {name} failed: {exc}", is_error=True)
+            conn.wake.set()  # let the supervisor health-check the connection now
+        else:
+            outcome = ToolOutcome(text=_result_text(result), is_error=bool(result.is_error))
+        logger.info(
+            "mcp_tool_called",
+            tool=name,
+            is_error=outcome.is_error,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
+        return outcome
+
+    async def start(self) -> None:
+        for conn in self._connections.values():
+            conn.task = asyncio.create_task(self._supervise(conn), name=f"mcp-{conn.config.name}")
+
+    async def aclose(self) -> None:
+        self._closing = True
+        tasks = [c.task for c in self._connections.values() if c.task is not None]
+        for task in tasks + list(self._listener_tasks):
+            task.cancel()
+        if tasks:
+            await asyncio.wait(tasks, timeout=5.0)
+
+    async def wait_connected(self, server: str, timeout_s: float) -> None:
+        deadline = time.monotonic() + timeout_s
+        while self._connections[server].state != "connected":
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"MCP server {server} did not connect in {timeout_s:g} s")
+            await asyncio.sleep(0.05)
+
+    # --- supervisor ---------------------------------------------------------------------
+    def _transport(self, cfg: McpServerConfig) -> Any:
+        if cfg.transport == "stdio":
+            assert cfg.command is not None
+            params = StdioServerParameters(command=cfg.command, args=cfg.args, env=cfg.env or None)
+            return stdio_client(params)
+        assert cfg.url is not None
+        if cfg.transport == "sse":
+            return sse_client(cfg.url, timeout=self._connect_timeout_s)
+        return streamable_http_client(cfg.url)
+
+    async def _supervise(self, conn: _Connection) -> None:
+        name = conn.config.name
+        while not self._closing:
+            conn.state = "connecting"
+            try:
+                async with AsyncExitStack() as stack:
+                    # asyncio.timeout, not wait_for: anyio scopes must stay in this task.
+                    async with asyncio.timeout(self._connect_timeout_s):
+                        read, write = await stack.enter_async_context(self._transport(conn.config))
+                        session = await stack.enter_async_context(ClientSession(read, write))
+                        await session.initialize()
+                        listed = await session.list_tools()
+                    conn.tools = [
+                        ToolDefinition(
+                            name=f"{name}.{t.name}",
+                            description=t.description or "",
+                            parameters=dict(t.input_schema or {"type": "object"}),
+                        )
+                        for t in listed.tools
+                    ]
+                    conn.session, conn.state = session, "connected"
+                    logger.info("mcp_server_connected", server=name, tools=len(conn.tools))
+                    self._notify(name)
+                    await self._health_loop(conn, session)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:
+                logger.warning("mcp_server_unavailable", server=name, error=_describe(exc))
+            finally:
+                if conn.state == "connected":
+                    logger.warning("mcp_server_disconnected", server=name)
+                conn.session, conn.state = None, "disconnected"
+            if self._closing:
+                break
+            conn.wake.clear()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(conn.wake.wait(), self._reconnect_interval_s)
+
+    async def _health_loop(self, conn: _Connection, session: ClientSession) -> None:
+        while not self._closing:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(conn.wake.wait(), self._health_interval_s)
+            conn.wake.clear()
+            async with asyncio.timeout(self._connect_timeout_s):
+                await session.list_tools()
+
+    def _notify(self, server: str) -> None:
+        for listener in self._listeners:
+            task = asyncio.create_task(self._run_listener(listener, server))
+            self._listener_tasks.add(task)
+            task.add_done_callback(self._listener_tasks.discard)
+
+    async def _run_listener(self, listener: ServerListener, server: str) -> None:
+        try:
+            await listener(server)
+        except Exception:
+            logger.exception("mcp_connect_listener_failed", server=server)
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, BaseExceptionGroup) and exc.exceptions:
+        return _describe(exc.exceptions[0])
+    return f"{type(exc).__name__}: {exc}"

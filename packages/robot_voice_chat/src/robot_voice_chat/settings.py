@@ -1,0 +1,121 @@
+"""Validated configuration (Pydantic) for the composed Hydra tree and the environment."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from robot_voice_chat.services.tools.base import McpServerConfig
+
+PACKAGE_DIR = Path(__file__).resolve().parent
+CONFIG_DIR = PACKAGE_DIR / "config"
+
+
+class EnvSettings(BaseSettings):
+    """Process environment: which deployment preset to compose, log format."""
+
+    model_config = SettingsConfigDict(env_prefix="RVC_", extra="ignore")
+
+    deployment: str = "dev"
+    log_format: str = "json"
+    log_level: str = "INFO"
+
+
+class AgentConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    enabled: bool = True
+    max_llm_steps: int = Field(40, ge=1)
+    max_wall_clock_s: float = Field(1800, gt=0)
+    max_cost_usd: float | None = None
+    wakeup_timeout_s: float = Field(60, gt=0)
+    trace_retention_days: int = Field(30, ge=0)
+    trace_dir: str = "var/missions"
+    stop_words: list[str] = Field(default_factory=lambda: ["stop", "halt", "stopp"])
+    prompt_file: str = "config/agent_prompt.yaml"
+    memory_server: str = "memory"
+    processes_k: int = 3
+    tool_timeout_s: float = 30.0
+
+    @field_validator("stop_words")
+    @classmethod
+    def _lower(cls, words: list[str]) -> list[str]:
+        return [w.strip().lower() for w in words if w.strip()]
+
+
+class McpToolsConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    servers: list[McpServerConfig] = Field(default_factory=list)
+    blocking_tools: list[str] = Field(default_factory=list)
+    call_timeout_s: float = Field(30.0, gt=0)
+    connect_timeout_s: float = Field(10.0, gt=0)
+    reconnect_interval_s: float = Field(30.0, gt=0)
+    health_interval_s: float = Field(15.0, gt=0)
+
+    @field_validator("servers")
+    @classmethod
+    def _unique(cls, servers: list[McpServerConfig]) -> list[McpServerConfig]:
+        names = [s.name for s in servers]
+        if len(names) != len(set(names)):
+            raise ValueError(f"duplicate MCP server names in {names}")
+        for s in servers:
+            if s.transport == "stdio" and not s.command:
+                raise ValueError(f"server {s.name}: stdio needs a command")
+            if s.transport != "stdio" and not s.url:
+                raise ValueError(f"server {s.name}: {s.transport} needs a url")
+        return servers
+
+
+class ApiConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    event_rate_limit: str = "120/minute"
+    default_rate_limit: str = "600/minute"
+    max_event_body_bytes: int = Field(65536, gt=0)
+    dedupe_size: int = Field(4096, gt=0)
+    signature_tolerance_s: float = 300
+    cors_origins: list[str] = Field(default_factory=list)
+
+
+class ChatConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    system_prompt: str = "You are the voice of a friendly service robot. Answer briefly."
+    max_tool_rounds: int = Field(4, ge=1)
+    history_turns: int = Field(10, ge=0)
+    turn_timeout_s: float = Field(60.0, gt=0)
+
+
+class AppConfig(BaseModel):
+    """The composed tree. Adapter groups stay dicts with ``_target_`` (built by Hydra)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    deployment: str = "dev"
+    llm: dict[str, Any]
+    llm_planner: dict[str, Any] | None = None
+    speech_output: dict[str, Any]
+    speech_input: dict[str, Any]
+    tools: McpToolsConfig = Field(default_factory=McpToolsConfig)
+    agent: AgentConfig = Field(default_factory=AgentConfig)
+    api: ApiConfig = Field(default_factory=ApiConfig)
+    chat: ChatConfig = Field(default_factory=ChatConfig)
+
+    @field_validator("llm", "speech_output", "speech_input")
+    @classmethod
+    def _has_target(cls, group: dict[str, Any]) -> dict[str, Any]:
+        if "_target_" not in group:
+            raise ValueError("adapter config needs a _target_")
+        return group
+
+
+def resolve_path(path: str) -> Path:
+    """Relative paths in config are relative to the package dir (config/…) or the CWD (data)."""
+    p = Path(path)
+    if p.is_absolute():
+        return p
+    return PACKAGE_DIR / p if p.parts[:1] == ("config",) else Path.cwd() / p

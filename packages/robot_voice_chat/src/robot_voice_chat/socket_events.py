@@ -1,0 +1,140 @@
+"""Typed payloads of every Socket.IO event (spec §11.1) — the frontend generates its types here.
+
+Server → client events carry ``EVENT`` (the Socket.IO event name). Client → server events:
+``send_message`` (:class:`SendMessage`) and ``stop_pipeline`` (no payload).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Literal
+
+from pydantic import BaseModel, Field
+
+StepStatus = Literal["pending", "running", "succeeded", "failed", "skipped"]
+MissionState = Literal["planning", "running", "paused", "succeeded", "failed", "cancelled"]
+MissionEventKind = Literal["tool_call", "task_event", "reaction", "say", "user_turn"]
+
+
+class SocketEvent(BaseModel):
+    EVENT: ClassVar[str]
+
+
+class StepView(BaseModel):
+    id: str
+    title: str
+    tool: str | None = None
+    status: StepStatus = "pending"
+    detail: str = ""
+    task_id: str | None = None
+
+
+class MissionStarted(SocketEvent):
+    EVENT: ClassVar[str] = "mission_started"
+    mission_id: str
+    instruction: str
+    teaching: bool = False
+
+
+class MissionPlan(SocketEvent):
+    """Full snapshot — emitted on set_plan/update_plan and on every step change."""
+
+    EVENT: ClassVar[str] = "mission_plan"
+    mission_id: str
+    state: MissionState
+    steps: list[StepView] = Field(default_factory=list)
+
+
+class MissionEventLine(SocketEvent):
+    EVENT: ClassVar[str] = "mission_event"
+    mission_id: str
+    kind: MissionEventKind
+    text: str
+    ts: float
+
+
+class MissionFinished(SocketEvent):
+    EVENT: ClassVar[str] = "mission_finished"
+    mission_id: str
+    outcome: MissionState
+    summary: str
+
+
+class TeachingState(SocketEvent):
+    EVENT: ClassVar[str] = "teaching_state"
+    armed: bool
+
+
+class TeachingSaved(SocketEvent):
+    EVENT: ClassVar[str] = "teaching_saved"
+    process_id: str
+
+
+class TeachingFailed(SocketEvent):
+    EVENT: ClassVar[str] = "teaching_failed"
+    reason: str
+
+
+class ChatDelta(SocketEvent):
+    """A streamed piece of the fast-path reply."""
+
+    EVENT: ClassVar[str] = "chat_delta"
+    turn_id: str
+    text: str
+
+
+class ChatMessage(SocketEvent):
+    """A complete conversation line (user echo, assistant reply, mission ack)."""
+
+    EVENT: ClassVar[str] = "chat_message"
+    turn_id: str
+    role: Literal["user", "assistant"]
+    text: str
+
+
+class ChatError(SocketEvent):
+    EVENT: ClassVar[str] = "chat_error"
+    turn_id: str
+    message: str
+
+
+class Speak(SocketEvent):
+    """One sentence for the browser's TTS queue."""
+
+    EVENT: ClassVar[str] = "speak"
+    utterance_id: str
+    text: str
+
+
+class SpeechInterrupted(SocketEvent):
+    """Drop every queued ``speak`` sentence and stop talking now."""
+
+    EVENT: ClassVar[str] = "speech_interrupted"
+
+
+class SendMessage(BaseModel):
+    """Client → server ``send_message`` payload."""
+
+    text: str = Field(min_length=1, max_length=4000)
+
+
+SERVER_EVENTS: tuple[type[SocketEvent], ...] = (
+    MissionStarted,
+    MissionPlan,
+    MissionEventLine,
+    MissionFinished,
+    TeachingState,
+    TeachingSaved,
+    TeachingFailed,
+    ChatDelta,
+    ChatMessage,
+    ChatError,
+    Speak,
+    SpeechInterrupted,
+)
+
+
+def json_schemas() -> dict[str, Any]:
+    """Event name → JSON schema (input for the frontend's type generator)."""
+    schemas = {cls.EVENT: cls.model_json_schema() for cls in SERVER_EVENTS}
+    schemas["send_message"] = SendMessage.model_json_schema()
+    return schemas

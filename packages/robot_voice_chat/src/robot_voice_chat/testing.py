@@ -1,0 +1,78 @@
+"""Test/benchmark helpers: an executor wired to fakes at every port (no network)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import SecretStr
+
+from robot_voice_chat.agent.executor import MissionExecutor
+from robot_voice_chat.agent.memory import MemoryClient
+from robot_voice_chat.agent.teaching import Teaching
+from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.fake import FakeLLM
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
+from robot_voice_chat.services.tools.base import McpServerConfig
+from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
+
+
+def task_info(task_id: str, est: float = 20.0) -> str:
+    return json.dumps({"task_id": task_id, "state": "running", "est_duration_s": est})
+
+
+@dataclass
+class Harness:
+    executor: MissionExecutor
+    planner: FakeLLM
+    tools: FakeToolBackend
+    emitter: FakeEventEmitter
+    speech: FakeSpeechOutput
+    trace: TraceRecorder
+    teaching: Teaching
+
+
+def nav_servers() -> list[McpServerConfig]:
+    return [
+        McpServerConfig(
+            name="navigation",
+            url="http://127.0.0.1:9/sse",
+            event_secret=SecretStr("nav-secret"),
+            motion=True,
+            safety_stop_tool="stop_navigation",
+        ),
+        McpServerConfig(name="memory", url="http://127.0.0.1:9/sse"),
+        McpServerConfig(name="perception", url="http://127.0.0.1:9/sse"),
+    ]
+
+
+def make_harness(
+    tmp_path: Path, planner: FakeLLM, *, memory_server: str = "", **agent: Any
+) -> Harness:
+    tools = FakeToolBackend(nav_servers())
+    tools.add("navigation.navigate_to", lambda a: task_info("nav-1"), location="string")
+    tools.add("navigation.cancel_task", lambda a: {"cancelled": a["task_id"]}, task_id="string")
+    tools.add("navigation.stop_navigation", lambda a: {"stopped": True})
+    tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
+    tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
+    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
+    trace = TraceRecorder(tmp_path / "missions")
+    memory = MemoryClient(tools, memory_server)
+    teaching = Teaching(emitter, memory)
+    config = AgentConfig(memory_server=memory_server, **agent)
+    executor = MissionExecutor(
+        planner=planner,
+        tools=tools,
+        emitter=emitter,
+        speech=speech,
+        memory=memory,
+        trace=trace,
+        teaching=teaching,
+        config=config,
+        prompt_path=CONFIG_DIR / "agent_prompt.yaml",
+    )
+    return Harness(executor, planner, tools, emitter, speech, trace, teaching)

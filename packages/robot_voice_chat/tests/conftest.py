@@ -1,0 +1,36 @@
+"""Shared fixtures. Real model calls are impossible here: keys are unset and every outbound
+socket connection to a non-loopback address is refused."""
+
+from __future__ import annotations
+
+import socket
+from typing import Any
+
+import pytest
+
+_REAL_CONNECT = socket.socket.connect
+_REAL_CONNECT_EX = socket.socket.connect_ex
+
+
+def _loopback_only(address: Any) -> None:
+    if isinstance(address, tuple) and address:
+        host = str(address[0])
+        if host not in ("127.0.0.1", "::1", "localhost") and not host.startswith("127."):
+            raise ConnectionRefusedError(f"tests may not leave loopback (tried {host})")
+
+
+@pytest.fixture(autouse=True)
+def no_real_model_calls(monkeypatch: pytest.MonkeyPatch) -> None:
+    for key in ("ANTHROPIC_API_KEY", "OPENAI_API_KEY", "GROQ_API_KEY", "OPENAI_BASE_URL"):
+        monkeypatch.delenv(key, raising=False)
+
+    def connect(self: socket.socket, address: Any) -> None:
+        _loopback_only(address)
+        _REAL_CONNECT(self, address)
+
+    def connect_ex(self: socket.socket, address: Any) -> int:
+        _loopback_only(address)
+        return _REAL_CONNECT_EX(self, address)
+
+    monkeypatch.setattr(socket.socket, "connect", connect)
+    monkeypatch.setattr(socket.socket, "connect_ex", connect_ex)

@@ -1,0 +1,105 @@
+"""Barge-in (spec §9): stop-word pre-scan, motion halted before any LLM call, pause, resume."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.bargein import STOP_QUESTION
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.testing import make_harness
+
+PLAN = reply(
+    "",
+    ("set_plan", {"steps": [{"id": "s1", "title": "Drive", "tool": "navigation.navigate_to"}]}),
+    ("navigation.navigate_to", {"step_id": "s1", "location": "mailroom"}),
+)
+WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
+
+
+async def test_stop_word_cancels_motion_calls_safety_tool_pauses_and_asks(tmp_path: Path) -> None:
+    planner = FakeLLM(
+        [
+            PLAN,
+            WAIT,
+            reply(
+                "",
+                (
+                    "update_plan",
+                    {"steps": [{"id": "s1", "title": "Drive"}, {"id": "s2", "title": "Resume"}]},
+                ),
+                ("finish_mission", {"outcome": "succeeded", "summary": "Resumed and done."}),
+            ),
+        ]
+    )
+    h = make_harness(tmp_path, planner)
+    mission = await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    requests_before = len(planner.requests)
+
+    await h.executor.on_user_turn("Stop! now")
+
+    assert h.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+    assert h.tools.called("navigation.stop_navigation") == [{}]
+    assert len(planner.requests) == requests_before  # no LLM in the stop path
+    assert h.speech.interrupts == 1
+    assert mission.state == "paused"
+    assert mission.steps[0].status == "failed"
+    assert mission.steps[0].detail == "safety stop"
+    assert h.speech.spoken[-1] == STOP_QUESTION.split(". ")[0] + "." or STOP_QUESTION in " ".join(
+        h.speech.spoken
+    )
+    await asyncio.sleep(0.05)
+    assert len(planner.requests) == requests_before  # stays suspended while paused
+
+    await h.executor.on_user_turn("continue please")
+    await h.executor.wait_idle(5)
+    mission = h.executor.store.get(mission.id) or mission
+    last_input = planner.requests[-1][0][-1].content
+    assert "paused after a safety stop" in last_input
+    assert "User: continue please" in last_input
+    assert mission.state == "succeeded"
+
+
+async def test_stop_during_a_planner_call_cancels_that_call(tmp_path: Path) -> None:
+    gate = asyncio.Event()
+    finish = reply("", ("finish_mission", {"outcome": "failed", "summary": "aborted"}))
+    planner = FakeLLM([PLAN, finish], gate=gate, gate_on_call=2)
+    h = make_harness(tmp_path, planner)
+    mission = await h.executor.start("drive")
+    await async_wait_until(
+        lambda: (
+            len(planner.requests) == 2
+            and h.executor.run is not None
+            and h.executor.run.llm_call is not None
+        ),
+        5,
+        "second planner call in flight",
+    )
+
+    await h.executor.safety_stop("test")
+    gate.set()
+
+    assert mission.state == "paused"
+    assert h.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+    await h.executor.on_user_turn("abort")
+    await h.executor.wait_idle(5)
+    mission = h.executor.store.get(mission.id) or mission
+    assert mission.state == "failed"
+    assert len(planner.requests) == 3  # the interrupted step's answer was never used
+
+
+async def test_stop_without_a_mission_still_halts_motion_servers(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    await h.executor.safety_stop("stop_pipeline")
+    assert h.tools.called("navigation.stop_navigation") == [{}]
+    assert h.speech.interrupts == 1
+
+
+def test_stop_words_match_whole_words_only(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    assert h.executor.is_stop("Halt!")
+    assert h.executor.is_stop("please STOP")
+    assert not h.executor.is_stop("the bus stopped here")
+    assert not h.executor.is_stop("unstoppable")

@@ -1,0 +1,260 @@
+"""POST /api/agent/events (spec §3): HMAC, 401 cases, schema_version, dedupe, orphans, limits."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+
+import httpx
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robot_mcp_kit.models import TaskEvent
+from robot_mcp_kit.signing import sign, signed_headers
+from robot_voice_chat.api.app import create_app
+from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.settings import AppConfig
+from robot_voice_chat.testing import make_harness
+
+SECRET = "nav-secret"
+
+
+def app_config(tmp_path: Path, **api: object) -> AppConfig:
+    return AppConfig.model_validate(
+        {
+            "llm": {"_target_": "fake"},
+            "speech_output": {"_target_": "fake"},
+            "speech_input": {"_target_": "fake"},
+            "agent": {"trace_dir": str(tmp_path / "traces"), "memory_server": ""},
+            "api": {"event_rate_limit": "10000/minute", **api},
+        }
+    )
+
+
+def container_for(tmp_path: Path, planner: FakeLLM | None = None, **api: object) -> Container:
+    h = make_harness(tmp_path, planner or FakeLLM([]))
+    adapters = Adapters(
+        llm=FakeLLM([]),
+        planner=planner or FakeLLM([]),
+        tools=h.tools,
+        speech_output=FakeSpeechOutput(),
+        speech_input=FakeSpeechInput(),
+    )
+    return assemble(app_config(tmp_path, **api), adapters, FakeEventEmitter())
+
+
+@pytest.fixture
+async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
+    app = create_app(container_for(tmp_path), manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        yield c
+
+
+def body(**over: object) -> bytes:
+    event = TaskEvent(
+        task_id="nav-1",
+        server="navigation",
+        tool="navigate_to",
+        type="progress",
+        seq=0,
+        ts=time.time(),
+        payload={"eta_s": 3},
+    ).model_dump(mode="json")
+    return json.dumps({**event, **over}).encode()
+
+
+async def post(c: httpx.AsyncClient, raw: bytes, headers: dict[str, str]) -> httpx.Response:
+    return await c.post("/api/agent/events", content=raw, headers=headers)
+
+
+async def test_validly_signed_event_is_accepted_and_unknown_task_is_an_orphan(
+    client: httpx.AsyncClient,
+) -> None:
+    raw = body()
+    r = await post(client, raw, signed_headers("navigation", SECRET, raw))
+    assert r.status_code == 200
+    assert r.json() == {"status": "orphan"}
+    again = await post(client, raw, signed_headers("navigation", SECRET, raw))
+    assert again.json() == {"status": "duplicate"}
+
+
+@pytest.mark.parametrize(
+    ("server", "secret", "skew", "reason"),
+    [
+        ("navigation", "wrong", 0, "bad_signature"),
+        ("navigation", SECRET, 1000, "clock_skew"),
+        ("elsewhere", SECRET, 0, "unknown_server"),
+        ("memory", SECRET, 0, "no_event_secret"),
+    ],
+)
+async def test_bad_signatures_skew_unknown_and_secretless_servers_get_401(
+    client: httpx.AsyncClient, server: str, secret: str, skew: int, reason: str
+) -> None:
+    raw = body(server=server)
+    headers = signed_headers(server, secret, raw, now=time.time() - skew)
+    r = await post(client, raw, headers)
+    assert r.status_code == 401
+    assert r.json()["reason"] == reason
+
+
+async def test_missing_or_duplicated_headers_get_401(client: httpx.AsyncClient) -> None:
+    raw = body()
+    headers = signed_headers("navigation", SECRET, raw)
+    del headers["X-RVC-Signature"]
+    assert (await post(client, raw, headers)).status_code == 401
+    dup = [*signed_headers("navigation", SECRET, raw).items(), ("X-RVC-Server", "navigation")]
+    r = await client.post("/api/agent/events", content=raw, headers=dup)
+    assert r.status_code == 401
+
+
+async def test_newer_schema_version_is_400_and_oversized_body_is_413(
+    client: httpx.AsyncClient,
+) -> None:
+    raw = body(schema_version=2)
+    r = await post(client, raw, signed_headers("navigation", SECRET, raw))
+    assert r.status_code == 400
+    assert "schema_version" in r.json()["reason"]
+    big = b"x" * 70000
+    r = await post(client, big, signed_headers("navigation", SECRET, big))
+    assert r.status_code == 413
+
+
+async def test_event_for_a_live_task_reaches_the_executor(tmp_path: Path) -> None:
+    planner = FakeLLM(
+        [
+            reply("", ("set_plan", {"steps": [{"id": "s1", "title": "Drive"}]})),
+            reply("", ("navigation.navigate_to", {"step_id": "s1", "location": "lab"})),
+            reply("", ("wait_for_events", {"reason": "x"})),
+            reply("", ("finish_mission", {"outcome": "succeeded", "summary": "ok"})),
+        ]
+    )
+    container = container_for(tmp_path, planner)
+    app = create_app(container, manage_lifecycle=False)
+    mission = await container.executor.start("go to the lab")
+    from robot_stack_testing import async_wait_until
+
+    await async_wait_until(lambda: container.executor.registry.get("nav-1") is not None, 5, "task")
+    raw = body(type="task_done", seq=1, payload={"result": "arrived"})
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        r = await post(c, raw, signed_headers("navigation", SECRET, raw))
+        assert r.json() == {"status": "accepted"}
+        await container.executor.wait_idle(5)
+        assert mission.state == "succeeded"
+        snap = (await c.get(f"/api/agent/missions/{mission.id}")).json()
+        assert snap["steps"][0]["status"] == "succeeded"
+        listing = (await c.get("/api/agent/missions")).json()
+        assert listing["missions"][0]["id"] == mission.id
+        assert (await c.get("/api/agent/missions/m-nope")).status_code == 404
+
+
+async def test_rate_limit_per_server_answers_429(tmp_path: Path) -> None:
+    app = create_app(container_for(tmp_path, event_rate_limit="2/minute"), manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        codes = []
+        for seq in range(3):
+            raw = body(seq=seq, event_id=f"e{seq}")
+            codes.append(
+                (await post(c, raw, signed_headers("navigation", SECRET, raw))).status_code
+            )
+    assert codes == [200, 200, 429]
+
+
+async def test_teaching_toggle_round_trips(client: httpx.AsyncClient) -> None:
+    assert (await client.get("/api/agent/teaching")).json() == {"enabled": False}
+    assert (await client.post("/api/agent/teaching", json={"enabled": True})).json() == {
+        "enabled": True
+    }
+    assert (await client.post("/api/agent/teaching", json={"enabled": "x"})).status_code == 422
+
+
+header_values = st.one_of(
+    st.none(), st.text(max_size=40), st.sampled_from(["navigation", "memory"])
+)
+
+
+@settings(
+    max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    raw=st.one_of(
+        st.binary(max_size=300),
+        st.builds(
+            lambda d: json.dumps(d).encode(),
+            st.dictionaries(
+                st.text(max_size=12),
+                st.one_of(
+                    st.none(), st.integers(), st.text(max_size=8), st.floats(allow_nan=False)
+                ),
+                max_size=9,
+            ),
+        ),
+        st.builds(
+            lambda v, t: body(schema_version=v, type=t),
+            st.one_of(st.integers(), st.text(max_size=4), st.none()),
+            st.text(max_size=12),
+        ),
+    ),
+    server=header_values,
+    ts=st.one_of(st.none(), st.text(max_size=20), st.integers(-(10**12), 10**12).map(str)),
+    sign_it=st.booleans(),
+)
+def test_ingress_never_answers_500_for_any_input(
+    tmp_path: Path, raw: bytes, server: str | None, ts: str | None, sign_it: bool
+) -> None:
+    import asyncio
+
+    async def run() -> int:
+        app = create_app(container_for(tmp_path), manage_lifecycle=False)
+        headers: dict[str, str] = {}
+        if server is not None:
+            headers["X-RVC-Server"] = server
+        stamp = ts if ts is not None else str(int(time.time()))
+        if ts is not None or sign_it:
+            headers["X-RVC-Timestamp"] = stamp
+        if sign_it:
+            try:
+                headers["X-RVC-Signature"] = sign(SECRET, stamp, raw)
+            except ValueError:
+                headers["X-RVC-Signature"] = "sha256=" + "0" * 64
+        try:
+            headers = {
+                k: v.encode("utf-8", "replace").decode("latin-1", "replace")
+                for k, v in headers.items()
+            }
+            async with httpx.AsyncClient(
+                transport=httpx.ASGITransport(app), base_url="http://t"
+            ) as c:
+                r = await c.post("/api/agent/events", content=raw, headers=headers)
+        except (httpx.LocalProtocolError, UnicodeEncodeError):
+            return 400  # the client refused to send an illegal header; nothing reached us
+        return r.status_code
+
+    status = asyncio.run(run())
+    assert status in (200, 400, 401, 413, 429)
+
+
+async def test_chat_routes_answer_text_and_transcribed_audio(tmp_path: Path) -> None:
+    container = container_for(tmp_path)
+    container.pipeline._llm = FakeLLM([reply("Hi."), reply("The lab.")])
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        text = (await c.post("/api/chat", json={"text": "hi"})).json()
+        assert text["reply"] == "Hi."
+        assert text["route"] == "fast"
+        audio = await c.post(
+            "/api/chat/audio", content=b"RIFF", headers={"content-type": "audio/wav"}
+        )
+        assert audio.json()["transcript"] == "hello"
+        assert audio.json()["reply"] == "The lab."
+        wrong = await c.post(
+            "/api/chat/audio", content=b"x", headers={"content-type": "text/plain"}
+        )
+        assert wrong.status_code == 415
+        assert (await c.post("/api/chat", json={"text": ""})).status_code == 422
+        assert (await c.post("/api/chat/stop")).json() == {"status": "stopped"}

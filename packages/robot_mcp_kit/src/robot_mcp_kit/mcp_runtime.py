@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, get_args
 
+import anyio
 from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
@@ -120,13 +121,19 @@ def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSe
     return TransportSettings(transport, host, port)
 
 
+async def serve_mcp(server: MCPServer, settings: TransportSettings) -> None:
+    """Serve ``server`` on ``settings``' transport until it stops (for servers that need to
+    run their own start-up and shutdown around the transport, inside one event loop)."""
+    install_json_tool_errors(server)
+    if settings.transport == "stdio":
+        await server.run_stdio_async()
+    elif settings.transport == "sse":
+        await server.run_sse_async(host=settings.host, port=settings.port)
+    else:
+        await server.run_streamable_http_async(host=settings.host, port=settings.port)
+
+
 def run_server(server: MCPServer, default_port: int) -> None:
     """Run ``server`` on the transport chosen by the environment (blocks until it stops)."""
     settings = transport_settings(os.environ, default_port)
-    install_json_tool_errors(server)
-    if settings.transport == "stdio":
-        server.run("stdio")
-    elif settings.transport == "sse":
-        server.run("sse", host=settings.host, port=settings.port)
-    else:
-        server.run("streamable-http", host=settings.host, port=settings.port)
+    anyio.run(serve_mcp, server, settings)

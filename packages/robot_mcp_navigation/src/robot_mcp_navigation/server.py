@@ -11,6 +11,7 @@ from types import FrameType
 import structlog
 
 from robot_mcp_kit.logging import configure_logging
+from robot_mcp_kit.mcp_runtime import TransportSettings, serve_mcp
 from robot_mcp_navigation.composition import NavigationApp, build_app
 from robot_mcp_navigation.config import ConfigError, load_settings
 from robot_mcp_navigation.map import MapError
@@ -28,12 +29,9 @@ async def serve(app: NavigationApp) -> None:
             host=settings.host,
             port=settings.port,
         )
-        if settings.transport == "stdio":
-            await app.server.run_stdio_async()
-        elif settings.transport == "sse":
-            await app.server.run_sse_async(host=settings.host, port=settings.port)
-        else:
-            await app.server.run_streamable_http_async(host=settings.host, port=settings.port)
+        await serve_mcp(
+            app.server, TransportSettings(settings.transport, settings.host, settings.port)
+        )
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:

@@ -1,5 +1,5 @@
 """Benchmark of the memory server's find_processes: latency with 10,000 stored processes and
-recall@3 on a paraphrase set (benchmarks/memory_paraphrases.py, 35 targets, 37 queries).
+recall@3 on a paraphrase set (benchmarks/_memory_paraphrases.py, 35 targets, 37 queries).
 
     uv run python benchmarks/memory_find.py            # writes benchmarks/results/memory_find.json
     python benchmarks/memory_find.py --embeddings --no-mcp --output ...   # needs the extra
@@ -34,7 +34,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from memory_paraphrases import TARGETS
+from _memory_paraphrases import TARGETS
 
 from robot_mcp_memory.documents import parse_process, render_process
 from robot_mcp_memory.service import ProcessMemory

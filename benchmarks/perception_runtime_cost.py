@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from perception_runtime_common import Bench, frames_640x480, write_result
+from _perception_runtime_common import Bench, frames_640x480, write_result
 
 from robot_mcp_perception.models.base import GroundingResult
 from robot_mcp_perception.models.fakes import FakeGrounder

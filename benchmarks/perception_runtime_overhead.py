@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from perception_runtime_common import Bench, cpu_seconds, frames_640x480, percentile, write_result
+from _perception_runtime_common import Bench, cpu_seconds, frames_640x480, percentile, write_result
 
 from robot_mcp_perception.models.base import GroundedTarget, GroundingResult, Image
 from robot_mcp_perception.models.fakes import FakeGrounder

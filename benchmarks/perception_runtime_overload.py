@@ -7,7 +7,7 @@ import argparse
 import threading
 import time
 
-from perception_runtime_common import Bench, frames_640x480, percentile, rss_mb, write_result
+from _perception_runtime_common import Bench, frames_640x480, percentile, rss_mb, write_result
 
 from robot_mcp_perception.models.base import GroundedTarget, GroundingResult
 from robot_mcp_perception.models.fakes import FakeGrounder

@@ -3,7 +3,9 @@
 Masks travel on ROS; this endpoint only lets the UI / brain-side tools fetch a picture by
 ``mask_ref``. Memory is bounded: the last ``masks_per_skill`` results' masks are kept
 bit-packed (≈38 KB per 640×480 mask) and the last ``overlays_per_skill`` overlays are kept as
-(frame, result) and rendered to PNG on request.
+(frame, result) and rendered to PNG on request. A deleted skill's artifacts stay addressable
+until ``deleted_skills_kept`` later deletions: a planner typically reads a ``mask_ref`` and
+stops the skill right after, and the reference must still resolve for whoever acts on it.
 
 Routes (all GET, bound to 127.0.0.1):
 - ``/healthz`` — node up, latest frame age, skills;
@@ -69,11 +71,14 @@ class ArtifactStore:
         masks_per_skill: int = 8,
         overlays_per_skill: int = 2,
         renderer: OverlayRenderer | None = None,
+        deleted_skills_kept: int = 8,
     ) -> None:
         self.base_url = base_url.rstrip("/")
         self.masks_per_skill = masks_per_skill
         self.overlays_per_skill = overlays_per_skill
         self.renderer = renderer
+        self.deleted_skills_kept = deleted_skills_kept
+        self._retired: OrderedDict[str, None] = OrderedDict()
         self._masks: dict[str, OrderedDict[tuple[int, int], _StoredMask]] = {}
         self._overlays: dict[str, deque[tuple[int, Frame, SkillResult]]] = {}
         self._lock = threading.Lock()
@@ -87,6 +92,7 @@ class ArtifactStore:
         """Keep this result's masks/overlay; returns one ``mask_ref`` (or {}) per detection."""
         refs: list[dict[str, Any]] = []
         with self._lock:
+            self._retired.pop(skill, None)
             masks = self._masks.setdefault(skill, OrderedDict())
             for index, detection in enumerate(result.detections):
                 if detection.mask is None:
@@ -115,10 +121,24 @@ class ArtifactStore:
             overlays.append((frame.stamp_ns, frame, result))
         return refs
 
-    def forget(self, skill: str) -> None:
+    def retire(self, skill: str) -> None:
+        """The skill was deleted: keep its artifacts until enough later deletions push it out."""
         with self._lock:
-            self._masks.pop(skill, None)
-            self._overlays.pop(skill, None)
+            self._retired.pop(skill, None)
+            self._retired[skill] = None
+            while len(self._retired) > self.deleted_skills_kept:
+                oldest, _ = self._retired.popitem(last=False)
+                self._drop(oldest)
+
+    def forget(self, skill: str) -> None:
+        """Free a skill's artifacts now."""
+        with self._lock:
+            self._retired.pop(skill, None)
+            self._drop(skill)
+
+    def _drop(self, skill: str) -> None:
+        self._masks.pop(skill, None)
+        self._overlays.pop(skill, None)
 
     def mask_png(self, skill: str, stamp_ns: int, index: int) -> bytes | None:
         with self._lock:

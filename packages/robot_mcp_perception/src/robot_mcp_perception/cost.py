@@ -6,7 +6,10 @@ A skill's *local* stages always run at its rate. A *cloud* stage runs only if th
 ``max_cloud_calls_per_min`` budget has headroom. Otherwise the tick is skipped with a reason
 (the node logs ``cloud_call_skipped`` and republishes the last result marked stale).
 
-Also here: the prewarm grounding cache (``prewarm_ttl_s``).
+Also here: the prewarm grounding cache (``prewarm_ttl_s``). A grounding holds pixel
+coordinates of the frame it was made on, so an entry also keeps that scene (a frame-difference
+gate seeded with it) and is dropped when a later skill asks on a frame showing another scene:
+a box from another view would send the segmenter to the wrong pixels.
 """
 
 from __future__ import annotations
@@ -16,12 +19,24 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
-from robot_mcp_perception.models.base import GroundingResult
+import structlog
+
+from robot_mcp_perception.models.base import GroundingResult, Image
 from robot_mcp_perception.settings import CostSettings
 from robot_mcp_perception.skills import Skill
 
 Clock = Callable[[], float]
+
+logger = structlog.get_logger("robot_mcp_perception.cost")
+
+
+class SceneReference(Protocol):
+    """A frame-difference gate seeded with the frame a grounding was made on."""
+
+    def passes(self, image: Image) -> bool: ...
+
 
 SKIP_GATE = "scene_unchanged"
 SKIP_RATE = "max_cloud_rate_hz"
@@ -120,26 +135,37 @@ class PrewarmCache:
         self.ttl_s = ttl_s
         self._clock = clock
         self._max_entries = max_entries
-        self._entries: dict[tuple[object, ...], tuple[float, GroundingResult]] = {}
+        self._entries: dict[tuple[object, ...], _Entry] = {}
         self._lock = threading.Lock()
         self.hits = 0
+        self.scene_changed = 0
 
-    def put(self, skill: Skill, grounding: GroundingResult) -> None:
+    def put(
+        self, skill: Skill, grounding: GroundingResult, scene: SceneReference | None = None
+    ) -> None:
         with self._lock:
             self._expire()
             if len(self._entries) >= self._max_entries:
-                oldest = min(self._entries, key=lambda k: self._entries[k][0])
+                oldest = min(self._entries, key=lambda k: self._entries[k].at)
                 del self._entries[oldest]
-            self._entries[grounding_key(skill)] = (self._clock(), grounding)
+            self._entries[grounding_key(skill)] = _Entry(self._clock(), grounding, scene)
 
-    def get(self, skill: Skill) -> GroundingResult | None:
+    def get(self, skill: Skill, image: Image | None = None) -> GroundingResult | None:
+        """The cached grounding for ``skill``'s question, if fresh and made on this scene
+        (``image``); an entry whose scene differs from ``image`` is dropped."""
         with self._lock:
             self._expire()
-            entry = self._entries.get(grounding_key(skill))
+            key = grounding_key(skill)
+            entry = self._entries.get(key)
             if entry is None:
                 return None
+            if image is not None and entry.scene is not None and entry.scene.passes(image):
+                del self._entries[key]
+                self.scene_changed += 1
+                logger.info("prewarm_dropped", skill=skill.name, reason="scene_changed")
+                return None
             self.hits += 1
-            return entry[1]
+            return entry.grounding
 
     def __len__(self) -> int:
         with self._lock:
@@ -148,5 +174,12 @@ class PrewarmCache:
 
     def _expire(self) -> None:
         now = self._clock()
-        for key in [k for k, (at, _) in self._entries.items() if now - at > self.ttl_s]:
+        for key in [k for k, e in self._entries.items() if now - e.at > self.ttl_s]:
             del self._entries[key]
+
+
+@dataclass(frozen=True)
+class _Entry:
+    at: float
+    grounding: GroundingResult
+    scene: SceneReference | None

@@ -29,7 +29,7 @@ from typing import Literal, Protocol
 
 import structlog
 
-from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache
+from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache, SceneReference
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import GroundingResult, Image
 from robot_mcp_perception.pipelines.common import PipelineContext, SkillResult
@@ -73,6 +73,7 @@ class SkillEngine:
         runner: SkillRunner,
         sink: ResultSink,
         default_rate_hz: float,
+        scene_reference: Callable[[], SceneReference] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.registry = registry
@@ -83,6 +84,8 @@ class SkillEngine:
         self.runner = runner
         self.sink = sink
         self.default_rate_hz = default_rate_hz
+        self.scene_reference = scene_reference
+        """Builds an unseeded frame-difference gate: the prewarm cache's scene check."""
         self._clock = clock
         self.lock = threading.RLock()
         self.grounder_cloud = context.grounder.cost_class == "cloud"
@@ -167,7 +170,7 @@ class SkillEngine:
         """The §8 decision for this tick (side effects: gate reference, cloud-call count)."""
         skill = state.skill
         if state.runs == 0 and state.grounding is None and not skill.prewarm:
-            cached = self.prewarm.get(skill)
+            cached = self.prewarm.get(skill, frame.image)
             if cached is not None:
                 state.grounding = cached
                 if state.gate is not None:
@@ -271,7 +274,7 @@ class SkillEngine:
             state.grounding = result.grounding
         if skill.prewarm:
             if result.grounding is not None:
-                self.prewarm.put(skill, result.grounding)
+                self.prewarm.put(skill, result.grounding, self._scene_of(frame))
             state.enabled = False
             state.once_pending = False
             logger.info("prewarm_cached", skill=skill.name, ttl_s=self.prewarm.ttl_s)
@@ -285,6 +288,13 @@ class SkillEngine:
             state.enabled = False
             state.once_pending = False
             logger.info("skill_once_done", skill=skill.name)
+
+    def _scene_of(self, frame: Frame) -> SceneReference | None:
+        if self.scene_reference is None:
+            return None
+        scene = self.scene_reference()
+        scene.passes(frame.image)  # the first frame seeds the reference
+        return scene
 
     def _republish_stale(self, state: SkillState, reason: str) -> None:
         if state.last_result is None or state.last_frame is None:

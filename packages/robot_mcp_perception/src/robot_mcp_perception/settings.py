@@ -73,6 +73,7 @@ class ArtifactsSettings(_Strict):
     port: int = Field(9112, ge=0, le=65535)
     masks_per_skill: int = Field(8, ge=1, le=256)
     overlays_per_skill: int = Field(2, ge=1, le=32)
+    deleted_skills_kept: int = Field(8, ge=0, le=256)
 
 
 class LoggingSettings(_Strict):

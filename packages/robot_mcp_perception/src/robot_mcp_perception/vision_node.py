@@ -11,6 +11,7 @@ import json
 import sys
 import time
 from collections import deque
+from functools import partial
 from typing import Any
 
 import rclpy
@@ -61,6 +62,7 @@ class VisionNode(Node):
             art.masks_per_skill,
             art.overlays_per_skill,
             runtime.overlay_renderer,
+            art.deleted_skills_kept,
         )
         self.engine = SkillEngine(
             registry=self.registry,
@@ -75,6 +77,11 @@ class VisionNode(Node):
             runner=runtime.runner,
             sink=self,
             default_rate_hz=default_rate,
+            scene_reference=(
+                partial(runtime.gate_factory, settings.watch.gate_threshold)
+                if runtime.gate_factory
+                else None
+            ),
         )
         self.tasks = TaskService(
             self.registry,
@@ -169,7 +176,7 @@ class VisionNode(Node):
     def _detach(self, state: SkillState) -> None:
         if isinstance(state.publishers, SkillPublishers):
             state.publishers.destroy()
-        self.artifacts.forget(state.skill.name)
+        self.artifacts.retire(state.skill.name)
         self.policy.forget(state.skill.name)
 
     # -- frames and results -------------------------------------------------------------------

@@ -95,6 +95,33 @@ def test_memory_is_bounded_per_skill_and_freed_on_forget() -> None:
     assert store.mask_refs("find") == []
 
 
+def test_a_deleted_skills_masks_stay_addressable_until_later_deletions_push_them_out() -> None:
+    store = ArtifactStore("http://127.0.0.1:9112", deleted_skills_kept=2)
+    for skill in ("a", "b", "c"):
+        store.add(skill, f"/vision/{skill}/detections", _frame(1), _result())
+
+    store.retire("a")
+    store.retire("b")
+    assert store.mask_png("a", 1, 0) is not None  # still there after its skill was deleted
+    store.retire("c")  # the third deletion pushes out the oldest
+
+    assert store.mask_png("a", 1, 0) is None
+    assert store.mask_png("b", 1, 0) is not None
+    assert store.mask_png("c", 1, 0) is not None
+
+
+def test_a_recreated_skill_is_no_longer_retired() -> None:
+    store = ArtifactStore("http://127.0.0.1:9112", deleted_skills_kept=1)
+    store.add("a", "/vision/a/detections", _frame(1), _result())
+    store.retire("a")
+    store.add("a", "/vision/a/detections", _frame(2), _result())  # created again
+    store.add("b", "/vision/b/detections", _frame(1), _result())
+    store.retire("b")
+    store.retire("c")
+
+    assert store.mask_png("a", 2, 0) is not None
+
+
 def test_server_answers_healthz_on_loopback(tcp_port: int) -> None:
     store = ArtifactStore(f"http://127.0.0.1:{tcp_port}")
     server = ArtifactServer(build_app(store, _health), "127.0.0.1", tcp_port)

@@ -236,6 +236,23 @@ def test_a_prewarm_once_skill_as_skill_control_sends_it_publishes_nothing_and_is
     assert warm_topics == [[], [], []]
 
 
+def test_a_prewarmed_grounding_is_not_reused_on_a_frame_showing_another_scene(
+    start_node: Any, scene_factory: Any
+) -> None:
+    harness = start_node()
+    harness.create(
+        {"name": "warm", "mode": "ground_and_segment", "grounding": "mug", "prewarm": True}
+    )
+    harness.pump(lambda: len(harness.node.prewarm) == 1, image=scene_factory(40), what="prewarm")
+
+    detections = harness.probe.subscribe("/vision/grab/detections", VisionDetectionArray)
+    harness.create({"name": "grab", "mode": "ground_and_segment", "grounding": "mug", "once": True})
+    harness.pump(lambda: detections, image=scene_factory(200), what="the grab result")
+
+    assert harness.grounder.ground_calls == 2  # grounded again on the new view
+    assert (harness.node.prewarm.hits, harness.node.prewarm.scene_changed) == (0, 1)
+
+
 def test_prewarm_entry_expires_after_the_ttl(
     start_node: Any, settings_factory: Any, scene_factory: Any
 ) -> None:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
+
 from robot_mcp_perception.cost import (
     SKIP_BUDGET,
     SKIP_RATE,
@@ -92,6 +96,32 @@ def test_prewarm_cache_hits_within_ttl_and_expires_after() -> None:
     clock.now += 11.0
     assert cache.get(later) is None
     assert len(cache) == 0
+
+
+class SceneGate:
+    """Passes (= the scene differs) when the image's first pixel differs from the seed's."""
+
+    def __init__(self) -> None:
+        self.seed: int | None = None
+
+    def passes(self, image: Any) -> bool:
+        value = int(image[0, 0, 0])
+        changed = value != self.seed
+        self.seed = value
+        return changed
+
+
+def test_a_prewarm_entry_is_dropped_when_asked_on_a_frame_of_another_scene() -> None:
+    cache = PrewarmCache(ttl_s=10.0)
+    warm = Skill(name="warm", mode="ground_and_segment", grounding="mug", prewarm=True)
+    grounding = GroundingResult(answer="mug")
+    scene = SceneGate()
+    scene.passes(np.zeros((4, 4, 3), np.uint8))  # seeded with the prewarm frame
+    cache.put(warm, grounding, scene)
+
+    assert cache.get(warm, np.zeros((4, 4, 3), np.uint8)) is grounding  # same scene
+    assert cache.get(warm, np.full((4, 4, 3), 200, np.uint8)) is None  # another scene
+    assert (cache.hits, cache.scene_changed, len(cache)) == (1, 1, 0)
 
 
 def test_prewarm_cache_is_bounded() -> None:

@@ -7,8 +7,10 @@ a broken service fails fast with its log tail instead of a hang further down.
 
 from __future__ import annotations
 
+import socket
 import sys
 import urllib.error
+import urllib.parse
 import urllib.request
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -42,12 +44,40 @@ class ServiceSpec:
     ready: Readiness = field(default_factory=Readiness)
 
 
-def load_stack(path: Path, substitutions: Mapping[str, str]) -> list[ServiceSpec]:
-    """Parse the stack file, expanding ``{python}``, ``{root}``, ``{var}`` placeholders."""
+def stack_defaults(path: Path) -> dict[str, str]:
+    """The file's ``defaults:`` placeholders (ports, frame folder, …), unexpanded."""
     document: dict[str, Any] = yaml.safe_load(path.read_text())
+    return {str(k): str(v) for k, v in (document.get("defaults") or {}).items()}
+
+
+def port_placeholders(path: Path) -> list[str]:
+    """The names of the ``*_port`` placeholders under ``defaults:``."""
+    return [name for name in stack_defaults(path) if name.endswith("_port")]
+
+
+def free_port_overrides(path: Path) -> dict[str, str]:
+    """A free loopback port for every ``*_port`` placeholder (tests run beside a live stack)."""
+    from robot_stack_testing.ports import free_tcp_port
+
+    return {name: str(free_tcp_port()) for name in port_placeholders(path)}
+
+
+def load_stack(
+    path: Path, substitutions: Mapping[str, str], overrides: Mapping[str, str] | None = None
+) -> list[ServiceSpec]:
+    """Parse the stack file, expanding ``{python}``, ``{root}``, ``{var}`` and the
+    ``defaults:`` placeholders (each replaced by ``overrides`` when given there)."""
+    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    placeholders = dict(substitutions)
+    for name, value in (document.get("defaults") or {}).items():
+        raw = (overrides or {}).get(str(name), str(value))
+        placeholders[str(name)] = raw.format_map(substitutions)
+    unknown = set(overrides or {}) - set(placeholders)
+    if unknown:
+        raise StackError(f"unknown stack placeholders: {sorted(unknown)}")
 
     def expand(value: object) -> str:
-        return str(value).format_map(substitutions)
+        return str(value).format_map(placeholders)
 
     services = []
     for entry in document.get("services", []):
@@ -58,13 +88,39 @@ def load_stack(path: Path, substitutions: Mapping[str, str]) -> list[ServiceSpec
                 argv=[expand(arg) for arg in entry["argv"]],
                 env={key: expand(value) for key, value in entry.get("env", {}).items()},
                 ready=Readiness(
-                    tcp=ready.get("tcp"),
+                    tcp=int(expand(ready["tcp"])) if "tcp" in ready else None,
                     http=expand(ready["http"]) if "http" in ready else None,
                     timeout_s=float(ready.get("timeout_s", 30.0)),
                 ),
             )
         )
     return services
+
+
+def service_ports(services: list[ServiceSpec]) -> list[tuple[str, int]]:
+    """(service, port) for every readiness port: the ports the stack will listen on."""
+    ports = []
+    for service in services:
+        if service.ready.tcp is not None:
+            ports.append((service.name, service.ready.tcp))
+        if service.ready.http is not None:
+            port = urllib.parse.urlsplit(service.ready.http).port
+            if port is not None:
+                ports.append((service.name, port))
+    return ports
+
+
+def busy_ports(services: list[ServiceSpec]) -> list[tuple[str, int]]:
+    """The stack's ports that something on 127.0.0.1 already holds."""
+    busy = []
+    for name, port in service_ports(services):
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                sock.bind(("127.0.0.1", port))
+            except OSError:
+                busy.append((name, port))
+    return busy
 
 
 def http_ok(url: str) -> bool:
@@ -106,22 +162,47 @@ def local_stack(
     env: Mapping[str, str],
     stack_file: Path | None = None,
     only: set[str] | None = None,
-) -> Iterator[dict[str, LaunchedProcess]]:
-    """Run the stack (or the services named in ``only``) until the block exits."""
+    overrides: Mapping[str, str] | None = None,
+) -> Iterator[LocalStack]:
+    """Run the stack (or the services named in ``only``) until the block exits.
+
+    The yielded :class:`LocalStack` maps service names to their processes and can stop and
+    restart one of them (same argv and environment)."""
     var_dir.mkdir(parents=True, exist_ok=True)
     substitutions = {"python": sys.executable, "root": str(root), "var": str(var_dir)}
-    services = load_stack(stack_file or root / "deploy" / "local-stack.yaml", substitutions)
-    launcher = ProcessLauncher(var_dir)
-    running: dict[str, LaunchedProcess] = {}
+    services = load_stack(
+        stack_file or root / "deploy" / "local-stack.yaml", substitutions, overrides
+    )
+    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env))
     try:
         for service in services:
-            if only is not None and service.name not in only:
-                continue
-            process = launcher.start(
-                service.name, service.argv, env={**env, **service.env}, cwd=root
-            )
-            running[service.name] = process
-            wait_ready(process, service.ready)
-        yield running
+            if only is None or service.name in only:
+                stack.start(service)
+        yield stack
     finally:
-        launcher.stop_all()
+        stack.launcher.stop_all()
+
+
+class LocalStack(dict[str, LaunchedProcess]):
+    """The running services by name (file order)."""
+
+    def __init__(self, launcher: ProcessLauncher, root: Path, env: dict[str, str]) -> None:
+        super().__init__()
+        self.launcher = launcher
+        self.root = root
+        self.env = env
+        self.specs: dict[str, ServiceSpec] = {}
+
+    def start(self, service: ServiceSpec) -> LaunchedProcess:
+        process = self.launcher.start(
+            service.name, service.argv, env={**self.env, **service.env}, cwd=self.root
+        )
+        self[service.name] = process
+        self.specs[service.name] = service
+        wait_ready(process, service.ready)
+        return process
+
+    def restart(self, name: str) -> LaunchedProcess:
+        """Stop one service by PID and start it again; returns the new process."""
+        self.launcher.stop(self[name])
+        return self.start(self.specs[name])

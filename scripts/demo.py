@@ -1,90 +1,115 @@
-"""`make demo`: prove the ROS data path end to end on this machine and say what happened.
+"""`make demo`: the whole stack on the embedded defaults, one mission, narrated as it happens.
 
-A separate OS process publishes a VisionDetectionArray carrying a 640x480 mono8 mask (a
-manipulation consumer's view of /vision/find_object/detections); this process subscribes,
-checks the mask byte for byte, and calls a VisionTask service served by a third process.
-Discovery stays on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) in its own domain.
+Starts every service of ``deploy/local-stack.yaml`` as its own OS process (vision node on the
+sample frames with the offline grounder + GrabCut, skill_control, perception buffer, memory,
+the simulated base, the brain on its dev preset with recorded LLM replies), stores a taught
+process in memory, then acts as the user: one request over REST, everything else watched over
+Socket.IO like the UI. The mailroom door is closed on the first try (the map's failure entry),
+so the mission has to replan. Every process is stopped by PID at the end, also on Ctrl+C.
+
+    uv run python scripts/demo.py [--keep] [--timeout-s 120]
+
+``--keep`` leaves the stack running after the mission (brain on http://127.0.0.1:8000) until
+Ctrl+C. Nothing leaves loopback: servers bind 127.0.0.1, ROS discovery is LOCALHOST-only.
 """
 
 from __future__ import annotations
 
-import json
+import argparse
+import asyncio
 import os
+import shutil
 import sys
-import tempfile
-import threading
 import time
 from pathlib import Path
-from typing import Any
 
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from ros2_vision_interfaces.msg import VisionDetectionArray
-from ros2_vision_interfaces.srv import VisionTask
+from robot_stack_testing.mission_driver import (
+    MAILROOM_REQUEST,
+    MissionDriver,
+    MissionNotStartedError,
+    MissionRecord,
+    Narrator,
+    RunningStack,
+    mailroom_stack,
+    seed_memory,
+)
+from robot_stack_testing.stack import StackError, busy_ports, load_stack, stack_defaults
 
-from robot_stack_testing import ProcessLauncher, ros_peers, wait_until
+ROOT = Path(__file__).resolve().parents[1]
+STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
+VAR_DIR = ROOT / "build" / "demo"
 
-TOPIC = "/vision/find_object/detections"
-SERVICE = "/demo/create_vision_task"
+
+def say(text: str) -> None:
+    print(text, flush=True)
 
 
-def main() -> int:
+def ports_in_use() -> list[tuple[str, int]]:
+    substitutions = {"python": sys.executable, "root": str(ROOT), "var": str(VAR_DIR)}
+    return busy_ports(load_stack(STACK_FILE, substitutions, stack_defaults(STACK_FILE)))
+
+
+async def drive(stack: RunningStack, timeout_s: float) -> MissionRecord:
+    saved = await seed_memory(stack)
+    say(f"demo: memory holds the taught process {saved.get('id')!r} (spec 002 §8)")
+    narrator = Narrator(say)
+    async with MissionDriver(stack.brain_url, narrator) as user:
+        states = await user.wait_servers_connected(30.0)
+        say(f"demo: brain connected to {', '.join(sorted(states))}")
+        return await user.run_mission(MAILROOM_REQUEST, timeout_s)
+
+
+def summarize(record: MissionRecord) -> bool:
+    steps = record.snapshot.get("steps", [])
+    findings = record.findings()
+    say("")
+    say(f"demo: mission {record.mission_id} {record.outcome}")
+    for step in steps:
+        say(f"        {step['id']:>4} {step['status']:<9} {step['title']}")
+    for finding in findings:
+        say(f"demo: the camera saw {finding.label!r}; its mask is at {finding.mask_url}")
+    say(f"demo: the mission trace is in {VAR_DIR / 'missions'}; service logs in {VAR_DIR}")
+    return record.outcome == "succeeded" and bool(findings)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--keep", action="store_true", help="keep the stack up until Ctrl+C")
+    parser.add_argument("--timeout-s", type=float, default=120.0, help="mission deadline")
+    args = parser.parse_args(argv)
+
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    print(f"demo: ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID')} discovery=LOCALHOST")
-    launcher = ProcessLauncher(Path(tempfile.mkdtemp(prefix="robot-demo-")))
-    context = Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node("demo_consumer", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
-    received: list[tuple[float, Any]] = []
-    node.create_subscription(
-        VisionDetectionArray, TOPIC, lambda m: received.append((time.monotonic(), m)), 10
+    busy = ports_in_use()
+    if busy:
+        held = ", ".join(f"{port} ({name})" for name, port in busy)
+        say(f"demo: ports already in use on 127.0.0.1: {held}. Stop the other stack first.")
+        return 2
+    shutil.rmtree(VAR_DIR, ignore_errors=True)
+    say(
+        f"demo: starting the stack of {STACK_FILE.relative_to(ROOT)} "
+        f"(ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}, discovery LOCALHOST)"
     )
-    peer = [sys.executable, "-m", "robot_stack_testing.ros_peers"]
+    started = time.monotonic()
     try:
-        publisher = launcher.start("publisher", [*peer, "publish-mask", "--topic", TOPIC])
-        server = launcher.start("server", [*peer, "serve-echo", "--name", SERVICE])
-        started = time.monotonic()
-        wait_until(lambda: received, 20.0, f"a message on {TOPIC}")
-        arrived, array = received[0]
-        detection = array.detections[0]
-        mask = bytes(detection.mask.data)
-        intact = ros_peers.mask_digest(mask) == ros_peers.mask_digest(ros_peers.sample_mask())
-        print(
-            f"demo: received {TOPIC} from publisher pid {publisher.pid} after "
-            f"{arrived - started:.2f}s (incl. discovery): skill={array.skill} "
-            f"label={detection.label!r} score={detection.score:.2f} "
-            f"mask={detection.mask.width}x{detection.mask.height} {detection.mask.encoding} "
-            f"({len(mask)} bytes, {'intact' if intact else 'CORRUPTED'}) "
-            f"stamp={array.header.stamp.sec}.{array.header.stamp.nanosec:09d} "
-            f"frame_id={array.header.frame_id}"
-        )
-        client: Any = node.create_client(VisionTask, SERVICE)
-        wait_until(client.service_is_ready, 20.0, f"service {SERVICE}")
-        request = VisionTask.Request()
-        request.data = json.dumps({"name": "find_object", "mode": "ground_and_segment"})
-        future = client.call_async(request)
-        wait_until(future.done, 10.0, "the VisionTask response")
-        response = future.result()
-        if response is None:
-            raise RuntimeError(f"{SERVICE} returned no response")
-        print(
-            f"demo: VisionTask call to {SERVICE} (pid {server.pid}) -> "
-            f"success={response.success} message={response.message}"
-        )
-        ok = intact and response.success
-        print("demo: ROS data path OK" if ok else "demo: ROS data path FAILED")
-        return 0 if ok else 1
-    finally:
-        launcher.stop_all()
-        executor.shutdown(timeout_sec=2.0)
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
-        spinner.join(timeout=2.0)
+        with mailroom_stack(ROOT, VAR_DIR, stack_file=STACK_FILE) as stack:
+            for name, process in stack.services.items():
+                say(f"demo:   {name:<12} pid {process.pid}")
+            say(f"demo: stack up in {time.monotonic() - started:.1f}s\n")
+            record = asyncio.run(drive(stack, args.timeout_s))
+            ok = summarize(record)
+            if args.keep:
+                say(f"demo: stack left running, brain on {stack.brain_url} — Ctrl+C to stop")
+                while True:
+                    time.sleep(3600)
+    except (StackError, MissionNotStartedError, TimeoutError) as exc:
+        say(f"demo: FAILED — {exc}")
+        say(f"demo: service logs are in {VAR_DIR}")
+        return 1
+    except KeyboardInterrupt:
+        say("demo: stopped")
+        return 0
+    say("demo: OK" if ok else "demo: the mission did not end as expected")
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ from robot_voice_chat.api.app import create_asgi_app
 from robot_voice_chat.composition import bootstrap, compose_config
 
 SERVERS = Path(__file__).with_name("rvc_fake_mcp_servers.py")
+PLANNER_RECORDING = Path(__file__).with_name("rvc_replay_drive_to_mailroom.yaml")
 
 
 class SocketClient:
@@ -77,7 +78,7 @@ async def stack(
     monkeypatch.setenv("RVC_MEMORY_TRANSPORT", "streamable_http")
     monkeypatch.setenv("RVC_SKILL_CONTROL_URL", "http://127.0.0.1:9/sse")  # nothing there
     monkeypatch.setenv("RVC_PERCEPTION_URL", "http://127.0.0.1:9/sse")
-    config = compose_config("test")
+    config = compose_config("test", [f"llm_planner.recording={PLANNER_RECORDING}"])
     container = bootstrap(config)
     server = uvicorn.Server(
         uvicorn.Config(

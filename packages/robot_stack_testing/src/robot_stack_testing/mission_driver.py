@@ -1,0 +1,347 @@
+"""Drive a mission on a running local stack the way a user would, and tell what happened.
+
+Shared by ``make demo`` (``scripts/demo.py``) and ``tests/e2e``: the user types a request
+(REST ``POST /api/chat``), the brain answers over Socket.IO (``chat_message``, ``speak``,
+``mission_plan``, ``mission_event``, ``mission_finished``) and every event becomes one
+narrative line as it arrives. Nothing here fakes a service: the driver only talks to the
+brain (REST + Socket.IO) and, to seed and inspect process memory, to the memory MCP server.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import secrets
+import shutil
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+import socketio
+from mcp.client.session import ClientSession
+from mcp.client.sse import sse_client
+
+from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
+from robot_stack_testing.waiting import async_wait_until
+
+MAILROOM_REQUEST = "Please fetch the package from the mailroom."
+PACKAGE_LABEL = "yellow package"
+MAILROOM_PROCESS_ID = "fetch-package-from-mailroom"
+MAILROOM_PROCESS = f"""---
+id: {MAILROOM_PROCESS_ID}
+title: Fetch a package from the mailroom
+task_pattern: fetch the package from the mailroom and tell the user what was found
+tags: [mailroom, package, fetch]
+---
+## Steps
+1. navigate_to(mailroom) with trigger eta_below 10; prewarm find_object on the trigger
+2. instantiate_skill(find_object, query = the package), then perception.wait_for_result
+3. stop_skill when done, tell the user
+## Pitfalls & fixes
+- The mailroom door may be closed (DOOR_CLOSED): use the east entrance via corridor_b.
+## Operator notes
+- none
+"""
+
+
+def fresh_secret() -> str:
+    return secrets.token_urlsafe(32)
+
+
+def stack_env(secret: str) -> dict[str, str]:
+    """The runner's environment: one fresh HMAC secret for the servers (RVC_EVENT_SECRET)
+    and the brain (per-server NAV_/PERCEPTION_EVENT_SECRET); ROS discovery on loopback."""
+    return {
+        "RVC_EVENT_SECRET": secret,
+        "NAV_EVENT_SECRET": secret,
+        "PERCEPTION_EVENT_SECRET": secret,
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+    }
+
+
+def frames_showing(
+    scenes: Path, dest: Path, label: str = PACKAGE_LABEL, difficulty: str | None = "easy"
+) -> list[Path]:
+    """Copy the sample frames (and annotations) in which ``label`` is plainly visible
+    (annotated ``difficulty``, by default the clean ``easy`` case) to ``dest``: the camera's
+    view once the robot stands in the mailroom. The hard cases (low contrast, touching
+    objects) are for the benchmarks; GrabCut may reject their masks."""
+    dest.mkdir(parents=True, exist_ok=True)
+    copied = []
+    for annotation in sorted(scenes.glob("*.json")):
+        wanted = [
+            a
+            for a in json.loads(annotation.read_text())["annotations"]
+            if a.get("label") == label and difficulty in (None, a.get("difficulty"))
+        ]
+        image = annotation.with_suffix(".png")
+        if wanted and image.is_file():
+            shutil.copyfile(annotation, dest / annotation.name)
+            copied.append(Path(shutil.copyfile(image, dest / image.name)))
+    if not copied:
+        raise FileNotFoundError(f"no frame in {scenes} shows a {label!r}")
+    return copied
+
+
+async def call_mcp(
+    url: str, tool: str, arguments: Mapping[str, Any], timeout_s: float = 20.0
+) -> Any:
+    """One MCP tool call over SSE; the decoded JSON answer (``{"_error": ...}`` if it failed)."""
+    async with asyncio.timeout(timeout_s):
+        async with sse_client(url) as (read, write), ClientSession(read, write) as session:
+            await session.initialize()
+            result = await session.call_tool(tool, dict(arguments))
+    text = "".join(getattr(block, "text", "") for block in result.content)
+    try:
+        payload = json.loads(text)
+    except ValueError:
+        payload = text
+    return {"_error": payload} if result.is_error else payload
+
+
+class MissionNotStartedError(RuntimeError):
+    """The user's turn was answered without starting a mission."""
+
+
+@dataclass
+class RunningStack:
+    """A started local stack and where to reach it."""
+
+    services: LocalStack
+    placeholders: dict[str, str]
+    secret: str
+
+    def url(self, service: str, path: str = "") -> str:
+        return f"http://127.0.0.1:{self.placeholders[f'{service}_port']}{path}"
+
+    @property
+    def brain_url(self) -> str:
+        return self.url("brain")
+
+
+@contextmanager
+def mailroom_stack(
+    root: Path,
+    var_dir: Path,
+    overrides: Mapping[str, str] | None = None,
+    stack_file: Path | None = None,
+) -> Iterator[RunningStack]:
+    """The whole stack (``deploy/local-stack.yaml``) with a fresh secret, the camera showing
+    the mailroom shelf, stopped by PID when the block exits."""
+    path = stack_file or root / "deploy" / "local-stack.yaml"
+    frames = var_dir / "mailroom-frames"
+    frames_showing(root / "data" / "scenes", frames)
+    placeholders = {**stack_defaults(path), "frames_dir": str(frames), **(overrides or {})}
+    secret = fresh_secret()
+    with local_stack(
+        root, var_dir, stack_env(secret), stack_file=path, overrides=placeholders
+    ) as services:
+        yield RunningStack(services, placeholders, secret)
+
+
+async def seed_memory(stack: RunningStack, markdown: str = MAILROOM_PROCESS) -> Any:
+    """Store a process document, as a past teaching would have (spec 002 §8)."""
+    return await call_mcp(stack.url("memory", "/sse"), "save_process", {"markdown": markdown})
+
+
+@dataclass
+class Finding:
+    label: str
+    score: float
+    mask_url: str
+
+
+@dataclass
+class MissionRecord:
+    """Everything the user saw, in arrival order, plus the brain's final snapshot."""
+
+    events: list[tuple[str, Any]] = field(default_factory=list)
+    reply: dict[str, Any] = field(default_factory=dict)
+    snapshot: dict[str, Any] = field(default_factory=dict)
+
+    def of(self, name: str) -> list[Any]:
+        return [data for event, data in self.events if event == name]
+
+    @property
+    def mission_id(self) -> str | None:
+        started = self.of("mission_started")
+        return str(started[0]["mission_id"]) if started else self.reply.get("mission_id")
+
+    @property
+    def outcome(self) -> str | None:
+        finished = self.of("mission_finished")
+        return str(finished[-1]["outcome"]) if finished else None
+
+    def event_lines(self, kind: str | None = None) -> list[str]:
+        return [
+            str(e["text"]) for e in self.of("mission_event") if kind is None or e["kind"] == kind
+        ]
+
+    def tool_results(self, tool: str) -> list[dict[str, Any]]:
+        """The snapshot's ``tool_result`` records of one dotted tool (MCP answers as text)."""
+        return [
+            e
+            for e in self.snapshot.get("events", [])
+            if e.get("kind") == "tool_result" and e.get("tool") == tool
+        ]
+
+    def findings(self) -> list[Finding]:
+        """What perception answered (``wait_for_result`` / ``get_latest``): labels + mask refs."""
+        found = []
+        for record in self.tool_results("perception.wait_for_result") + self.tool_results(
+            "perception.get_latest"
+        ):
+            if record.get("is_error"):
+                continue
+            try:
+                result = json.loads(record["result"])
+            except (ValueError, KeyError):
+                continue
+            for detection in result.get("detections", []):
+                ref = detection.get("mask_ref") or {}
+                found.append(
+                    Finding(str(detection["label"]), float(detection["score"]), str(ref.get("url")))
+                )
+        return found
+
+
+class Narrator:
+    """Turns brain events into one readable line each (only what changed)."""
+
+    def __init__(self, write: Callable[[str], None]) -> None:
+        self.write = write
+        self.started = time.monotonic()
+        self._steps: dict[str, tuple[str, str]] = {}
+        self._titles: list[str] = []
+
+    def line(self, text: str) -> None:
+        self.write(f"[{time.monotonic() - self.started:5.1f}s] {text}")
+
+    def event(self, name: str, data: Any) -> None:
+        handler = getattr(self, f"_on_{name}", None)
+        if handler is not None and isinstance(data, dict):
+            handler(data)
+
+    def _on_chat_message(self, data: dict[str, Any]) -> None:
+        who = "user said " if data.get("role") == "user" else "robot said"
+        self.line(f"{who}: {data.get('text')!r}")
+
+    def _on_speak(self, data: dict[str, Any]) -> None:
+        self.line(f"robot says : {data.get('text')!r}")
+
+    def _on_mission_started(self, data: dict[str, Any]) -> None:
+        self.line(f"mission {data.get('mission_id')} started: {data.get('instruction')}")
+
+    def _on_mission_plan(self, data: dict[str, Any]) -> None:
+        steps = data.get("steps", [])
+        titles = [f"{s['id']}" for s in steps]
+        if titles != self._titles:
+            self._titles = titles
+            label = "plan" if not self._steps else "plan updated (replanned)"
+            self.line(f"{label}:")
+            for s in steps:
+                tool = f"  [{s['tool']}]" if s.get("tool") else ""
+                self.write(f"          {s['id']:>4} {s['title']}{tool}")
+        for s in steps:
+            state = (str(s.get("status")), str(s.get("detail", "")))
+            if self._steps.get(s["id"]) != state and s.get("status") != "pending":
+                detail = f" — {state[1][:100]}" if state[1] else ""
+                self.line(f"step {s['id']} {state[0]}{detail}")
+            self._steps[s["id"]] = state
+
+    def _on_mission_event(self, data: dict[str, Any]) -> None:
+        if data.get("kind") in ("say", "user_turn"):
+            return  # shown as speak / chat_message
+        self.line(f"{data.get('kind')}: {data.get('text')}")
+
+    def _on_mission_finished(self, data: dict[str, Any]) -> None:
+        self.line(f"mission {data.get('outcome')}: {data.get('summary')}")
+
+    def findings(self, findings: list[Finding]) -> None:
+        for f in findings:
+            self.line(f"vision found {f.label!r} (score {f.score:.2f}), mask_ref {f.mask_url}")
+
+
+class MissionDriver:
+    """A user at the brain: REST for the turn, Socket.IO for everything the UI shows."""
+
+    def __init__(self, brain_url: str, narrator: Narrator | None = None) -> None:
+        self.brain_url = brain_url.rstrip("/")
+        self.narrator = narrator
+        self.record = MissionRecord()
+        self.http = httpx.AsyncClient(base_url=self.brain_url, timeout=30.0)
+        self.sio = socketio.AsyncClient(reconnection=False)
+        self.sio.on("*", self._on_event)
+        self._reported: set[str] = set()
+
+    async def __aenter__(self) -> MissionDriver:
+        await self.sio.connect(self.brain_url, transports=["websocket"], wait_timeout=10)
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.sio.disconnect()
+        await self.http.aclose()
+
+    async def _on_event(self, name: str, data: Any = None) -> None:
+        self.record.events.append((name, data))
+        if self.narrator is None:
+            return
+        self.narrator.event(name, data)
+        if name == "mission_plan" and isinstance(data, dict) and self._perception_done(data):
+            await self._narrate_findings(str(data["mission_id"]))
+
+    def _perception_done(self, plan: dict[str, Any]) -> bool:
+        done = {
+            s["id"]
+            for s in plan.get("steps", [])
+            if str(s.get("tool", "")).startswith("perception.") and s.get("status") == "succeeded"
+        }
+        new = done - self._reported
+        self._reported |= new
+        return bool(new)
+
+    async def _narrate_findings(self, mission_id: str) -> None:
+        response = await self.http.get(f"/api/agent/missions/{mission_id}")
+        if response.status_code == 200 and self.narrator is not None:
+            self.narrator.findings(MissionRecord(snapshot=response.json()).findings())
+
+    async def wait_servers_connected(self, timeout_s: float = 30.0) -> dict[str, str]:
+        """Wait until the brain reports every MCP server connected (``/api/readyz``)."""
+
+        async def connected() -> dict[str, str]:
+            states: dict[str, str] = (await self.http.get("/api/readyz")).json()["data"][
+                "mcp_servers"
+            ]
+            return states if all(s == "connected" for s in states.values()) else {}
+
+        return await async_wait_until(connected, timeout_s, "every MCP server connected", 0.2)
+
+    async def send(self, text: str) -> dict[str, Any]:
+        """A user turn over REST (the Socket.IO ``send_message`` twin)."""
+        response = await self.http.post("/api/chat", json={"text": text})
+        response.raise_for_status()
+        reply: dict[str, Any] = response.json()
+        self.record.reply = reply
+        return reply
+
+    async def wait_finished(self, timeout_s: float) -> MissionRecord:
+        """Wait for ``mission_finished`` (deadline-bound), then fetch the mission snapshot."""
+        await async_wait_until(
+            lambda: self.record.of("mission_finished"), timeout_s, "mission_finished", 0.05
+        )
+        mission_id = self.record.mission_id
+        response = await self.http.get(f"/api/agent/missions/{mission_id}")
+        response.raise_for_status()
+        self.record.snapshot = response.json()
+        return self.record
+
+    async def run_mission(self, request: str, timeout_s: float) -> MissionRecord:
+        """One user turn that should start a mission; then wait for it to finish."""
+        reply = await self.send(request)
+        if not reply.get("mission_id"):
+            raise MissionNotStartedError(f"the robot did not start a mission: {reply}")
+        return await self.wait_finished(timeout_s)

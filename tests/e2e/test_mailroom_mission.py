@@ -1,0 +1,127 @@
+"""The mailroom mission (spec 002 §12/§14) on the whole stack: every service a real OS process
+from ``deploy/local-stack.yaml`` on free loopback ports, one fresh HMAC secret, the brain on
+its dev preset (ReplayLLM: recorded planner replies, checked against what the real servers
+answer). The test is the user: one REST turn, then it watches Socket.IO like the UI does.
+
+    fast path start_mission → plan → memory.find_processes → navigate_to(mailroom)
+    → signed task_failed DOOR_CLOSED from the real navigation server → replan via corridor_b
+    → task_done → find_object(yellow package) → wait_for_result (mask_ref, no pixels)
+    → stop_skill → finish_mission(succeeded) → memory.record_outcome
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from robot_stack_testing.mission_driver import (
+    MAILROOM_PROCESS_ID,
+    MAILROOM_REQUEST,
+    PACKAGE_LABEL,
+    MissionDriver,
+    RunningStack,
+    call_mcp,
+    mailroom_stack,
+    seed_memory,
+)
+from robot_stack_testing.stack import free_port_overrides
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[2]
+STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
+
+
+@pytest.fixture
+def stack(tmp_path: Path) -> Iterator[RunningStack]:
+    overrides = {**free_port_overrides(STACK_FILE), "nav_time_scale": "10"}
+    with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
+        yield running
+
+
+async def test_the_mailroom_mission_survives_a_closed_door_and_finds_the_package(
+    stack: RunningStack,
+) -> None:
+    saved = await seed_memory(stack)
+    assert saved.get("id") == MAILROOM_PROCESS_ID, saved
+
+    async with MissionDriver(stack.brain_url) as user:
+        await user.wait_servers_connected(30.0)
+        record = await user.run_mission(MAILROOM_REQUEST, timeout_s=60.0)
+
+    # The fast path handed off and acknowledged.
+    assert record.reply["route"] == "mission_started", record.reply
+    assert any("On my way" in m["text"] for m in record.of("chat_message"))
+    assert record.outcome == "succeeded", record.of("mission_finished")
+
+    # The plan as the brain holds it: the first drive failed on the door, the replan went
+    # round through corridor_b, every later step succeeded.
+    snapshot = record.snapshot
+    assert snapshot["state"] == "succeeded"
+    statuses = {s["id"]: s["status"] for s in snapshot["steps"]}
+    assert statuses == {
+        "s1": "failed",
+        "s1b": "succeeded",
+        "s1c": "succeeded",
+        "s2": "succeeded",
+        "s3": "succeeded",
+        "s4": "succeeded",
+        "s5": "succeeded",
+    }
+    steps = {s["id"]: s for s in snapshot["steps"]}
+    assert steps["s1"]["detail"].startswith("DOOR_CLOSED")
+    assert all(steps[s]["task_id"].startswith("nav-") for s in ("s1", "s1b", "s1c"))
+
+    # The brain saw the real server's signed events: the trigger, the failure, two arrivals.
+    task_events = [e for e in snapshot["events"] if e["kind"] == "task_event"]
+    by_task: dict[str, list[str]] = {}
+    for event in task_events:
+        by_task.setdefault(event["task_id"], []).append(event["type"])
+    assert by_task[steps["s1"]["task_id"]][-1] == "task_failed"
+    assert "trigger_fired" in by_task[steps["s1"]["task_id"]]
+    assert by_task[steps["s1b"]["task_id"]][-1] == "task_done"
+    assert by_task[steps["s1c"]["task_id"]][-1] == "task_done"
+    lines = record.event_lines("task_event")
+    assert any("failed DOOR_CLOSED (recoverable)" in line for line in lines)
+    assert any(line.startswith("[reaction] eta_below fired") for line in record.event_lines())
+    prewarm = record.tool_results("skill_control.prewarm_skill")
+    assert prewarm, "the eta_below reaction did not prewarm"
+    assert not prewarm[0]["is_error"], prewarm
+
+    # What the UI received over Socket.IO.
+    assert record.of("mission_started")[0]["mission_id"] == snapshot["mission_id"]
+    plans = record.of("mission_plan")
+    assert [s["status"] for s in plans[-1]["steps"]] == [s["status"] for s in snapshot["steps"]]
+    assert any(s["status"] == "running" for p in plans for s in p["steps"])
+    assert any("east entrance" in s["text"] for s in record.of("speak"))
+
+    # Vision: labels, boxes and a mask *reference*; the mask itself is on the artifacts HTTP
+    # endpoint (data plane), never in an MCP answer.
+    findings = record.findings()
+    assert {f.label for f in findings} == {PACKAGE_LABEL}, record.tool_results(
+        "perception.wait_for_result"
+    )
+    mask_url = findings[0].mask_url
+    assert mask_url.startswith(stack.url("vision", "/masks/find_object/"))
+    async with httpx.AsyncClient(timeout=5.0) as http:
+        mask = await http.get(mask_url)
+    assert mask.content[:8] == b"\x89PNG\r\n\x1a\n"
+    for result in (r["result"] for r in snapshot["events"] if r["kind"] == "tool_result"):
+        assert "iVBOR" not in result  # no PNG payloads
+        assert len(result) < 2000  # no pixel arrays
+    detections = json.loads(record.tool_results("perception.wait_for_result")[0]["result"])
+    assert set(detections["detections"][0]) <= {
+        "label", "score", "kind", "box", "point", "stale", "mask_ref", "extra",
+    }  # fmt: skip
+    stopped = record.tool_results("skill_control.stop_skill")
+    assert [json.loads(r["result"])["stopped"] for r in stopped] == [True, True]
+
+    # Memory: the seeded process was retrieved and its outcome recorded.
+    process = await call_mcp(
+        stack.url("memory", "/sse"), "get_process", {"id": MAILROOM_PROCESS_ID}
+    )
+    assert (process["successes"], process["failures"]) == (1, 0), process

@@ -21,6 +21,7 @@ import time
 from typing import Any
 
 import cv2
+import httpx
 import structlog
 from google import genai
 from google.genai import errors as genai_errors
@@ -104,6 +105,10 @@ class GeminiERGrounder(Grounder):
         self.jpeg_quality = jpeg_quality
         self.max_targets = max_targets
         self._api_key = key
+        # Our own httpx client: without one, google-genai switches its async transport to
+        # aiohttp whenever aiohttp happens to be importable, so behaviour (and errors) would
+        # depend on unrelated packages in the environment.
+        self._http = httpx.AsyncClient(timeout=timeout_s)
         self._client = genai.Client(
             api_key=key.get_secret_value(),
             http_options=types.HttpOptions(
@@ -111,11 +116,13 @@ class GeminiERGrounder(Grounder):
                 api_version="v1beta",
                 timeout=int(timeout_s * 1000),
                 retry_options=types.HttpRetryOptions(attempts=1),  # retries are ours
+                httpx_async_client=self._http,
             ),
         )
 
     async def aclose(self) -> None:
         await self._client.aio.aclose()
+        await self._http.aclose()
 
     async def ground(
         self,

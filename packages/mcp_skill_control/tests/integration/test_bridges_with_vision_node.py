@@ -27,6 +27,7 @@ from robot_stack_testing import (
     free_tcp_port,
     wait_for_tcp_port,
 )
+from robot_stack_testing.mission_driver import frames_showing
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -41,20 +42,22 @@ def _require_vision_node() -> None:
     )
 
 
-def _vision_env(artifacts_port: int, node_name: str) -> dict[str, str]:
+def _vision_env(artifacts_port: int, node_name: str, frames: Path = FRAMES) -> dict[str, str]:
     return {
         "PERCEPTION_CONFIG_OVERRIDES": (
             f"frame_source=folder artifacts.port={artifacts_port} node.node_name={node_name}"
         ),
-        "PERCEPTION_FRAMES_DIR": str(FRAMES),
+        "PERCEPTION_FRAMES_DIR": str(frames),
     }
 
 
-def start_vision(launcher: ProcessLauncher, node_name: str) -> LaunchedProcess:
+def start_vision(
+    launcher: ProcessLauncher, node_name: str, frames: Path = FRAMES
+) -> LaunchedProcess:
     return launcher.start(
         "vision",
         [sys.executable, "-m", "robot_mcp_perception.vision_node"],
-        env=_vision_env(free_tcp_port(), node_name),
+        env=_vision_env(free_tcp_port(), node_name, frames),
     )
 
 
@@ -198,11 +201,15 @@ def _log_events(process: LaunchedProcess, event: str) -> list[str]:
 
 
 async def test_a_prewarmed_grounding_is_reused_by_the_next_instantiation_on_a_real_vision_node(
-    launcher: ProcessLauncher, graph: RosBridge
+    launcher: ProcessLauncher, graph: RosBridge, tmp_path: Path
 ) -> None:
     _require_vision_node()
     node_name = f"vision_{uuid.uuid4().hex[:6]}"
-    vision = start_vision(launcher, node_name)
+    # A camera that stands still on the mug: the prewarm frame's scene is the one the
+    # instantiated skill sees, so its boxes are valid there (another view re-grounds).
+    still = tmp_path / "still"
+    frames_showing(FRAMES, still, label="red mug", limit=1)
+    vision = start_vision(launcher, node_name, still)
     urls = start_servers(launcher, node_name)
     await async_wait_until(
         lambda: f"/{node_name}/create_vision_task" in graph.service_names_and_types(),

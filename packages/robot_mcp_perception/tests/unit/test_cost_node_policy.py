@@ -245,6 +245,7 @@ def test_a_prewarmed_grounding_is_not_reused_on_a_frame_showing_another_scene(
     )
     harness.pump(lambda: len(harness.node.prewarm) == 1, image=scene_factory(40), what="prewarm")
 
+    harness.source.push(scene_factory(200))  # the robot moved: the camera shows another view
     detections = harness.probe.subscribe("/vision/grab/detections", VisionDetectionArray)
     harness.create({"name": "grab", "mode": "ground_and_segment", "grounding": "mug", "once": True})
     harness.pump(lambda: detections, image=scene_factory(200), what="the grab result")

@@ -64,12 +64,17 @@ def stack_env(secret: str) -> dict[str, str]:
 
 
 def frames_showing(
-    scenes: Path, dest: Path, label: str = PACKAGE_LABEL, difficulty: str | None = "easy"
+    scenes: Path,
+    dest: Path,
+    label: str = PACKAGE_LABEL,
+    difficulty: str | None = "easy",
+    limit: int | None = None,
 ) -> list[Path]:
     """Copy the sample frames (and annotations) in which ``label`` is plainly visible
     (annotated ``difficulty``, by default the clean ``easy`` case) to ``dest``: the camera's
     view once the robot stands in the mailroom. The hard cases (low contrast, touching
-    objects) are for the benchmarks; GrabCut may reject their masks."""
+    objects) are for the benchmarks; GrabCut may reject their masks. ``limit=1`` gives a
+    camera that stands still."""
     dest.mkdir(parents=True, exist_ok=True)
     copied = []
     for annotation in sorted(scenes.glob("*.json")):
@@ -82,6 +87,8 @@ def frames_showing(
         if wanted and image.is_file():
             shutil.copyfile(annotation, dest / annotation.name)
             copied.append(Path(shutil.copyfile(image, dest / image.name)))
+        if limit is not None and len(copied) >= limit:
+            break
     if not copied:
         raise FileNotFoundError(f"no frame in {scenes} shows a {label!r}")
     return copied

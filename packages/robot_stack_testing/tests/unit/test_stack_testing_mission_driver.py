@@ -195,5 +195,7 @@ def test_frames_showing_copies_only_frames_where_the_label_is_plainly_visible(
 
     assert [p.name for p in copied] == ["a.png"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.json", "a.png"]
+    still = frames_showing(scenes, tmp_path / "still", difficulty=None, limit=1)
+    assert [p.name for p in still] == ["a.png"]  # one frame: a camera that stands still
     with pytest.raises(FileNotFoundError, match="no frame"):
         frames_showing(scenes, tmp_path / "none", label="blue whale")

@@ -217,12 +217,16 @@ class MissionRecord:
 
 
 class Narrator:
-    """Turns brain events into one readable line each (only what changed)."""
+    """Turns brain events into one readable line each (only what changed). A step whose
+    status stays the same (a drive's ETA ticking down) is reported at most every
+    ``progress_every_s``; a status change is always reported."""
 
-    def __init__(self, write: Callable[[str], None]) -> None:
+    def __init__(self, write: Callable[[str], None], progress_every_s: float = 1.0) -> None:
         self.write = write
+        self.progress_every_s = progress_every_s
         self.started = time.monotonic()
         self._steps: dict[str, tuple[str, str]] = {}
+        self._reported_at: dict[str, float] = {}
         self._titles: list[str] = []
 
     def line(self, text: str) -> None:
@@ -255,10 +259,19 @@ class Narrator:
                 self.write(f"          {s['id']:>4} {s['title']}{tool}")
         for s in steps:
             state = (str(s.get("status")), str(s.get("detail", "")))
-            if self._steps.get(s["id"]) != state and s.get("status") != "pending":
+            if self._worth_reporting(s["id"], state):
                 detail = f" — {state[1][:100]}" if state[1] else ""
                 self.line(f"step {s['id']} {state[0]}{detail}")
+                self._reported_at[s["id"]] = time.monotonic()
             self._steps[s["id"]] = state
+
+    def _worth_reporting(self, step_id: str, state: tuple[str, str]) -> bool:
+        previous = self._steps.get(step_id)
+        if state == previous or state[0] == "pending":
+            return False
+        if previous is None or previous[0] != state[0]:
+            return True
+        return time.monotonic() - self._reported_at.get(step_id, 0.0) >= self.progress_every_s
 
     def _on_mission_event(self, data: dict[str, Any]) -> None:
         if data.get("kind") in ("say", "user_turn"):

@@ -170,6 +170,21 @@ def test_a_replanned_plan_is_narrated_as_such() -> None:
     assert any("plan updated (replanned)" in line for line in lines)
 
 
+def test_progress_of_a_running_step_is_throttled_but_status_changes_always_show() -> None:
+    lines: list[str] = []
+    narrator = Narrator(lines.append, progress_every_s=3600.0)
+
+    def plan(status: str, detail: str) -> dict[str, Any]:
+        return {"steps": [{"id": "s1", "title": "Drive", "status": status, "detail": detail}]}
+
+    for percent in (10, 20, 30):
+        narrator.event("mission_plan", plan("running", f"ETA · {percent} %"))
+    narrator.event("mission_plan", plan("succeeded", "done"))
+
+    steps = [line.split("] ", 1)[1] for line in lines if "step s1" in line]
+    assert steps == ["step s1 running — ETA · 10 %", "step s1 succeeded — done"]
+
+
 def test_the_stack_environment_shares_one_secret_and_stays_on_loopback() -> None:
     env = stack_env("s3cret")
 

@@ -130,12 +130,6 @@ class ArtifactStore:
                 oldest, _ = self._retired.popitem(last=False)
                 self._drop(oldest)
 
-    def forget(self, skill: str) -> None:
-        """Free a skill's artifacts now."""
-        with self._lock:
-            self._retired.pop(skill, None)
-            self._drop(skill)
-
     def _drop(self, skill: str) -> None:
         self._masks.pop(skill, None)
         self._overlays.pop(skill, None)

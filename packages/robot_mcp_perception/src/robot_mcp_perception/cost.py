@@ -19,23 +19,17 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 import structlog
 
 from robot_mcp_perception.models.base import GroundingResult, Image
+from robot_mcp_perception.registry import Gate
 from robot_mcp_perception.settings import CostSettings
 from robot_mcp_perception.skills import Skill
 
 Clock = Callable[[], float]
 
 logger = structlog.get_logger("robot_mcp_perception.cost")
-
-
-class SceneReference(Protocol):
-    """A frame-difference gate seeded with the frame a grounding was made on."""
-
-    def passes(self, image: Image) -> bool: ...
 
 
 SKIP_GATE = "scene_unchanged"
@@ -140,9 +134,7 @@ class PrewarmCache:
         self.hits = 0
         self.scene_changed = 0
 
-    def put(
-        self, skill: Skill, grounding: GroundingResult, scene: SceneReference | None = None
-    ) -> None:
+    def put(self, skill: Skill, grounding: GroundingResult, scene: Gate | None = None) -> None:
         with self._lock:
             self._expire()
             if len(self._entries) >= self._max_entries:
@@ -182,4 +174,5 @@ class PrewarmCache:
 class _Entry:
     at: float
     grounding: GroundingResult
-    scene: SceneReference | None
+    scene: Gate | None
+    """A frame-difference gate seeded with the frame the grounding was made on."""

@@ -29,11 +29,11 @@ from typing import Literal, Protocol
 
 import structlog
 
-from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache, SceneReference
+from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import GroundingResult, Image
 from robot_mcp_perception.pipelines.common import PipelineContext, SkillResult
-from robot_mcp_perception.registry import SkillRegistry, SkillState
+from robot_mcp_perception.registry import Gate, SkillRegistry, SkillState
 from robot_mcp_perception.scheduler import JobTimeoutError, Scheduler
 from robot_mcp_perception.skills import Skill
 
@@ -73,7 +73,7 @@ class SkillEngine:
         runner: SkillRunner,
         sink: ResultSink,
         default_rate_hz: float,
-        scene_reference: Callable[[], SceneReference] | None = None,
+        scene_reference: Callable[[], Gate] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.registry = registry
@@ -289,7 +289,7 @@ class SkillEngine:
             state.once_pending = False
             logger.info("skill_once_done", skill=skill.name)
 
-    def _scene_of(self, frame: Frame) -> SceneReference | None:
+    def _scene_of(self, frame: Frame) -> Gate | None:
         if self.scene_reference is None:
             return None
         scene = self.scene_reference()

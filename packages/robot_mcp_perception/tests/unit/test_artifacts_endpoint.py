@@ -82,8 +82,10 @@ async def test_overlays_are_rendered_on_request() -> None:
     assert unknown.status_code == 404
 
 
-def test_memory_is_bounded_per_skill_and_freed_on_forget() -> None:
-    store = ArtifactStore("http://127.0.0.1:9112", masks_per_skill=3, overlays_per_skill=1)
+def test_memory_is_bounded_per_skill_and_freed_when_no_deleted_skill_is_kept() -> None:
+    store = ArtifactStore(
+        "http://127.0.0.1:9112", masks_per_skill=3, overlays_per_skill=1, deleted_skills_kept=0
+    )
     for stamp in range(50):
         store.add("find", "/vision/find/detections", _frame(stamp), _result())
 
@@ -91,7 +93,7 @@ def test_memory_is_bounded_per_skill_and_freed_on_forget() -> None:
     assert kept == {47, 48, 49}
     assert store.mask_png("find", 0, 0) is None
     assert store.approx_bytes() == 3 * (48 * 64 // 8)
-    store.forget("find")
+    store.retire("find")
     assert store.mask_refs("find") == []
 
 

@@ -110,6 +110,9 @@ class SceneGate:
         self.seed = value
         return changed
 
+    def reset(self) -> None:
+        self.seed = None
+
 
 def test_a_prewarm_entry_is_dropped_when_asked_on_a_frame_of_another_scene() -> None:
     cache = PrewarmCache(ttl_s=10.0)

@@ -33,7 +33,7 @@ from robot_stack_testing.mission_driver import (
     mailroom_stack,
     seed_memory,
 )
-from robot_stack_testing.stack import StackError, busy_ports, load_stack, stack_defaults
+from robot_stack_testing.stack import PortsBusyError, StackError
 
 ROOT = Path(__file__).resolve().parents[1]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
@@ -42,11 +42,6 @@ VAR_DIR = ROOT / "build" / "demo"
 
 def say(text: str) -> None:
     print(text, flush=True)
-
-
-def ports_in_use() -> list[tuple[str, int]]:
-    substitutions = {"python": sys.executable, "root": str(ROOT), "var": str(VAR_DIR)}
-    return busy_ports(load_stack(STACK_FILE, substitutions, stack_defaults(STACK_FILE)))
 
 
 async def drive(stack: RunningStack, timeout_s: float) -> MissionRecord:
@@ -79,11 +74,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    busy = ports_in_use()
-    if busy:
-        held = ", ".join(f"{port} ({name})" for name, port in busy)
-        say(f"demo: ports already in use on 127.0.0.1: {held}. Stop the other stack first.")
-        return 2
     shutil.rmtree(VAR_DIR, ignore_errors=True)
     say(
         f"demo: starting the stack of {STACK_FILE.relative_to(ROOT)} "
@@ -101,6 +91,9 @@ def main(argv: list[str] | None = None) -> int:
                 say(f"demo: stack left running, brain on {stack.brain_url} — Ctrl+C to stop")
                 while True:
                     time.sleep(3600)
+    except PortsBusyError as exc:
+        say(f"demo: {exc}. Stop the other stack first.")
+        return 2
     except (StackError, MissionNotStartedError, TimeoutError) as exc:
         say(f"demo: FAILED — {exc}")
         say(f"demo: service logs are in {VAR_DIR}")

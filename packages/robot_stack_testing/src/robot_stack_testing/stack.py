@@ -29,6 +29,16 @@ class StackError(RuntimeError):
     """A service did not become ready; the message carries the tail of its log."""
 
 
+class PortsBusyError(StackError):
+    """Something on 127.0.0.1 already holds ports the stack would listen on (another stack?);
+    starting anyway would make the readiness checks answer for the wrong processes."""
+
+    def __init__(self, busy: list[tuple[str, int]]) -> None:
+        self.busy = busy
+        held = ", ".join(f"{port} ({name})" for name, port in busy)
+        super().__init__(f"ports already in use on 127.0.0.1: {held}")
+
+
 @dataclass(frozen=True)
 class Readiness:
     tcp: int | None = None
@@ -46,7 +56,10 @@ class ServiceSpec:
 
 def stack_defaults(path: Path) -> dict[str, str]:
     """The file's ``defaults:`` placeholders (ports, frame folder, …), unexpanded."""
-    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    return _defaults(yaml.safe_load(path.read_text()))
+
+
+def _defaults(document: dict[str, Any]) -> dict[str, str]:
     return {str(k): str(v) for k, v in (document.get("defaults") or {}).items()}
 
 
@@ -68,13 +81,13 @@ def load_stack(
     """Parse the stack file, expanding ``{python}``, ``{root}``, ``{var}`` and the
     ``defaults:`` placeholders (each replaced by ``overrides`` when given there)."""
     document: dict[str, Any] = yaml.safe_load(path.read_text())
-    placeholders = dict(substitutions)
-    for name, value in (document.get("defaults") or {}).items():
-        raw = (overrides or {}).get(str(name), str(value))
-        placeholders[str(name)] = raw.format_map(substitutions)
-    unknown = set(overrides or {}) - set(placeholders)
+    defaults = _defaults(document)
+    unknown = set(overrides or {}) - set(defaults)
     if unknown:
         raise StackError(f"unknown stack placeholders: {sorted(unknown)}")
+    placeholders = dict(substitutions)
+    for name, value in defaults.items():
+        placeholders[name] = (overrides or {}).get(name, value).format_map(substitutions)
 
     def expand(value: object) -> str:
         return str(value).format_map(placeholders)
@@ -164,20 +177,27 @@ def local_stack(
     only: set[str] | None = None,
     overrides: Mapping[str, str] | None = None,
 ) -> Iterator[LocalStack]:
-    """Run the stack (or the services named in ``only``) until the block exits.
+    """Run the stack (or the services named in ``only``) until the block exits; refuses to
+    start (:class:`PortsBusyError`) when any of their ports is already held.
 
     The yielded :class:`LocalStack` maps service names to their processes and can stop and
     restart one of them (same argv and environment)."""
     var_dir.mkdir(parents=True, exist_ok=True)
     substitutions = {"python": sys.executable, "root": str(root), "var": str(var_dir)}
-    services = load_stack(
-        stack_file or root / "deploy" / "local-stack.yaml", substitutions, overrides
-    )
+    services = [
+        service
+        for service in load_stack(
+            stack_file or root / "deploy" / "local-stack.yaml", substitutions, overrides
+        )
+        if only is None or service.name in only
+    ]
+    busy = busy_ports(services)
+    if busy:
+        raise PortsBusyError(busy)
     stack = LocalStack(ProcessLauncher(var_dir), root, dict(env))
     try:
         for service in services:
-            if only is None or service.name in only:
-                stack.start(service)
+            stack.start(service)
         yield stack
     finally:
         stack.launcher.stop_all()

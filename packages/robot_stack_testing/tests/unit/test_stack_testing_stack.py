@@ -11,6 +11,7 @@ import pytest
 
 from robot_stack_testing import free_tcp_port
 from robot_stack_testing.stack import (
+    PortsBusyError,
     StackError,
     busy_ports,
     free_port_overrides,
@@ -162,6 +163,30 @@ def test_defaults_expand_and_can_be_overridden_per_run(stack_file: Path) -> None
 def test_an_unknown_override_is_refused_by_name(stack_file: Path) -> None:
     with pytest.raises(StackError, match="unknown stack placeholders: \\['wbe_port'\\]"):
         load_stack(stack_file, SUBSTITUTIONS, {"wbe_port": "1"})
+
+
+def test_the_runners_own_substitutions_cannot_be_overridden(stack_file: Path) -> None:
+    with pytest.raises(StackError, match="unknown stack placeholders: \\['python'\\]"):
+        load_stack(stack_file, SUBSTITUTIONS, {"python": "/other/python"})
+
+
+def test_a_stack_whose_port_is_held_refuses_to_start_and_starts_nothing(
+    stack_file: Path, tmp_path: Path
+) -> None:
+    port = free_tcp_port()
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", port))
+        holder.listen()
+        with (
+            pytest.raises(
+                PortsBusyError, match=f"ports already in use on 127.0.0.1: {port} \\(web\\)"
+            ),
+            local_stack(
+                tmp_path, tmp_path / "var", {}, stack_file, overrides={"web_port": str(port)}
+            ),
+        ):
+            pass
+    assert not (tmp_path / "var" / "web-0.log").exists()
 
 
 def test_free_port_overrides_cover_every_port_placeholder(stack_file: Path) -> None:

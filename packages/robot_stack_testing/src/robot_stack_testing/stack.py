@@ -7,7 +7,6 @@ a broken service fails fast with its log tail instead of a hang further down.
 
 from __future__ import annotations
 
-import socket
 import sys
 import urllib.error
 import urllib.parse
@@ -20,7 +19,7 @@ from typing import Any
 
 import yaml
 
-from robot_stack_testing.ports import wait_for_tcp_port
+from robot_stack_testing.ports import free_tcp_port, tcp_port_free, wait_for_tcp_port
 from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher
 from robot_stack_testing.waiting import wait_until
 
@@ -70,8 +69,6 @@ def port_placeholders(path: Path) -> list[str]:
 
 def free_port_overrides(path: Path) -> dict[str, str]:
     """A free loopback port for every ``*_port`` placeholder (tests run beside a live stack)."""
-    from robot_stack_testing.ports import free_tcp_port
-
     return {name: str(free_tcp_port()) for name in port_placeholders(path)}
 
 
@@ -125,15 +122,7 @@ def service_ports(services: list[ServiceSpec]) -> list[tuple[str, int]]:
 
 def busy_ports(services: list[ServiceSpec]) -> list[tuple[str, int]]:
     """The stack's ports that something on 127.0.0.1 already holds."""
-    busy = []
-    for name, port in service_ports(services):
-        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            try:
-                sock.bind(("127.0.0.1", port))
-            except OSError:
-                busy.append((name, port))
-    return busy
+    return [(name, port) for name, port in service_ports(services) if not tcp_port_free(port)]
 
 
 def http_ok(url: str) -> bool:

@@ -22,7 +22,7 @@ from typing import Any
 
 import httpx
 import socketio
-from mcp.client.session import ClientSession
+from mcp import Client
 from mcp.client.sse import sse_client
 
 from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
@@ -98,10 +98,8 @@ async def call_mcp(
     url: str, tool: str, arguments: Mapping[str, Any], timeout_s: float = 20.0
 ) -> Any:
     """One MCP tool call over SSE; the decoded JSON answer (``{"_error": ...}`` if it failed)."""
-    async with asyncio.timeout(timeout_s):
-        async with sse_client(url) as (read, write), ClientSession(read, write) as session:
-            await session.initialize()
-            result = await session.call_tool(tool, dict(arguments))
+    async with asyncio.timeout(timeout_s), Client(sse_client(url)) as client:
+        result = await client.call_tool(tool, dict(arguments))
     text = "".join(getattr(block, "text", "") for block in result.content)
     try:
         payload = json.loads(text)
@@ -227,7 +225,7 @@ class Narrator:
         self.started = time.monotonic()
         self._steps: dict[str, tuple[str, str]] = {}
         self._reported_at: dict[str, float] = {}
-        self._titles: list[str] = []
+        self._step_ids: list[str] = []
 
     def line(self, text: str) -> None:
         self.write(f"[{time.monotonic() - self.started:5.1f}s] {text}")
@@ -249,9 +247,9 @@ class Narrator:
 
     def _on_mission_plan(self, data: dict[str, Any]) -> None:
         steps = data.get("steps", [])
-        titles = [f"{s['id']}" for s in steps]
-        if titles != self._titles:
-            self._titles = titles
+        step_ids = [str(s["id"]) for s in steps]
+        if step_ids != self._step_ids:
+            self._step_ids = step_ids
             label = "plan" if not self._steps else "plan updated (replanned)"
             self.line(f"{label}:")
             for s in steps:
@@ -325,9 +323,12 @@ class MissionDriver:
         return bool(new)
 
     async def _narrate_findings(self, mission_id: str) -> None:
-        response = await self.http.get(f"/api/agent/missions/{mission_id}")
+        response = await self._snapshot(mission_id)
         if response.status_code == 200 and self.narrator is not None:
             self.narrator.findings(MissionRecord(snapshot=response.json()).findings())
+
+    async def _snapshot(self, mission_id: str | None) -> httpx.Response:
+        return await self.http.get(f"/api/agent/missions/{mission_id}")
 
     async def wait_servers_connected(self, timeout_s: float = 30.0) -> dict[str, str]:
         """Wait until the brain reports every MCP server connected (``/api/readyz``)."""
@@ -353,8 +354,7 @@ class MissionDriver:
         await async_wait_until(
             lambda: self.record.of("mission_finished"), timeout_s, "mission_finished", 0.05
         )
-        mission_id = self.record.mission_id
-        response = await self.http.get(f"/api/agent/missions/{mission_id}")
+        response = await self._snapshot(self.record.mission_id)
         response.raise_for_status()
         self.record.snapshot = response.json()
         return self.record

@@ -4,57 +4,83 @@ from __future__ import annotations
 
 import asyncio
 import re
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import structlog
 
-if TYPE_CHECKING:
-    from robot_voice_chat.agent.executor import MissionExecutor
+from robot_voice_chat.agent.dispatch import TaskDispatcher
+from robot_voice_chat.agent.output import MissionOutput
+from robot_voice_chat.agent.run import MissionRun
+from robot_voice_chat.agent.task_registry import TaskRegistry
+from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.services.speech.base import SpeechOutput
+from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 STOP_QUESTION = "Stopped. Should I continue or abort?"
 
 
-def is_stop(ex: MissionExecutor, text: str) -> bool:
-    words = re.findall(r"[^\W\d_]+", text.lower())
-    return any(word in ex.config.stop_words for word in words[:6])
+class BargeIn:
+    def __init__(
+        self,
+        *,
+        tools: ToolBackend,
+        registry: TaskRegistry,
+        trace: TraceRecorder,
+        config: AgentConfig,
+        speech: SpeechOutput,
+        output: MissionOutput,
+        dispatcher: TaskDispatcher,
+        current_run: Callable[[], MissionRun | None],
+    ) -> None:
+        self.tools = tools
+        self.registry = registry
+        self.trace = trace
+        self.config = config
+        self.speech = speech
+        self.output = output
+        self.dispatcher = dispatcher
+        self.current_run = current_run
 
+    def is_stop(self, text: str) -> bool:
+        words = re.findall(r"[^\W\d_]+", text.lower())
+        return any(word in self.config.stop_words for word in words[:6])
 
-async def safety_stop(ex: MissionExecutor, reason: str = "stop") -> None:
-    """(1) cancel motion tasks + safety_stop_tool, (2) interrupt speech, (3) pause,
-    (4) ask, (5) suspend until the user answers."""
-    run = ex.run
-    calls = []
-    cancelled = []
-    for server in ex.tools.servers().values():
-        if not server.motion:
-            continue
-        for handle in ex.registry.live(server=server.name):
-            cancelled.append(ex.registry.drop(handle.task_id) or handle)
-            calls.append(ex.cancel_task(server.name, handle.task_id))
-        if server.safety_stop_tool:
-            calls.append(_safety_tool(ex, f"{server.name}.{server.safety_stop_tool}"))
-    await asyncio.gather(*calls)
-    await ex.speech.interrupt()
-    logger.warning("safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled])
-    if run is None or not run.mission.active:
-        return
-    if run.llm_call is not None:
-        run.llm_call.cancel()
-    run.mission.state = "paused"
-    for handle in cancelled:
-        step = run.mission.step(handle.step_id)
-        if step is not None:
-            step.set_status("failed", "safety stop")
-    ex.trace.record(
-        run.mission.id, "safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled]
-    )
-    await ex.emit_plan(run)
-    await ex.say(run, STOP_QUESTION)
-    run.suspended = True
-    run.awaiting_user = True
+    async def safety_stop(self, reason: str = "stop") -> None:
+        """(1) cancel motion tasks + safety_stop_tool, (2) interrupt speech, (3) pause,
+        (4) ask, (5) suspend until the user answers."""
+        run = self.current_run()
+        calls = []
+        cancelled = []
+        for server in self.tools.servers().values():
+            if not server.motion:
+                continue
+            for handle in self.registry.live(server=server.name):
+                cancelled.append(self.registry.drop(handle.task_id) or handle)
+                calls.append(self.dispatcher.cancel_task(server.name, handle.task_id))
+            if server.safety_stop_tool:
+                calls.append(self._safety_tool(f"{server.name}.{server.safety_stop_tool}"))
+        await asyncio.gather(*calls)
+        await self.speech.interrupt()
+        logger.warning("safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled])
+        if run is None or not run.mission.active:
+            return
+        if run.llm_call is not None:
+            run.llm_call.cancel()
+        run.mission.state = "paused"
+        for handle in cancelled:
+            step = run.mission.step(handle.step_id)
+            if step is not None:
+                step.set_status("failed", "safety stop")
+        self.trace.record(
+            run.mission.id, "safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled]
+        )
+        await self.output.emit_plan(run)
+        await self.output.say(run, STOP_QUESTION)
+        run.suspended = True
+        run.awaiting_user = True
 
-
-async def _safety_tool(ex: MissionExecutor, tool: str) -> None:
-    outcome = await ex.tools.call_tool(tool, {}, ex.config.tool_timeout_s)
-    logger.info("safety_stop_tool_called", tool=tool, is_error=outcome.is_error)
+    async def _safety_tool(self, tool: str) -> None:
+        outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)
+        logger.info("safety_stop_tool_called", tool=tool, is_error=outcome.is_error)

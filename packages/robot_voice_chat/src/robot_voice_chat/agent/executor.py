@@ -4,17 +4,16 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections import deque
-from collections.abc import Coroutine
 from pathlib import Path
-from typing import Any
 
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
-from robot_voice_chat.agent import bargein, dispatch
+from robot_voice_chat.agent.bargein import BargeIn
+from robot_voice_chat.agent.dispatch import TaskDispatcher
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import Mission, MissionStore
+from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.plan_tools import DEFINITIONS, PlanTools, inject_step_id
 from robot_voice_chat.agent.prompt import load_prompt, system_prompt
 from robot_voice_chat.agent.run import (
@@ -39,7 +38,7 @@ from robot_voice_chat.services.llm.base import (
 from robot_voice_chat.services.speech.base import SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
-from robot_voice_chat.socket_events import MissionEventLine, MissionFinished, MissionStarted
+from robot_voice_chat.socket_events import MissionFinished, MissionStarted
 
 logger = structlog.get_logger(__name__)
 
@@ -73,11 +72,28 @@ class MissionExecutor:
         self.prompt_path = prompt_path
         self.store = store or MissionStore()
         self.registry = registry or TaskRegistry()
-        self.plan_tools = PlanTools(on_plan=self.emit_plan, on_say=self.say)
+        self.output = MissionOutput(emitter, speech, trace)
+        self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
         self.run: MissionRun | None = None
-        self._background: set[asyncio.Task[None]] = set()
-        # Events can overtake the tool result that names their task: keep them briefly.
-        self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
+        self.dispatcher = TaskDispatcher(
+            tools=tools,
+            registry=self.registry,
+            trace=trace,
+            config=config,
+            output=self.output,
+            plan_tools=self.plan_tools,
+            current_run=lambda: self.run,
+        )
+        self.bargein = BargeIn(
+            tools=tools,
+            registry=self.registry,
+            trace=trace,
+            config=config,
+            speech=speech,
+            output=self.output,
+            dispatcher=self.dispatcher,
+            current_run=lambda: self.run,
+        )
 
     @property
     def enabled(self) -> bool:
@@ -120,7 +136,7 @@ class MissionExecutor:
         if self.is_stop(text):
             await self.safety_stop(reason=f"user said {text!r}")
             return
-        await self.log_line(run, "user_turn", text)
+        await self.output.log_line(run, "user_turn", text)
         self.trace.record(run.mission.id, "user_turn", text=text)
         run.awaiting_user = False
         if run.mission.state == "paused":
@@ -277,21 +293,6 @@ class MissionExecutor:
     def planner_tools(self) -> list[ToolDefinition]:
         return DEFINITIONS + inject_step_id(self.tools.list_tools())
 
-    # --- UI helpers ---------------------------------------------------------------------
-    async def emit_plan(self, run: MissionRun) -> None:
-        snapshot = run.mission.snapshot()
-        self.trace.record(run.mission.id, "plan", plan=snapshot.model_dump(mode="json"))
-        await self.emitter.emit(snapshot)
-
-    async def say(self, run: MissionRun, text: str) -> None:
-        await self.log_line(run, "say", text)
-        await self.speech.say(text)
-
-    async def log_line(self, run: MissionRun, kind: str, text: str) -> None:
-        await self.emitter.emit(
-            MissionEventLine(mission_id=run.mission.id, kind=kind, text=text, ts=time.time())
-        )
-
     # --- finalization (§5.6) ----------------------------------------------------------------
     async def _finalize(self, run: MissionRun) -> None:
         mission = run.mission
@@ -310,7 +311,7 @@ class MissionExecutor:
         mission.state = outcome
         mission.summary = summary
         mission.ended_at = mission.created_at.now(mission.created_at.tzinfo)
-        await self.emit_plan(run)
+        await self.output.emit_plan(run)
         await self.emitter.emit(
             MissionFinished(mission_id=mission.id, outcome=outcome, summary=summary)
         )
@@ -341,29 +342,23 @@ class MissionExecutor:
             run.finished = run.finished or ("cancelled", "The app shut down.")
             run.task.cancel()
             await asyncio.wait({run.task}, timeout=timeout_s)
-        for task in list(self._background):
-            task.cancel()
-
-    def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
-        task = asyncio.create_task(coro)
-        self._background.add(task)
-        task.add_done_callback(self._background.discard)
+        self.dispatcher.shutdown()
 
     # --- delegates (dispatch.py / bargein.py) ---------------------------------------------
     async def execute(self, run: MissionRun, call: ToolCall) -> ToolResult:
-        return await dispatch.execute(self, run, call)
+        return await self.dispatcher.execute(run, call)
 
     async def on_task_event(self, event: TaskEvent) -> bool:
-        return await dispatch.on_task_event(self, event)
+        return await self.dispatcher.on_task_event(event)
 
     async def cancel_task(self, server: str, task_id: str) -> None:
-        await dispatch.cancel_task(self, server, task_id)
+        await self.dispatcher.cancel_task(server, task_id)
 
     async def reconcile(self, server: str) -> None:
-        await dispatch.reconcile(self, server)
+        await self.dispatcher.reconcile(server)
 
     def is_stop(self, text: str) -> bool:
-        return bargein.is_stop(self, text)
+        return self.bargein.is_stop(text)
 
     async def safety_stop(self, reason: str = "stop") -> None:
-        await bargein.safety_stop(self, reason)
+        await self.bargein.safety_stop(reason)

@@ -28,6 +28,7 @@ from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.mcp import McpToolBackend
 from robot_voice_chat.settings import CONFIG_DIR, AppConfig, resolve_path
+from robot_voice_chat.socket_origins import origin_policy
 
 logger = structlog.get_logger(__name__)
 
@@ -156,7 +157,7 @@ def assemble(
 
 def bootstrap(config: AppConfig) -> Container:
     sio = socketio.AsyncServer(
-        async_mode="asgi", cors_allowed_origins=config.api.cors_origins or []
+        async_mode="asgi", cors_allowed_origins=origin_policy(config.api.cors_origins)
     )
     emitter = SocketIOEventEmitter(sio)
     return assemble(config, build_adapters(config, emitter), emitter, sio)

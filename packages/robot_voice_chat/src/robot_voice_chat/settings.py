@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +80,18 @@ class ApiConfig(BaseModel):
     dedupe_size: int = Field(4096, gt=0)
     signature_tolerance_s: float = 300
     cors_origins: list[str] = Field(default_factory=list)
+
+    @field_validator("cors_origins")
+    @classmethod
+    def _exact_origins(cls, origins: list[str]) -> list[str]:
+        """Socket.IO allow-list beyond same-origin: exact ``scheme://host[:port]`` entries."""
+        for origin in origins:
+            if not re.fullmatch(r"https?://[^/\s*]+", origin):
+                raise ValueError(
+                    f"api.cors_origins entry {origin!r} must be an exact origin such as "
+                    "https://console.example.org (no wildcard, no path)"
+                )
+        return origins
 
 
 class ChatConfig(BaseModel):

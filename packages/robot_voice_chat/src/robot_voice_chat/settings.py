@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+from limits import parse
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
@@ -75,11 +76,21 @@ class ApiConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     event_rate_limit: str = "120/minute"
+    unsigned_rate_limit: str = "30/minute"
     default_rate_limit: str = "600/minute"
     max_event_body_bytes: int = Field(65536, gt=0)
     dedupe_size: int = Field(4096, gt=0)
     signature_tolerance_s: float = 300
     cors_origins: list[str] = Field(default_factory=list)
+
+    @field_validator("event_rate_limit", "unsigned_rate_limit", "default_rate_limit")
+    @classmethod
+    def _rate(cls, limit: str) -> str:
+        try:
+            parse(limit)
+        except ValueError as exc:
+            raise ValueError(f"rate limit {limit!r} is not like '120/minute'") from exc
+        return limit
 
     @field_validator("cors_origins")
     @classmethod

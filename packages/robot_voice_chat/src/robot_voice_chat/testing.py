@@ -20,6 +20,9 @@ from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
 
+NAV_SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # noqa: S105 - test fixture
+PERCEPTION_SECRET = "perception-event-secret-for-tests-0123456789"  # noqa: S105
+
 
 def task_info(task_id: str, est: float = 20.0) -> str:
     return json.dumps({"task_id": task_id, "state": "running", "est_duration_s": est})
@@ -41,12 +44,16 @@ def nav_servers() -> list[McpServerConfig]:
         McpServerConfig(
             name="navigation",
             url="http://127.0.0.1:9/sse",
-            event_secret=SecretStr("nav-secret"),
+            event_secret=SecretStr(NAV_SECRET),
             motion=True,
             safety_stop_tool="stop_navigation",
         ),
         McpServerConfig(name="memory", url="http://127.0.0.1:9/sse"),
-        McpServerConfig(name="perception", url="http://127.0.0.1:9/sse"),
+        McpServerConfig(
+            name="perception",
+            url="http://127.0.0.1:9/sse",
+            event_secret=SecretStr(PERCEPTION_SECRET),
+        ),
     ]
 
 

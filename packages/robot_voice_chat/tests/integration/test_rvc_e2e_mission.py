@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import secrets
 import sys
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -70,7 +71,7 @@ async def stack(
     launcher: ProcessLauncher, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> AsyncIterator[tuple[int, Any]]:
     app_port, nav_port, mem_port = free_tcp_port(), free_tcp_port(), free_tcp_port()
-    secret = "e2e-secret"
+    secret = secrets.token_hex(32)
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
     monkeypatch.setenv("NAV_EVENT_SECRET", secret)
     monkeypatch.setenv("RVC_NAVIGATION_URL", f"http://127.0.0.1:{nav_port}/sse")

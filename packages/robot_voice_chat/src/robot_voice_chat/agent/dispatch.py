@@ -147,7 +147,9 @@ class TaskDispatcher:
         early = [
             e
             for t, e in self.early_events
-            if e.task_id == handle.task_id and now - t < ORPHAN_GRACE_S
+            if e.task_id == handle.task_id
+            and e.server == handle.server
+            and now - t < ORPHAN_GRACE_S
         ]
         for event in sorted(early, key=lambda e: e.seq):
             await self.on_task_event(event)
@@ -156,6 +158,11 @@ class TaskDispatcher:
         """Reactions first, then step/UI updates and the planner inbox. False = orphan."""
         handle = self.registry.get(event.task_id)
         run = self.current_run()
+        if handle is not None and handle.server != event.server:
+            logger.warning(
+                "agent_event_rejected", reason="task_of_another_server", task_id=event.task_id
+            )
+            return False
         if handle is None or run is None or handle.mission_id != run.mission.id:
             logger.info(
                 "agent_event_orphan", task_id=event.task_id, server=event.server, type=event.type

@@ -344,6 +344,11 @@ class MissionExecutor:
             await asyncio.wait({run.task}, timeout=timeout_s)
         self.dispatcher.shutdown()
 
+    def task_server(self, task_id: str) -> str | None:
+        """The server that owns a live task (its events must come from there)."""
+        handle = self.registry.get(task_id)
+        return handle.server if handle is not None else None
+
     # --- delegates (dispatch.py / bargein.py) ---------------------------------------------
     async def execute(self, run: MissionRun, call: ToolCall) -> ToolResult:
         return await self.dispatcher.execute(run, call)

@@ -41,7 +41,7 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     app.add_middleware(RequestContextMiddleware)
     app.include_router(health.router)
     app.include_router(chat.router)
-    app.include_router(agent.build_router(limiter, container.config.api))
+    app.include_router(agent.build_router(container.config.api))
     return app
 
 

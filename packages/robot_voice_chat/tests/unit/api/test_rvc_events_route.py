@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import time
 from collections.abc import AsyncIterator
@@ -9,20 +10,25 @@ from pathlib import Path
 
 import httpx
 import pytest
+import structlog
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from pydantic import SecretStr, ValidationError
 
 from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import sign, signed_headers
+from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.main import main
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.settings import AppConfig
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing import NAV_SECRET, PERCEPTION_SECRET, make_harness
 
-SECRET = "nav-secret"
+SECRET = NAV_SECRET
 
 
 def app_config(tmp_path: Path, **api: object) -> AppConfig:
@@ -93,14 +99,17 @@ async def test_validly_signed_event_is_accepted_and_unknown_task_is_an_orphan(
         ("memory", SECRET, 0, "no_event_secret"),
     ],
 )
-async def test_bad_signatures_skew_unknown_and_secretless_servers_get_401(
+async def test_every_401_answers_alike_and_only_the_log_says_why(
     client: httpx.AsyncClient, server: str, secret: str, skew: int, reason: str
 ) -> None:
     raw = body(server=server)
     headers = signed_headers(server, secret, raw, now=time.time() - skew)
-    r = await post(client, raw, headers)
+    with structlog.testing.capture_logs() as logs:
+        r = await post(client, raw, headers)
     assert r.status_code == 401
-    assert r.json()["reason"] == reason
+    assert r.json() == {"status": "rejected", "reason": "unauthorized"}  # no name oracle
+    rejected = [e for e in logs if e["event"] == "agent_event_rejected"]
+    assert [(e["reason"], e["server"]) for e in rejected] == [(reason, server)]
 
 
 async def test_missing_or_duplicated_headers_get_401(client: httpx.AsyncClient) -> None:
@@ -137,7 +146,6 @@ async def test_event_for_a_live_task_reaches_the_executor(tmp_path: Path) -> Non
     container = container_for(tmp_path, planner)
     app = create_app(container, manage_lifecycle=False)
     mission = await container.executor.start("go to the lab")
-    from robot_stack_testing import async_wait_until
 
     await async_wait_until(lambda: container.executor.registry.get("nav-1") is not None, 5, "task")
     raw = body(type="task_done", seq=1, payload={"result": "arrived"})
@@ -258,3 +266,96 @@ async def test_chat_routes_answer_text_and_transcribed_audio(tmp_path: Path) -> 
         assert wrong.status_code == 415
         assert (await c.post("/api/chat", json={"text": ""})).status_code == 422
         assert (await c.post("/api/chat/stop")).json() == {"status": "stopped"}
+
+
+async def test_unsigned_floods_are_limited_per_address_and_spend_no_servers_budget(
+    tmp_path: Path,
+) -> None:
+    container = container_for(tmp_path, event_rate_limit="2/minute", unsigned_rate_limit="3/minute")
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        forged = []
+        for seq in range(5):
+            raw = body(seq=seq, event_id=f"forged{seq}")
+            forged.append(
+                (await post(c, raw, signed_headers("navigation", "guess", raw))).status_code
+            )
+        raw = body(event_id="real")
+        real = await post(c, raw, signed_headers("navigation", SECRET, raw))
+    assert forged == [401, 401, 401, 429, 429]
+    assert real.status_code == 200  # the forged flood named navigation but did not use its quota
+
+
+async def test_two_concurrent_copies_of_one_event_are_handled_once(tmp_path: Path) -> None:
+    container = container_for(tmp_path)
+    calls: list[str] = []
+    both_arrived = asyncio.Event()
+
+    async def slow_handler(event: TaskEvent) -> bool:
+        calls.append(event.event_id)
+        await asyncio.wait_for(both_arrived.wait(), 5)
+        return True
+
+    container.executor.on_task_event = slow_handler  # type: ignore[method-assign]
+    app = create_app(container, manage_lifecycle=False)
+    raw = body()
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        first = asyncio.create_task(post(c, raw, signed_headers("navigation", SECRET, raw)))
+        second = asyncio.create_task(post(c, raw, signed_headers("navigation", SECRET, raw)))
+        await asyncio.wait({first, second}, return_when=asyncio.FIRST_COMPLETED)
+        both_arrived.set()
+        answers = sorted([(await first).json()["status"], (await second).json()["status"]])
+    assert answers == ["accepted", "duplicate"]
+    assert len(calls) == 1
+
+
+async def test_a_failed_handling_releases_the_event_id_for_the_retry(tmp_path: Path) -> None:
+    container = container_for(tmp_path)
+    outcomes = iter([RuntimeError("boom"), True])
+
+    async def flaky(event: TaskEvent) -> bool:
+        outcome = next(outcomes)
+        if isinstance(outcome, Exception):
+            raise outcome
+        return outcome
+
+    container.executor.on_task_event = flaky  # type: ignore[method-assign]
+    app = create_app(container, manage_lifecycle=False)
+    raw = body()
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        assert (await post(c, raw, signed_headers("navigation", SECRET, raw))).status_code == 503
+        retry = await post(c, raw, signed_headers("navigation", SECRET, raw))
+    assert retry.json() == {"status": "accepted"}
+
+
+async def test_an_event_for_another_servers_task_is_refused(tmp_path: Path) -> None:
+    planner = FakeLLM(
+        [
+            reply("", ("navigation.navigate_to", {"location": "lab"})),
+            reply("", ("wait_for_events", {"reason": "x"})),
+        ]
+    )
+    container = container_for(tmp_path, planner)
+    app = create_app(container, manage_lifecycle=False)
+    await container.executor.start("go to the lab")
+    await async_wait_until(lambda: container.executor.registry.get("nav-1") is not None, 5, "task")
+    raw = body(
+        server="perception", type="task_failed", payload={"error_code": "X", "message": "forged"}
+    )
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        r = await post(c, raw, signed_headers("perception", PERCEPTION_SECRET, raw))
+    assert r.status_code == 400
+    assert r.json()["reason"] == "task_of_another_server"
+    assert container.executor.registry.get("nav-1") is not None  # still live, untouched
+    await container.executor.shutdown()
+
+
+def test_event_secrets_shorter_than_32_bytes_are_refused_at_startup(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    with pytest.raises(ValidationError, match="at least 32 are required"):
+        McpServerConfig(name="navigation", url="http://x", event_secret=SecretStr("short"))
+    secretless = McpServerConfig(name="memory", url="http://x", event_secret=SecretStr(""))
+    assert not secretless.can_post_events  # empty = cannot post, not an error
+    monkeypatch.setenv("NAV_EVENT_SECRET", "nav-secret")
+    assert main(["--port", "1"]) == 2

@@ -9,18 +9,23 @@ import structlog
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ValidationError
-from slowapi import Limiter
 
 from robot_mcp_kit.models import SCHEMA_VERSION, TaskEvent
 from robot_mcp_kit.signing import (
     HEADER_SERVER,
     HEADER_SIGNATURE,
     HEADER_TIMESTAMP,
-    SignatureError,
-    verify,
 )
 from robot_voice_chat.api.deps import ContainerDep
-from robot_voice_chat.api.ingress import BodyTooLargeError, DedupeLRU, read_limited, single_header
+from robot_voice_chat.api.ingress import (
+    BodyTooLargeError,
+    DedupeLRU,
+    RateLimit,
+    Unauthorized,
+    authenticate,
+    read_limited,
+    single_header,
+)
 from robot_voice_chat.settings import ApiConfig
 
 logger = structlog.get_logger(__name__)
@@ -31,50 +36,49 @@ class TeachingRequest(BaseModel):
 
 
 def _reject(status: int, reason: str, server: str | None) -> JSONResponse:
+    """401s all look alike to the client (no hint which server names exist); the log says why."""
     if status == 401:
         logger.warning("agent_event_rejected", reason=reason, server=server)
-    else:
-        logger.info("agent_event_invalid", status=status, reason=reason, server=server)
+        return JSONResponse({"status": "rejected", "reason": "unauthorized"}, status_code=401)
+    logger.info("agent_event_invalid", status=status, reason=reason, server=server)
     return JSONResponse({"status": "rejected", "reason": reason}, status_code=status)
 
 
-def server_key(request: Request) -> str:
-    return f"events:{single_header(request, HEADER_SERVER) or '?'}"
+def _rate_limited(scope: str, key: str) -> JSONResponse:
+    logger.warning("agent_event_rate_limited", scope=scope, key=key)
+    return JSONResponse({"status": "rate_limited"}, status_code=429, headers={"Retry-After": "60"})
 
 
-def build_router(limiter: Limiter, api: ApiConfig) -> APIRouter:
+def build_router(api: ApiConfig) -> APIRouter:
     router = APIRouter(prefix="/api/agent", tags=["agent"])
     seen = DedupeLRU(api.dedupe_size)
+    per_server = RateLimit(api.event_rate_limit)
+    per_client = RateLimit(api.unsigned_rate_limit)
 
     @router.post("/events", operation_id="post_task_event")
-    @limiter.limit(api.event_rate_limit, key_func=server_key)
     async def post_event(request: Request, container: ContainerDep) -> JSONResponse:
         server = single_header(request, HEADER_SERVER)
+        client = request.client.host if request.client else "?"
         try:
             body = await read_limited(request, api.max_event_body_bytes)
         except BodyTooLargeError:
             return _reject(413, "body_too_large", server)
-        if server is None:
-            return _reject(401, "malformed_header", None)
-        cfg = container.adapters.tools.servers().get(server)
-        if cfg is None:
-            return _reject(401, "unknown_server", server)
-        if not cfg.can_post_events or cfg.event_secret is None:
-            return _reject(401, "no_event_secret", server)
-        ts = single_header(request, HEADER_TIMESTAMP)
-        signature = single_header(request, HEADER_SIGNATURE)
-        if ts is None or signature is None:
-            return _reject(401, "malformed_header", server)
         try:
-            verify(
-                cfg.event_secret.get_secret_value(),
-                ts,
+            authenticate(
+                container.adapters.tools.servers(),
+                server,
+                single_header(request, HEADER_TIMESTAMP),
+                single_header(request, HEADER_SIGNATURE),
                 body,
-                signature,
-                tolerance_s=api.signature_tolerance_s,
+                api.signature_tolerance_s,
             )
-        except SignatureError as exc:
+        except Unauthorized as exc:
+            if not per_client.hit(client):  # floods of unsigned requests, per address
+                return _rate_limited("client", client)
             return _reject(401, exc.reason, server)
+        assert server is not None
+        if not per_server.hit(server):  # keyed by the verified server only
+            return _rate_limited("server", server)
         try:
             data = json.loads(body)
         except (ValueError, UnicodeDecodeError):
@@ -91,14 +95,17 @@ def build_router(limiter: Limiter, api: ApiConfig) -> APIRouter:
             return _reject(400, f"invalid_event:{fields}"[:200], server)
         if event.server != server:
             return _reject(400, "server_mismatch", server)
-        if event.event_id in seen:
+        owner = container.executor.task_server(event.task_id)
+        if owner is not None and owner != server:
+            return _reject(400, "task_of_another_server", server)
+        if not seen.reserve(event.event_id):
             return JSONResponse({"status": "duplicate"})
         try:
             handled = await container.executor.on_task_event(event)
-        except Exception:  # boundary: never 500; the poster retries (event not marked seen)
+        except Exception:  # boundary: never 500; the poster retries (reservation released)
+            seen.release(event.event_id)
             logger.exception("agent_event_handling_failed", event_id=event.event_id)
             return JSONResponse({"status": "retry"}, status_code=503)
-        seen.add(event.event_id)
         logger.info("agent_event_accepted", server=server, type=event.type, task_id=event.task_id)
         return JSONResponse({"status": "accepted" if handled else "orphan"})
 

@@ -6,13 +6,14 @@ import abc
 from collections.abc import Awaitable, Callable
 from typing import Literal
 
-from pydantic import BaseModel, Field, SecretStr
+from pydantic import BaseModel, Field, SecretStr, field_validator
 
 from robot_voice_chat.services.llm.base import ToolDefinition
 
 Transport = Literal["stdio", "sse", "streamable_http"]
 ConnectionState = Literal["connected", "disconnected", "connecting"]
 ServerListener = Callable[[str], Awaitable[None]]
+MIN_EVENT_SECRET_BYTES = 32
 
 
 class McpServerConfig(BaseModel):
@@ -27,6 +28,19 @@ class McpServerConfig(BaseModel):
     event_secret: SecretStr | None = None
     motion: bool = False
     safety_stop_tool: str | None = None
+
+    @field_validator("event_secret")
+    @classmethod
+    def _strong_secret(cls, secret: SecretStr | None) -> SecretStr | None:
+        """Empty = this server cannot post events; anything else must be >= 32 bytes."""
+        value = secret.get_secret_value() if secret is not None else ""
+        if value and len(value.encode()) < MIN_EVENT_SECRET_BYTES:
+            raise ValueError(
+                f"event_secret is {len(value.encode())} bytes; at least "
+                f"{MIN_EVENT_SECRET_BYTES} are required (python3 -c "
+                '"import secrets; print(secrets.token_hex(32))")'
+            )
+        return secret
 
     @property
     def can_post_events(self) -> bool:

@@ -112,6 +112,10 @@ class ChatConfig(BaseModel):
     max_tool_rounds: int = Field(4, ge=1)
     history_turns: int = Field(10, ge=0)
     turn_timeout_s: float = Field(60.0, gt=0)
+    # Tools of motion servers the fast path may call (they do not move the robot).
+    motion_read_tools: list[str] = Field(
+        default_factory=lambda: ["get_pose", "list_locations", "get_task", "list_tasks"]
+    )
 
 
 class AppConfig(BaseModel):

@@ -44,12 +44,15 @@ class BargeIn:
         self.current_run = current_run
 
     def is_stop(self, text: str) -> bool:
+        """A stop word anywhere in the utterance stops — negations included ("don't stop"):
+        a needless stop costs one question, a missed one costs a collision."""
         words = re.findall(r"[^\W\d_]+", text.lower())
-        return any(word in self.config.stop_words for word in words[:6])
+        return any(word in self.config.stop_words for word in words)
 
     async def safety_stop(self, reason: str = "stop") -> None:
-        """(1) cancel motion tasks + safety_stop_tool, (2) interrupt speech, (3) pause,
-        (4) ask, (5) suspend until the user answers."""
+        """(1) cancel motion tasks + safety_stop_tool, (2) interrupt speech, (2b) end watchers
+        and stop the vision skills the brain started, (3) pause, (4) ask, (5) suspend until
+        the user answers."""
         run = self.current_run()
         calls = []
         cancelled = []
@@ -63,7 +66,17 @@ class BargeIn:
                 calls.append(self._safety_tool(f"{server.name}.{server.safety_stop_tool}"))
         await asyncio.gather(*calls)
         await self.speech.interrupt()
-        logger.warning("safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled])
+        watchers = [h for h in self.registry.live() if h.skill_id is not None]
+        cancelled += watchers
+        await asyncio.gather(*(self.dispatcher.end_task(h) for h in watchers))
+        skills = self.dispatcher.skills.active()
+        await asyncio.gather(*(self.dispatcher.stop_skill(s) for s in skills))
+        logger.warning(
+            "safety_stop",
+            reason=reason,
+            cancelled=[h.task_id for h in cancelled],
+            skills_stopped=[s.skill_id for s in skills],
+        )
         if run is None or not run.mission.active:
             return
         if run.llm_call is not None:

@@ -16,6 +16,7 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
 from robot_voice_chat.agent.run import MissionRun
+from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.task_registry import (
     TaskHandle,
     TaskRegistry,
@@ -60,6 +61,7 @@ class TaskDispatcher:
         self.output = output
         self.plan_tools = plan_tools
         self.current_run = current_run
+        self.skills = SkillLedger()
         self._background: set[asyncio.Task[None]] = set()
         # Events can overtake the tool result that names their task: keep them briefly.
         self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
@@ -97,6 +99,7 @@ class TaskDispatcher:
         started = time.monotonic()
         outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
         duration_ms = round((time.monotonic() - started) * 1000, 1)
+        self.skills.note(call.name, args, outcome.text, outcome.is_error)
         self.trace.record(
             mission.id,
             "tool_result",
@@ -126,12 +129,19 @@ class TaskDispatcher:
         info: dict[str, Any],
     ) -> None:
         server, _, tool = dotted.partition(".")
+        # A watcher is started on skill_control but owned (events, cancel) by perception.
+        owner = info.get("server")
+        if not isinstance(owner, str) or owner not in self.tools.servers():
+            owner = server
+        skill_id = info.get("skill_id") if owner != server else None
         handle = TaskHandle(
             task_id=str(info["task_id"]),
-            server=server,
-            tool=tool,
+            server=owner,
+            tool=str(info.get("tool") or tool),
             step_id=step_id,
             mission_id=run.mission.id,
+            skill_id=skill_id if isinstance(skill_id, str) else None,
+            skill_server=server if isinstance(skill_id, str) else None,
         )
         self.registry.register(handle)
         step = run.mission.step(step_id)
@@ -140,9 +150,9 @@ class TaskDispatcher:
             eta = info.get("est_duration_s")
             step.detail = f"ETA {eta:.0f} s" if isinstance(eta, int | float) else "running"
             await self.output.emit_plan(run)
-        server_cfg = self.tools.servers().get(server)
+        server_cfg = self.tools.servers().get(owner)
         if run.mission.state == "paused" and server_cfg is not None and server_cfg.motion:
-            await self.cancel_task(server, handle.task_id)  # a stop came in while it started
+            await self.cancel_task(owner, handle.task_id)  # a stop came in while it started
         now = time.monotonic()
         early = [
             e
@@ -212,6 +222,7 @@ class TaskDispatcher:
 
     async def _fire(self, mission_id: str, tool: str, arguments: dict[str, Any]) -> None:
         outcome = await self.tools.call_tool(tool, arguments, self.config.tool_timeout_s)
+        self.skills.note(tool, arguments, outcome.text, outcome.is_error)
         self.trace.record(
             mission_id,
             "tool_result",
@@ -229,6 +240,26 @@ class TaskDispatcher:
         )
         logger.info(
             "task_cancel_requested", server=server, task_id=task_id, is_error=outcome.is_error
+        )
+
+    async def end_task(self, handle: TaskHandle) -> None:
+        """Retire a live task: cancel it on the server that owns it and, for a watcher,
+        stop its skill on the server that started it (no watcher outlives its mission)."""
+        self.registry.drop(handle.task_id)
+        await self.cancel_task(handle.server, handle.task_id)
+        if handle.skill_id is not None and handle.skill_server is not None:
+            await self.stop_skill(ActiveSkill(handle.skill_server, handle.skill_id))
+
+    async def stop_skill(self, skill: ActiveSkill) -> None:
+        outcome = await self.tools.call_tool(
+            skill.stop_tool, {"skill_id": skill.skill_id}, self.config.tool_timeout_s
+        )
+        self.skills.forget(skill.server, skill.skill_id)
+        logger.info(
+            "skill_stop_requested",
+            server=skill.server,
+            skill_id=skill.skill_id,
+            is_error=outcome.is_error,
         )
 
     async def reconcile(self, server: str) -> None:

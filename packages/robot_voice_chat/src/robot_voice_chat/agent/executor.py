@@ -22,6 +22,7 @@ from robot_voice_chat.agent.run import (
     MissionRun,
     MissionsDisabledError,
 )
+from robot_voice_chat.agent.skills import SkillLedger
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
@@ -298,8 +299,7 @@ class MissionExecutor:
         mission = run.mission
         outcome, summary = run.finished or ("failed", "The mission ended unexpectedly.")
         for handle in self.registry.live(mission.id):
-            self.registry.drop(handle.task_id)
-            await self.cancel_task(handle.server, handle.task_id)
+            await self.dispatcher.end_task(handle)
         for step in mission.steps:
             if step.status == "pending":
                 step.set_status("skipped", "never run")
@@ -343,6 +343,11 @@ class MissionExecutor:
             run.task.cancel()
             await asyncio.wait({run.task}, timeout=timeout_s)
         self.dispatcher.shutdown()
+
+    @property
+    def skills(self) -> SkillLedger:
+        """Vision skills started through the brain (mission or fast path) and still running."""
+        return self.dispatcher.skills
 
     def task_server(self, task_id: str) -> str | None:
         """The server that owns a live task (its events must come from there)."""

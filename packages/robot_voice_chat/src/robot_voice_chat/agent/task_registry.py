@@ -22,6 +22,8 @@ class TaskHandle:
     mission_id: str
     state: str = "running"
     last_progress: str = ""
+    skill_id: str | None = None  # a watcher's skill, stopped with the task
+    skill_server: str | None = None
 
     @property
     def label(self) -> str:

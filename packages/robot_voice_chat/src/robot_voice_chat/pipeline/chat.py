@@ -5,6 +5,7 @@ While a mission is active every turn is routed into the mission (§5.1).
 
 from __future__ import annotations
 
+import asyncio
 import time
 import uuid
 from collections.abc import AsyncIterator
@@ -32,7 +33,7 @@ from robot_voice_chat.settings import ChatConfig
 from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage
 
 logger = structlog.get_logger(__name__)
-Route = Literal["fast", "mission", "mission_started", "error"]
+Route = Literal["fast", "mission", "mission_started", "error", "stopped"]
 
 
 @dataclass
@@ -70,6 +71,7 @@ class ChatPipeline:
         self._speech = speech
         self._config = config
         self._history: list[Message] = []
+        self._fast_turns: set[asyncio.Task[TurnResult]] = set()
 
     async def handle_turn(self, text: str, turn_id: str | None = None) -> TurnResult:
         turn_id = turn_id or uuid.uuid4().hex[:8]
@@ -85,7 +87,11 @@ class ChatPipeline:
             return result
 
     async def stop(self) -> None:
-        """``stop_pipeline`` / stop_mission: safety stop (motion first), then quiet."""
+        """``stop_pipeline`` / stop_mission: end streaming replies, safety stop, then quiet."""
+        current = asyncio.current_task()
+        for turn in list(self._fast_turns):
+            if turn is not current:  # stop_mission called from inside a turn ends the rest
+                turn.cancel()
         if self._executor.active is not None:
             await self._executor.safety_stop(reason="stop_pipeline")
         else:
@@ -96,13 +102,32 @@ class ChatPipeline:
         if mission is not None:
             await self._executor.on_user_turn(text)
             return TurnResult(turn_id, "", "mission", mission.id)
+        turn = asyncio.create_task(self._fast_turn(text, turn_id), name=f"turn-{turn_id}")
+        self._fast_turns.add(turn)
         try:
-            return await self._fast_turn(text, turn_id)
+            return await turn
+        except asyncio.CancelledError:
+            task = asyncio.current_task()
+            if task is not None and task.cancelling():
+                raise  # our caller is cancelled, not the reply
+            await self._emitter.emit(
+                ChatMessage(turn_id=turn_id, role="assistant", text="Stopped.")
+            )
+            return TurnResult(turn_id, "", "stopped")
         except LLMError as exc:
             logger.warning("fast_path_failed", error=str(exc))
             message = f"Sorry, I can't answer right now: {exc}"
             await self._emitter.emit(ChatError(turn_id=turn_id, message=message))
             return TurnResult(turn_id, message, "error")
+        finally:
+            self._fast_turns.discard(turn)
+
+    def _fast_path_may_call(self, name: str) -> bool:
+        """Motion reaches the robot only through a mission (start_mission), so the fast path
+        sees a motion server's read-only tools alone (``chat.motion_read_tools``)."""
+        server, _, tool = name.partition(".")
+        cfg = self._tools.servers().get(server)
+        return cfg is None or not cfg.motion or tool in self._config.motion_read_tools
 
     async def _fast_turn(self, text: str, turn_id: str) -> TurnResult:
         keep = self._config.history_turns * 2
@@ -111,7 +136,9 @@ class ChatPipeline:
             *(self._history[-keep:] if keep else []),
             Message(role="user", content=text),
         ]
-        tools = FAST_LOCAL_TOOLS + self._tools.list_tools()
+        tools = FAST_LOCAL_TOOLS + [
+            t for t in self._tools.list_tools() if self._fast_path_may_call(t.name)
+        ]
         reply = ""
         for _ in range(self._config.max_tool_rounds):
             response = await self._stream_reply(messages, tools, turn_id)
@@ -157,7 +184,12 @@ class ChatPipeline:
         if call.name == "stop_mission":
             await self.stop()
             return ToolResult(tool_call_id=call.id, content="stopped"), None
+        if not self._fast_path_may_call(call.name):
+            logger.warning("fast_path_motion_refused", tool=call.name)
+            text = f"{call.name} moves the robot: call start_mission for physical tasks."
+            return ToolResult(tool_call_id=call.id, content=text, is_error=True), None
         outcome = await self._tools.call_tool(call.name, call.arguments)
+        self._executor.skills.note(call.name, call.arguments, outcome.text, outcome.is_error)
         return ToolResult(
             tool_call_id=call.id, content=outcome.text, is_error=outcome.is_error
         ), None

@@ -8,7 +8,7 @@ from pathlib import Path
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.bargein import STOP_QUESTION
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing import Harness, make_harness
 
 PLAN = reply(
     "",
@@ -47,9 +47,8 @@ async def test_stop_word_cancels_motion_calls_safety_tool_pauses_and_asks(tmp_pa
     assert mission.state == "paused"
     assert mission.steps[0].status == "failed"
     assert mission.steps[0].detail == "safety stop"
-    assert h.speech.spoken[-1] == STOP_QUESTION.split(". ")[0] + "." or STOP_QUESTION in " ".join(
-        h.speech.spoken
-    )
+    assert STOP_QUESTION == "Stopped. Should I continue or abort?"
+    assert h.speech.spoken[-2:] == ["Stopped.", "Should I continue or abort?"]
     await asyncio.sleep(0.05)
     assert len(planner.requests) == requests_before  # stays suspended while paused
 
@@ -103,3 +102,63 @@ def test_stop_words_match_whole_words_only(tmp_path: Path) -> None:
     assert h.executor.is_stop("please STOP")
     assert not h.executor.is_stop("the bus stopped here")
     assert not h.executor.is_stop("unstoppable")
+
+
+def test_a_stop_word_anywhere_in_a_long_utterance_stops(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    assert h.executor.is_stop("okay so the thing is that over there you should really stop")
+
+
+def test_negated_stop_words_still_stop_by_design(tmp_path: Path) -> None:
+    """README "Barge-in": a needless stop costs a question, a missed stop a collision."""
+    h = make_harness(tmp_path, FakeLLM([]))
+    assert h.executor.is_stop("don't stop")
+    assert h.executor.is_stop("no, do not halt yet")
+
+
+WATCHER = {
+    "skill_id": "watch_for",
+    "task_id": "watch-watch_for",
+    "state": "running",
+    "server": "perception",
+    "tool": "instantiate_skill",
+}
+
+
+def add_skill_tools(h: Harness) -> None:
+    skills = {"watch_for": WATCHER, "find_object": {"skill_id": "find_object", "mode": "x"}}
+    h.tools.add(
+        "skill_control.instantiate_skill",
+        lambda a: skills[a["template"]],
+        template="string",
+    )
+    h.tools.add("skill_control.stop_skill", lambda a: {"stopped": True}, skill_id="string")
+    h.tools.add("perception.cancel_task", lambda a: {"state": "cancelled"}, task_id="string")
+
+
+START_SKILLS = reply(
+    "",
+    ("skill_control.instantiate_skill", {"template": "watch_for"}),
+    ("skill_control.instantiate_skill", {"template": "find_object"}),
+)
+
+
+async def test_safety_stop_ends_watchers_and_stops_the_skills_the_brain_started(
+    tmp_path: Path,
+) -> None:
+    h = make_harness(tmp_path, FakeLLM([START_SKILLS, WAIT]))
+    add_skill_tools(h)
+    await h.executor.start("watch the door")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    assert h.executor.task_server("watch-watch_for") == "perception"
+
+    await h.executor.on_user_turn("stop")
+
+    assert h.tools.called("perception.cancel_task") == [{"task_id": "watch-watch_for"}]
+    assert sorted(a["skill_id"] for a in h.tools.called("skill_control.stop_skill")) == [
+        "find_object",
+        "watch_for",
+    ]
+    assert h.tools.called("skill_control.cancel_task") == []
+    assert h.executor.skills.active() == []
+    await h.executor.shutdown()

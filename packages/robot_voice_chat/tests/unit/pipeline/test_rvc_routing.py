@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
+from collections.abc import AsyncIterator
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.pipeline.chat import ChatPipeline
-from robot_voice_chat.services.llm.base import LLMError
+from robot_voice_chat.services.llm.base import LLMError, Message, StreamEvent, ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.settings import ChatConfig
 from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage, MissionStarted
@@ -76,8 +78,8 @@ async def test_a_second_mission_is_rejected_with_a_busy_message(tmp_path: Path) 
 
 async def test_fast_path_runs_mcp_tools_then_answers(tmp_path: Path) -> None:
     h = make_harness(tmp_path, FakeLLM([]))
-    h.tools.add("navigation.where_am_i", lambda a: {"location": "lobby"})
-    fast = FakeLLM([reply("", ("navigation.where_am_i", {})), reply("In the lobby.")])
+    h.tools.add("navigation.get_pose", lambda a: {"location": "lobby"})
+    fast = FakeLLM([reply("", ("navigation.get_pose", {})), reply("In the lobby.")])
     result = await pipeline_for(h, fast).handle_turn("where are you?")
     assert result.reply == "In the lobby."
     assert fast.requests[1][0][-1].tool_results[0].content == '{"location": "lobby"}'
@@ -97,3 +99,54 @@ async def test_stop_mission_tool_halts_motion(tmp_path: Path) -> None:
     fast = FakeLLM([reply("", ("stop_mission", {})), reply("Stopped.")])
     await pipeline_for(h, fast).handle_turn("stop moving")
     assert h.tools.called("navigation.stop_navigation") == [{}]
+
+
+async def test_the_fast_path_cannot_move_the_robot_outside_a_mission(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    fast = FakeLLM(
+        [reply("", ("navigation.navigate_to", {"location": "lab"})), reply("Use a mission.")]
+    )
+    await pipeline_for(h, fast).handle_turn("drive to the lab")
+    offered = {t.name for t in fast.requests[0][1]}
+    assert "navigation.navigate_to" not in offered
+    assert {"navigation.list_tasks", "perception.prewarm"} <= offered  # reads and non-motion
+    assert h.tools.called("navigation.navigate_to") == []
+    refusal = fast.requests[1][0][-1].tool_results[0]
+    assert refusal.is_error
+    assert "start_mission" in refusal.content
+
+
+class StreamingLLM(FakeLLM):
+    """Streams one sentence, then hangs until released (a long reply being spoken)."""
+
+    def __init__(self) -> None:
+        super().__init__([])
+        self.streaming = asyncio.Event()
+        self.release = asyncio.Event()
+
+    async def chat_stream(
+        self, messages: list[Message], tools: list[ToolDefinition] | None = None
+    ) -> AsyncIterator[StreamEvent]:
+        yield StreamEvent(delta="Once upon a time. ")
+        self.streaming.set()
+        await asyncio.wait_for(self.release.wait(), 10)
+        yield StreamEvent(delta="And then a dragon came. ")
+        yield StreamEvent(response=reply("Once upon a time. And then a dragon came."))
+
+
+async def test_a_safety_stop_cancels_a_streaming_fast_path_reply(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    fast = StreamingLLM()
+    pipeline = pipeline_for(h, fast)
+    turn = asyncio.create_task(pipeline.handle_turn("tell me a long story"))
+    await asyncio.wait_for(fast.streaming.wait(), 5)
+
+    await pipeline.stop()
+    result = await asyncio.wait_for(turn, 5)
+    fast.release.set()
+
+    assert result.route == "stopped"
+    assert h.speech.interrupts == 1
+    deltas = [e.text for e in h.emitter.events if isinstance(e, ChatDelta)]
+    assert deltas == ["Once upon a time. "]
+    assert "And then a dragon came." not in h.speech.spoken

@@ -20,6 +20,12 @@ def _loopback_only(address: Any) -> None:
 
 
 @pytest.fixture(autouse=True)
+def brain_state_in_tmp(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> None:
+    """The brain's data dir (mission archive, traces) is per test, never the user's."""
+    monkeypatch.setenv("RVC_DATA_DIR", str(tmp_path / "rvc-data"))
+
+
+@pytest.fixture(autouse=True)
 def no_real_model_calls(monkeypatch: pytest.MonkeyPatch) -> None:
     for key in ("ANTHROPIC_API_KEY", "OPENAI_API_KEY", "GROQ_API_KEY", "OPENAI_BASE_URL"):
         monkeypatch.delenv(key, raising=False)

@@ -15,6 +15,7 @@ from hydra.core.global_hydra import GlobalHydra
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
+from robot_voice_chat.agent.archive import SqliteMissionArchive
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import MissionStore
@@ -27,7 +28,7 @@ from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.mcp import McpToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AppConfig, resolve_path
+from robot_voice_chat.settings import CONFIG_DIR, AppConfig, resolve_path, state_path
 from robot_voice_chat.socket_origins import origin_policy
 
 logger = structlog.get_logger(__name__)
@@ -129,7 +130,9 @@ def assemble(
     config: AppConfig, adapters: Adapters, emitter: EventEmitter, sio: Any = None
 ) -> Container:
     """Wire the application layer on top of already-built adapters (tests pass fakes here)."""
-    trace = TraceRecorder(resolve_path(config.agent.trace_dir))
+    agent = config.agent
+    trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
+    archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
     teaching = Teaching(emitter, memory)
     executor = MissionExecutor(
@@ -143,6 +146,7 @@ def assemble(
         config=config.agent,
         prompt_path=resolve_path(config.agent.prompt_file),
         store=MissionStore(),
+        archive=archive,
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,

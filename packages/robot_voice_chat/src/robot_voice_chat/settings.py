@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
 
+import platformdirs
 from limits import parse
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -35,7 +37,10 @@ class AgentConfig(BaseModel):
     max_cost_usd: float | None = None
     wakeup_timeout_s: float = Field(60, gt=0)
     trace_retention_days: int = Field(30, ge=0)
-    trace_dir: str = "var/missions"
+    trace_dir: str = ""  # "" = <data_dir>/missions
+    # The brain's state directory: RVC_DATA_DIR, else the per-user data dir (platformdirs).
+    data_dir: str = Field(default_factory=lambda: os.environ.get("RVC_DATA_DIR", ""))
+    missions_db: str = ""  # "" = <data_dir>/missions.sqlite3
     stop_words: list[str] = Field(default_factory=lambda: ["stop", "halt", "stopp"])
     prompt_file: str = "config/agent_prompt.yaml"
     memory_server: str = "memory"
@@ -139,6 +144,17 @@ class AppConfig(BaseModel):
         if "_target_" not in group:
             raise ValueError("adapter config needs a _target_")
         return group
+
+
+def data_dir(agent: AgentConfig) -> Path:
+    if agent.data_dir:
+        return Path(agent.data_dir).expanduser()
+    return Path(platformdirs.user_data_dir("robot-voice-chat", appauthor=False))
+
+
+def state_path(agent: AgentConfig, configured: str, default_name: str) -> Path:
+    """A configured state path, else ``default_name`` in the data dir (never the CWD)."""
+    return resolve_path(configured) if configured else data_dir(agent) / default_name
 
 
 def resolve_path(path: str) -> Path:

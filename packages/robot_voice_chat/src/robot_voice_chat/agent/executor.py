@@ -9,6 +9,7 @@ from pathlib import Path
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
+from robot_voice_chat.agent.archive import MissionArchive
 from robot_voice_chat.agent.bargein import BargeIn
 from robot_voice_chat.agent.dispatch import TaskDispatcher
 from robot_voice_chat.agent.memory import MemoryClient
@@ -61,6 +62,7 @@ class MissionExecutor:
         prompt_path: Path,
         store: MissionStore | None = None,
         registry: TaskRegistry | None = None,
+        archive: MissionArchive | None = None,
     ) -> None:
         self.planner = planner
         self.tools = tools
@@ -73,7 +75,8 @@ class MissionExecutor:
         self.prompt_path = prompt_path
         self.store = store or MissionStore()
         self.registry = registry or TaskRegistry()
-        self.output = MissionOutput(emitter, speech, trace)
+        self.archive = archive
+        self.output = MissionOutput(emitter, speech, trace, archive)
         self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
         self.run: MissionRun | None = None
         self.dispatcher = TaskDispatcher(
@@ -115,6 +118,7 @@ class MissionExecutor:
             raise MissionBusyError(self.run.mission)
         mission = Mission.new(instruction, teaching=await self.teaching.take())
         self.store.add(mission)
+        await self.output.save(mission)
         run = MissionRun(mission=mission, prompt=prompt)
         self.run = run
         self.trace.record(
@@ -348,6 +352,19 @@ class MissionExecutor:
     def skills(self) -> SkillLedger:
         """Vision skills started through the brain (mission or fast path) and still running."""
         return self.dispatcher.skills
+
+    async def find_mission(self, mission_id: str) -> Mission | None:
+        """A mission of this process life, else one from the archive (earlier lives)."""
+        mission = self.store.get(mission_id)
+        if mission is None and self.archive is not None:
+            mission = await self.archive.load(mission_id)
+        return mission
+
+    async def recent_missions(self, limit: int) -> list[Mission]:
+        live = self.store.recent(limit)
+        ids = {m.id for m in live}
+        archived = await self.archive.recent(limit) if self.archive is not None else []
+        return (live + [m for m in archived if m.id not in ids])[:limit]
 
     def task_server(self, task_id: str) -> str | None:
         """The server that owns a live task (its events must come from there)."""

@@ -111,7 +111,7 @@ def build_router(api: ApiConfig) -> APIRouter:
 
     @router.get("/missions", operation_id="list_missions")
     async def list_missions(container: ContainerDep, limit: int = 20) -> dict[str, Any]:
-        live = [m.summary_row() for m in container.executor.store.recent(limit)]
+        live = [m.summary_row() for m in await container.executor.recent_missions(limit)]
         ids = {row["id"] for row in live}
         history = [r for r in container.trace.history(limit) if r["id"] not in ids]
         active = container.executor.active
@@ -122,20 +122,19 @@ def build_router(api: ApiConfig) -> APIRouter:
 
     @router.get("/missions/{mission_id}", operation_id="get_mission")
     async def get_mission(mission_id: str, container: ContainerDep) -> dict[str, Any]:
-        mission = container.executor.store.get(mission_id)
+        """The snapshot (as ``mission_plan``) and the log (as ``mission_event`` lines);
+        missions of earlier process lives come from the archive."""
+        executor = container.executor
+        mission = await executor.find_mission(mission_id)
         if mission is None:
             raise HTTPException(404, f"no mission {mission_id}")
-        events = await container.trace.read(mission_id)
+        events = await executor.archive.events(mission_id) if executor.archive else []
         return {
             **mission.snapshot().model_dump(mode="json"),
             "instruction": mission.instruction,
             "summary": mission.summary,
             "teaching": mission.teaching,
-            "events": [
-                e
-                for e in events
-                if e.get("kind") in ("task_event", "tool_result", "user_turn", "reaction")
-            ],
+            "events": [e.model_dump(mode="json") for e in events],
         }
 
     @router.get("/teaching", operation_id="get_teaching")

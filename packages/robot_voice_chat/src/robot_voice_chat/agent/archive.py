@@ -1,0 +1,153 @@
+"""Missions that outlive the process (issue 13 item 20): the snapshot of every mission and its
+event log in ``mission_event`` shape, in SQLite in the brain's data directory."""
+
+from __future__ import annotations
+
+import abc
+import asyncio
+import json
+import sqlite3
+from dataclasses import asdict, fields
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from robot_voice_chat.agent.mission import Mission, PlanStep
+from robot_voice_chat.socket_events import MissionEventLine
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS mission (
+    id TEXT PRIMARY KEY, created_at TEXT NOT NULL, body TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS mission_event (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT, mission_id TEXT NOT NULL, body TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS mission_event_by_mission ON mission_event (mission_id, seq);
+"""
+
+
+class MissionArchive(abc.ABC):
+    """Port: where finished and running missions are kept across restarts."""
+
+    @abc.abstractmethod
+    async def save(self, mission: Mission) -> None:
+        """Insert or replace the mission's snapshot."""
+
+    @abc.abstractmethod
+    async def append_event(self, line: MissionEventLine) -> None: ...
+
+    @abc.abstractmethod
+    async def load(self, mission_id: str) -> Mission | None: ...
+
+    @abc.abstractmethod
+    async def events(self, mission_id: str) -> list[MissionEventLine]: ...
+
+    @abc.abstractmethod
+    async def recent(self, limit: int) -> list[Mission]: ...
+
+
+class SqliteMissionArchive(MissionArchive):
+    """One file; every statement runs in a worker thread (never on the event loop)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._lock = asyncio.Lock()
+        self._ready = False
+
+    def _connect(self) -> sqlite3.Connection:
+        if not self._ready:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        db = sqlite3.connect(self.path, timeout=10)
+        if not self._ready:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.executescript(_SCHEMA)
+            self._ready = True
+        return db
+
+    async def _run(self, sql: str, args: tuple[Any, ...]) -> list[tuple[Any, ...]]:
+        def work() -> list[tuple[Any, ...]]:
+            db = self._connect()
+            try:
+                with db:
+                    return db.execute(sql, args).fetchall()
+            finally:
+                db.close()
+
+        async with self._lock:
+            return await asyncio.to_thread(work)
+
+    async def save(self, mission: Mission) -> None:
+        await self._run(
+            "INSERT OR REPLACE INTO mission (id, created_at, body) VALUES (?, ?, ?)",
+            (mission.id, mission.created_at.isoformat(), json.dumps(to_record(mission))),
+        )
+
+    async def append_event(self, line: MissionEventLine) -> None:
+        await self._run(
+            "INSERT INTO mission_event (mission_id, body) VALUES (?, ?)",
+            (line.mission_id, line.model_dump_json()),
+        )
+
+    async def load(self, mission_id: str) -> Mission | None:
+        rows = await self._run("SELECT body FROM mission WHERE id = ?", (mission_id,))
+        return from_record(json.loads(rows[0][0])) if rows else None
+
+    async def events(self, mission_id: str) -> list[MissionEventLine]:
+        rows = await self._run(
+            "SELECT body FROM mission_event WHERE mission_id = ? ORDER BY seq", (mission_id,)
+        )
+        return [MissionEventLine.model_validate_json(r[0]) for r in rows]
+
+    async def recent(self, limit: int) -> list[Mission]:
+        rows = await self._run(
+            "SELECT body FROM mission ORDER BY created_at DESC LIMIT ?", (limit,)
+        )
+        return [from_record(json.loads(r[0])) for r in rows]
+
+
+def _iso(value: datetime | None) -> str | None:
+    return value.isoformat() if value is not None else None
+
+
+def _dt(value: str | None) -> datetime | None:
+    return datetime.fromisoformat(value) if value else None
+
+
+def to_record(mission: Mission) -> dict[str, Any]:
+    data = asdict(mission)
+    data["created_at"] = _iso(mission.created_at)
+    data["ended_at"] = _iso(mission.ended_at)
+    data["steps"] = [
+        {**asdict(s), "started_at": _iso(s.started_at), "ended_at": _iso(s.ended_at)}
+        for s in mission.steps
+    ]
+    return data
+
+
+def _known(cls: type[Any], data: dict[str, Any]) -> dict[str, Any]:
+    """Fields this version knows (records written by another version still load)."""
+    names = {f.name for f in fields(cls)}
+    return {k: v for k, v in data.items() if k in names}
+
+
+def from_record(data: dict[str, Any]) -> Mission:
+    steps = [
+        PlanStep(
+            **{
+                **_known(PlanStep, s),
+                "started_at": _dt(s.get("started_at")),
+                "ended_at": _dt(s.get("ended_at")),
+            }
+        )
+        for s in data["steps"]
+    ]
+    created = _dt(data["created_at"])
+    assert created is not None
+    return Mission(
+        **{
+            **_known(Mission, data),
+            "steps": steps,
+            "created_at": created,
+            "ended_at": _dt(data.get("ended_at")),
+        }
+    )

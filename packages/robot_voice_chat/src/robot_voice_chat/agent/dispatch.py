@@ -233,6 +233,12 @@ class TaskDispatcher:
             reaction=True,
         )
         logger.info("reaction_dispatched", tool=tool, is_error=outcome.is_error)
+        run = self.current_run()
+        if outcome.is_error and run is not None and run.mission.id == mission_id:
+            # the planner must not believe a reaction did what it failed to do
+            line = f"[reaction] {tool} failed: {outcome.text[:300]}"
+            run.post(line)
+            await self.output.log_line(run, "reaction", line)
 
     async def cancel_task(self, server: str, task_id: str) -> None:
         outcome = await self.tools.call_tool(

@@ -10,6 +10,7 @@ import pytest
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.tools.base import ToolOutcome
 from robot_voice_chat.socket_events import MissionFinished, MissionPlan, MissionStarted
 from robot_voice_chat.testing import Harness, make_harness
 
@@ -249,4 +250,21 @@ async def test_second_start_is_rejected_while_a_mission_is_active(tmp_path: Path
     await h.executor.start("first")
     with pytest.raises(MissionBusyError):
         await h.executor.start("second")
+    await h.executor.shutdown()
+
+
+async def test_a_failed_reaction_call_is_reported_to_the_planner(tmp_path: Path) -> None:
+    planner = FakeLLM([PLAN, WAIT, WAIT, WAIT])
+    h = make_harness(tmp_path, planner)
+    h.tools.add("perception.prewarm", lambda a: ToolOutcome(text="error: offline", is_error=True))
+    await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    await h.executor.on_task_event(
+        event("trigger_fired", 1, eta_s=9.4, trigger={"type": "eta_below", "seconds": 10})
+    )
+    await async_wait_until(
+        lambda: "[reaction] perception.prewarm failed: error: offline" in conversation(h),
+        5,
+        "the planner hears that the reaction failed",
+    )
     await h.executor.shutdown()

@@ -25,7 +25,7 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import signed_headers
 from robot_stack_testing import free_tcp_port, wait_for_tcp_port
 
-SECRET = "nav-secret"
+SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # noqa: S105 - testing.NAV_SECRET
 RESULTS = Path(__file__).with_name("results")
 
 
@@ -43,7 +43,7 @@ def build_container(trace_dir: str) -> Any:
             "llm": {"_target_": "fake"},
             "speech_output": {"_target_": "fake"},
             "speech_input": {"_target_": "fake"},
-            "agent": {"trace_dir": trace_dir, "memory_server": ""},
+            "agent": {"trace_dir": trace_dir, "data_dir": trace_dir, "memory_server": ""},
             "api": {"event_rate_limit": "10000000/minute", "dedupe_size": 4096},
         }
     )

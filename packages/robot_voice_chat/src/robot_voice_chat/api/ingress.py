@@ -63,16 +63,21 @@ def authenticate(
     if server is None or ts is None or signature is None:
         raise Unauthorized("malformed_header")
     cfg = servers.get(server)
-    known = cfg is not None and cfg.can_post_events and cfg.event_secret is not None
-    secret = cfg.event_secret.get_secret_value() if known and cfg and cfg.event_secret else None
+    secret = cfg.event_secret if cfg is not None and cfg.can_post_events else None
     try:
-        verify(secret or _DUMMY_SECRET, ts, body, signature, tolerance_s=tolerance_s)
+        verify(
+            secret.get_secret_value() if secret is not None else _DUMMY_SECRET,
+            ts,
+            body,
+            signature,
+            tolerance_s=tolerance_s,
+        )
     except SignatureError as exc:
-        if known:
+        if secret is not None:
             raise Unauthorized(exc.reason) from exc
     if cfg is None:
         raise Unauthorized("unknown_server")
-    if not known:
+    if secret is None:
         raise Unauthorized("no_event_secret")
     return cfg
 

@@ -70,12 +70,15 @@ async def test_a_mission_and_its_log_are_served_after_a_restart(tmp_path: Path) 
         ("s1", "succeeded"),
         ("s2", "succeeded"),
     ]
-    lines = [MissionEventLine.model_validate(e) for e in snap["events"]]
+    lines = [MissionEventLine.model_validate(e) for e in snap["log"]]
     assert [(e.kind, e.text) for e in lines] == [
         ("tool_call", 'perception.prewarm({"query":"mug"})'),
         ("say", "I see a mug."),
     ]
     assert all(e.mission_id == mission.id for e in lines)
+    assert [e["tool"] for e in snap["events"] if e["kind"] == "tool_result"][1] == (
+        "perception.prewarm"
+    )  # the trace records survive too
     assert listing["missions"][0]["id"] == mission.id
     assert listing["missions"][0]["state"] == "succeeded"
 

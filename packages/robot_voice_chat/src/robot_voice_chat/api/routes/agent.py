@@ -122,19 +122,25 @@ def build_router(api: ApiConfig) -> APIRouter:
 
     @router.get("/missions/{mission_id}", operation_id="get_mission")
     async def get_mission(mission_id: str, container: ContainerDep) -> dict[str, Any]:
-        """The snapshot (as ``mission_plan``) and the log (as ``mission_event`` lines);
-        missions of earlier process lives come from the archive."""
+        """The snapshot (as ``mission_plan``), the log (``mission_event`` lines) and the trace
+        records of its tool results and events; earlier process lives come from the archive."""
         executor = container.executor
         mission = await executor.find_mission(mission_id)
         if mission is None:
             raise HTTPException(404, f"no mission {mission_id}")
-        events = await executor.archive.events(mission_id) if executor.archive else []
+        log = await executor.archive.events(mission_id) if executor.archive else []
+        events = await container.trace.read(mission_id)
         return {
             **mission.snapshot().model_dump(mode="json"),
             "instruction": mission.instruction,
             "summary": mission.summary,
             "teaching": mission.teaching,
-            "events": [e.model_dump(mode="json") for e in events],
+            "log": [line.model_dump(mode="json") for line in log],
+            "events": [
+                e
+                for e in events
+                if e.get("kind") in ("task_event", "tool_result", "user_turn", "reaction")
+            ],
         }
 
     @router.get("/teaching", operation_id="get_teaching")

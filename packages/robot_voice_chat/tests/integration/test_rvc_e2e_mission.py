@@ -117,7 +117,7 @@ async def test_mailroom_mission_runs_end_to_end_over_real_processes(
             states = (await http.get("/api/readyz")).json()["data"]["mcp_servers"]
             return bool(states["navigation"] == states["memory"] == "connected")
 
-        await async_wait_until(all_connected, 30, "both MCP servers adopted", interval_s=0.2)
+        await async_wait_until(all_connected, 90, "both MCP servers adopted", interval_s=0.2)
         sio = await SocketClient.connect(port)
         try:
             await sio.emit("send_message", {"text": "hello"})

@@ -67,32 +67,40 @@ class BargeIn:
         await asyncio.gather(*calls)
         await self.speech.interrupt()
         watchers = [h for h in self.registry.live() if h.skill_id is not None]
+        watched = {(h.skill_server, h.skill_id) for h in watchers}
+        skills = [
+            s for s in self.dispatcher.skills.active() if (s.server, s.skill_id) not in watched
+        ]
+        active = run is not None and run.mission.active
+        if run is not None and active:
+            # pause before any further await, so the loop cannot start another planner step
+            if run.llm_call is not None:
+                run.llm_call.cancel()
+            run.mission.state = "paused"
+            run.suspended = True
+            run.awaiting_user = True
+            for handle in cancelled + watchers:
+                step = run.mission.step(handle.step_id)
+                if step is not None:
+                    step.set_status("failed", "safety stop")
+        await asyncio.gather(
+            *(self.dispatcher.end_task(h) for h in watchers),
+            *(self.dispatcher.stop_skill(s) for s in skills),
+        )
         cancelled += watchers
-        await asyncio.gather(*(self.dispatcher.end_task(h) for h in watchers))
-        skills = self.dispatcher.skills.active()
-        await asyncio.gather(*(self.dispatcher.stop_skill(s) for s in skills))
         logger.warning(
             "safety_stop",
             reason=reason,
             cancelled=[h.task_id for h in cancelled],
-            skills_stopped=[s.skill_id for s in skills],
+            skills_stopped=[s.skill_id for s in skills] + [h.skill_id for h in watchers],
         )
-        if run is None or not run.mission.active:
+        if run is None or not active:
             return
-        if run.llm_call is not None:
-            run.llm_call.cancel()
-        run.mission.state = "paused"
-        for handle in cancelled:
-            step = run.mission.step(handle.step_id)
-            if step is not None:
-                step.set_status("failed", "safety stop")
         self.trace.record(
             run.mission.id, "safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled]
         )
         await self.output.emit_plan(run)
         await self.output.say(run, STOP_QUESTION)
-        run.suspended = True
-        run.awaiting_user = True
 
     async def _safety_tool(self, tool: str) -> None:
         outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)

@@ -162,3 +162,31 @@ async def test_safety_stop_ends_watchers_and_stops_the_skills_the_brain_started(
     assert h.tools.called("skill_control.cancel_task") == []
     assert h.executor.skills.active() == []
     await h.executor.shutdown()
+
+
+async def test_the_mission_is_paused_before_slow_skill_stops_finish(tmp_path: Path) -> None:
+    planner = FakeLLM([START_SKILLS, WAIT])
+    h = make_harness(tmp_path, planner)
+    add_skill_tools(h)
+    release = asyncio.Event()
+    stopping = asyncio.Event()
+
+    async def slow_stop(args: dict[str, object]) -> dict[str, bool]:
+        stopping.set()
+        await asyncio.wait_for(release.wait(), 5)
+        return {"stopped": True}
+
+    h.tools.add("skill_control.stop_skill", slow_stop, skill_id="string")
+    mission = await h.executor.start("watch the door")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    requests_before = len(planner.requests)
+
+    stop = asyncio.create_task(h.executor.on_user_turn("stop"))
+    await asyncio.wait_for(stopping.wait(), 5)
+    assert mission.state == "paused"  # already, while the skills are still stopping
+    assert h.executor.run is not None
+    assert h.executor.run.awaiting_user
+    release.set()
+    await asyncio.wait_for(stop, 5)
+    assert len(planner.requests) == requests_before
+    await h.executor.shutdown()

@@ -25,7 +25,7 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import signed_headers
 from robot_stack_testing import free_tcp_port, wait_for_tcp_port
 
-SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # noqa: S105 - testing.NAV_SECRET
+SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # = robot_voice_chat.testing.NAV_SECRET
 RESULTS = Path(__file__).with_name("results")
 
 

@@ -177,7 +177,7 @@ async def test_request_shape_and_tool_translation_both_ways(
         {
             "type": "tool_use",
             "id": "tu_1",
-            "name": "navigation.navigate_to",
+            "name": "navigation__navigate_to",
             "input": {"location": "mailroom"},
         }
     ]

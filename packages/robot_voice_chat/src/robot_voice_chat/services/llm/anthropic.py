@@ -24,10 +24,18 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     Usage,
 )
+from robot_voice_chat.services.llm.tool_names import ToolNames
 
 
-def to_anthropic_messages(messages: list[Message]) -> list[dict[str, Any]]:
-    """App messages → Anthropic ``messages`` (system excluded; same-role runs merged)."""
+def to_anthropic_messages(
+    messages: list[Message], names: ToolNames | None = None
+) -> list[dict[str, Any]]:
+    """App messages → Anthropic ``messages`` (system excluded; same-role runs merged).
+
+    Assistant turns the model produced go back verbatim (``provider_blocks``: thinking
+    blocks unchanged, tool names as the model sent them); other tool names are encoded.
+    """
+    names = names or ToolNames()
     out: list[dict[str, Any]] = []
     for m in messages:
         if m.role == "system":
@@ -39,7 +47,7 @@ def to_anthropic_messages(messages: list[Message]) -> list[dict[str, Any]]:
             if m.content:
                 blocks.append({"type": "text", "text": m.content})
             blocks += [
-                {"type": "tool_use", "id": c.id, "name": c.name, "input": c.arguments}
+                {"type": "tool_use", "id": c.id, "name": names.wire(c.name), "input": c.arguments}
                 for c in m.tool_calls
             ]
         else:
@@ -76,10 +84,11 @@ def _block_param(block: Any) -> dict[str, Any] | None:
     return None
 
 
-def from_anthropic(message: Any) -> LLMResponse:
+def from_anthropic(message: Any, names: ToolNames | None = None) -> LLMResponse:
+    names = names or ToolNames()
     text = "".join(b.text for b in message.content if b.type == "text")
     calls = [
-        ToolCall(id=b.id, name=b.name, arguments=dict(b.input or {}))
+        ToolCall(id=b.id, name=names.app(b.name), arguments=dict(b.input or {}))
         for b in message.content
         if b.type == "tool_use"
     ]
@@ -97,6 +106,14 @@ def from_anthropic(message: Any) -> LLMResponse:
         ),
         provider_blocks=blocks,
     )
+
+
+def tool_names(tools: list[ToolDefinition] | None) -> ToolNames:
+    """The request's name map; a collision is a clear :class:`LLMError` before any call."""
+    try:
+        return ToolNames(t.name for t in tools or [])
+    except ValueError as exc:
+        raise LLMError(f"tool names: {exc}") from exc
 
 
 class AnthropicLLM(LLMProvider):
@@ -126,12 +143,16 @@ class AnthropicLLM(LLMProvider):
         )
 
     def request(
-        self, messages: list[Message], tools: list[ToolDefinition] | None
+        self,
+        messages: list[Message],
+        tools: list[ToolDefinition] | None,
+        names: ToolNames | None = None,
     ) -> dict[str, Any]:
+        names = names if names is not None else tool_names(tools)
         params: dict[str, Any] = {
             "model": self.model,
             "max_tokens": self.max_tokens,
-            "messages": to_anthropic_messages(messages),
+            "messages": to_anthropic_messages(messages, names),
             "thinking": {"type": "adaptive"},
             "output_config": {"effort": self.effort},
         }
@@ -142,7 +163,11 @@ class AnthropicLLM(LLMProvider):
             ]
         if tools:
             params["tools"] = [
-                {"name": t.name, "description": t.description, "input_schema": t.parameters}
+                {
+                    "name": names.wire(t.name),
+                    "description": t.description,
+                    "input_schema": t.parameters,
+                }
                 for t in tools
             ]
         return params
@@ -150,23 +175,27 @@ class AnthropicLLM(LLMProvider):
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:
+        names = tool_names(tools)
         try:
-            message = await self._client.messages.create(**self.request(messages, tools))
+            message = await self._client.messages.create(**self.request(messages, tools, names))
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        return from_anthropic(message)
+        return from_anthropic(message, names)
 
     async def chat_stream(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> AsyncIterator[StreamEvent]:
+        names = tool_names(tools)
         try:
-            async with self._client.messages.stream(**self.request(messages, tools)) as stream:
+            async with self._client.messages.stream(
+                **self.request(messages, tools, names)
+            ) as stream:
                 async for text in stream.text_stream:
                     yield StreamEvent(delta=text)
                 final = await stream.get_final_message()
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        yield StreamEvent(response=from_anthropic(final))
+        yield StreamEvent(response=from_anthropic(final, names))
 
     async def aclose(self) -> None:
         await self._client.close()

@@ -27,5 +27,7 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "llm": container.adapters.llm.name,
             "planner": container.adapters.planner.name if container.adapters.planner else None,
             "deployment": container.config.deployment,
+            # these servers' events are refused (401) until they get a secret
+            "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
         },
     }

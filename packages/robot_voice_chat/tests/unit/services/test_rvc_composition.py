@@ -20,7 +20,9 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path))
     monkeypatch.setenv("RVC_NAVIGATION_URL", "http://127.0.0.1:9/sse")
     config = compose_config("dev")
-    assert config.llm["_target_"].endswith("ReplayLLM")
+    assert config.llm["_target_"].endswith("RulesChat")
+    assert config.llm_planner is not None
+    assert config.llm_planner["_target_"].endswith("RulesPlanner")
     assert config.tools.servers[0].motion
     assert config.tools.servers[0].safety_stop_tool == "stop_navigation"
     container = bootstrap(config)
@@ -40,7 +42,7 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
         ready = (await c.get("/api/readyz")).json()
         assert ready["data"]["missions_enabled"] is True
         greeting = (await c.post("/api/chat", json={"text": "hello"})).json()
-        assert "recorded" in greeting["reply"]
+        assert "offline voice" in greeting["reply"]
 
 
 def test_robot_deployment_refuses_a_configured_planner_without_its_key(

@@ -25,7 +25,7 @@ KEYS = {
     "PERCEPTION_EVENT_SECRET": "dummy-perception-secret",
     "SKILL_CONTROL_EVENT_SECRET": "dummy-skill-secret",
 }
-PLANNERS = {"dev": "rules", "robot": "anthropic", "test": "replay"}
+PLANNERS = {"dev": "rules", "robot": "chain[anthropic,rules]", "test": "replay"}
 
 
 def base_env(tmp_path: Path, deployment: str) -> dict[str, str]:

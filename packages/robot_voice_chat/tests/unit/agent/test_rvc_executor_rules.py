@@ -4,62 +4,11 @@ same executor, registry, reactions and trace, driven by typed commands over a si
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.executor import MissionExecutor
-from robot_voice_chat.agent.memory import MemoryClient
-from robot_voice_chat.agent.mission import Mission
-from robot_voice_chat.agent.teaching import Teaching
-from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.services.emitter.base import FakeEventEmitter
-from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.speech.fake import FakeSpeechOutput
-from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
 from robot_voice_chat.socket_events import MissionPlan
-from robot_voice_chat.testing import nav_servers
-from robot_voice_chat.testing_office import OfficeWorld
-
-
-@dataclass
-class Office:
-    executor: MissionExecutor
-    world: OfficeWorld
-    tools: FakeToolBackend
-    emitter: FakeEventEmitter
-    speech: FakeSpeechOutput
-    trace: TraceRecorder
-
-    async def run(self, instruction: str, timeout_s: float = 10.0) -> Mission:
-        mission = await self.executor.start(instruction)
-        await self.executor.wait_idle(timeout_s)
-        return mission
-
-    def statuses(self, mission: Mission) -> dict[str, str]:
-        return {s.id: s.status for s in mission.steps}
-
-
-def office(tmp_path: Path, drive_s: float = 0.05, **agent: object) -> Office:
-    tools = FakeToolBackend(nav_servers())
-    world = OfficeWorld(tools, drive_s=drive_s)
-    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
-    trace = TraceRecorder(tmp_path / "missions")
-    memory = MemoryClient(tools, "")
-    executor = MissionExecutor(
-        planner=RulesPlanner(),
-        tools=tools,
-        emitter=emitter,
-        speech=speech,
-        memory=memory,
-        trace=trace,
-        teaching=Teaching(emitter, memory),
-        config=AgentConfig(memory_server="", **agent),  # type: ignore[arg-type]
-        prompt_path=CONFIG_DIR / "agent_prompt.yaml",
-    )
-    world.deliver = executor.on_task_event
-    return Office(executor, world, tools, emitter, speech, trace)
+from robot_voice_chat.testing_office import office
 
 
 async def test_go_to_a_place_by_name_resolved_through_list_locations(tmp_path: Path) -> None:

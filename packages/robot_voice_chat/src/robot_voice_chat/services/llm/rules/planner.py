@@ -57,9 +57,14 @@ def _instruction(messages: list[Message]) -> Message | None:
 
 
 def _observe(session: _Session, new: list[Message]) -> Observation:
-    answers = {r.tool_call_id: r for m in new if m.role == "user" for r in m.tool_results}
+    """What came back since our last answer: the results of our calls (by id, or in order
+    when a gateway renamed the ids), the event and user lines, a paused-mission reply."""
+    returned = [r for m in new if m.role == "user" for r in m.tool_results]
+    by_id = {r.tool_call_id: r for r in returned}
+    if session.pending and not any(c.id in by_id for c in session.pending):
+        by_id = {c.id: r for c, r in zip(session.pending, returned, strict=False)}
     results = [
-        answers.get(c.id)
+        by_id.get(c.id)
         or ToolResult(tool_call_id=c.id, content="no result came back", is_error=True)
         for c in session.pending
     ]

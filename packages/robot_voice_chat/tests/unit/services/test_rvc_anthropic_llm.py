@@ -88,7 +88,8 @@ async def test_request_shape_and_tool_translation_both_ways(
             {"type": "tool_use", "name": "navigation__navigate_to", "input": {"location": "x"}},
         ]
     )
-    response = await llm(url, clients).chat(CONVERSATION, TOOLS)
+    prices = {"input": 5.0, "output": 25.0, "cache_read": 0.5, "cache_write": 6.25}
+    response = await llm(url, clients, prices=prices).chat(CONVERSATION, TOOLS)
 
     assert not fake.rejections
     sent = fake.requests[0]
@@ -124,6 +125,11 @@ async def test_request_shape_and_tool_translation_both_ways(
     assert response.text == "Planning."
     assert response.usage.input_tokens > 0
     assert response.usage.cache_write_tokens > 0
+    usage = response.usage
+    expected = (
+        usage.input_tokens * 5 + usage.output_tokens * 25 + usage.cache_write_tokens * 6.25
+    ) / 1e6
+    assert usage.cost_usd == round(expected, 8)
     # the signed thinking block goes back verbatim on the next step: the strict API checks it
     answered = Message(role="user", tool_results=[ToolResult(tool_call_id=call.id, content="ok")])
     again = await llm(url, clients).chat([*CONVERSATION, response.as_message(), answered], TOOLS)

@@ -124,6 +124,7 @@ def build_router(limiter: Limiter, api: ApiConfig) -> APIRouter:
             "instruction": mission.instruction,
             "summary": mission.summary,
             "teaching": mission.teaching,
+            "usage": mission.usage.model_dump(),
             "events": [
                 e
                 for e in events

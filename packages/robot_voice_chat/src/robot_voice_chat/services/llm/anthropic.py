@@ -24,6 +24,7 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     Usage,
 )
+from robot_voice_chat.services.llm.pricing import Prices, priced
 from robot_voice_chat.services.llm.tool_names import ToolNames
 
 
@@ -84,7 +85,9 @@ def _block_param(block: Any) -> dict[str, Any] | None:
     return None
 
 
-def from_anthropic(message: Any, names: ToolNames | None = None) -> LLMResponse:
+def from_anthropic(
+    message: Any, names: ToolNames | None = None, prices: Prices | None = None
+) -> LLMResponse:
     names = names or ToolNames()
     text = "".join(b.text for b in message.content if b.type == "text")
     calls = [
@@ -98,11 +101,14 @@ def from_anthropic(message: Any, names: ToolNames | None = None) -> LLMResponse:
         text=text,
         tool_calls=calls,
         stop_reason=message.stop_reason or "end_turn",
-        usage=Usage(
-            input_tokens=usage.input_tokens or 0,
-            output_tokens=usage.output_tokens or 0,
-            cache_read_tokens=getattr(usage, "cache_read_input_tokens", None) or 0,
-            cache_write_tokens=getattr(usage, "cache_creation_input_tokens", None) or 0,
+        usage=priced(
+            Usage(
+                input_tokens=usage.input_tokens or 0,
+                output_tokens=usage.output_tokens or 0,
+                cache_read_tokens=getattr(usage, "cache_read_input_tokens", None) or 0,
+                cache_write_tokens=getattr(usage, "cache_creation_input_tokens", None) or 0,
+            ),
+            prices,
         ),
         provider_blocks=blocks,
     )
@@ -128,10 +134,12 @@ class AnthropicLLM(LLMProvider):
         request_timeout_s: float = 120.0,
         max_retries: int = 2,
         base_url: str | None = None,
+        prices: dict[str, float] | None = None,
     ) -> None:
         key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
         if not key.get_secret_value():
             raise ValueError("ANTHROPIC_API_KEY is empty but the anthropic adapter is selected")
+        self.prices = Prices.parse(prices)
         self.model = model
         self.max_tokens = max_tokens
         self.effort = effort
@@ -180,7 +188,7 @@ class AnthropicLLM(LLMProvider):
             message = await self._client.messages.create(**self.request(messages, tools, names))
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        return from_anthropic(message, names)
+        return from_anthropic(message, names, self.prices)
 
     async def chat_stream(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
@@ -195,7 +203,7 @@ class AnthropicLLM(LLMProvider):
                 final = await stream.get_final_message()
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        yield StreamEvent(response=from_anthropic(final, names))
+        yield StreamEvent(response=from_anthropic(final, names, self.prices))
 
     async def aclose(self) -> None:
         await self._client.close()

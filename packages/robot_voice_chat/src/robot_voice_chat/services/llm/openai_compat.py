@@ -23,7 +23,21 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     Usage,
 )
+from robot_voice_chat.services.llm.pricing import Prices, priced
 from robot_voice_chat.services.llm.tool_names import ToolNames
+
+
+def openai_usage(usage: Any) -> Usage:
+    """prompt_tokens include the cached ones (prompt_tokens_details.cached_tokens)."""
+    if usage is None:
+        return Usage()
+    details = getattr(usage, "prompt_tokens_details", None)
+    cached = (getattr(details, "cached_tokens", None) or 0) if details is not None else 0
+    return Usage(
+        input_tokens=(usage.prompt_tokens or 0) - cached,
+        output_tokens=usage.completion_tokens or 0,
+        cache_read_tokens=cached,
+    )
 
 
 def tool_names(tools: list[ToolDefinition] | None) -> ToolNames:
@@ -85,7 +99,9 @@ class OpenAICompatLLM(LLMProvider):
         request_timeout_s: float = 30.0,
         max_retries: int = 2,
         require_key: bool = True,
+        prices: dict[str, float] | None = None,
     ) -> None:
+        self.prices = Prices.parse(prices)
         key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
         if require_key and not key.get_secret_value():
             raise ValueError(f"the API key for {base_url} is empty but this adapter is selected")
@@ -149,10 +165,7 @@ class OpenAICompatLLM(LLMProvider):
             text=choice.message.content or "",
             tool_calls=calls,
             stop_reason="tool_use" if calls else (choice.finish_reason or "stop"),
-            usage=Usage(
-                input_tokens=usage.prompt_tokens if usage else 0,
-                output_tokens=usage.completion_tokens if usage else 0,
-            ),
+            usage=priced(openai_usage(usage), self.prices),
         )
 
     async def chat_stream(

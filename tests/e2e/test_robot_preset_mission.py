@@ -26,7 +26,7 @@ from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.testing_models import anthropic_responder, openai_responder
 
-pytestmark = [pytest.mark.ros, pytest.mark.slow]
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"

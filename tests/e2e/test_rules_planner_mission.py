@@ -29,7 +29,7 @@ from robot_stack_testing.mission_driver import (
 )
 from robot_stack_testing.stack import free_port_overrides
 
-pytestmark = [pytest.mark.ros, pytest.mark.slow]
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"

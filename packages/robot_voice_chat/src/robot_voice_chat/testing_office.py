@@ -55,6 +55,7 @@ class OfficeWorld:
         self.driving: asyncio.Task[None] | None = None
         self._ids = itertools.count(1)
         self._background: set[asyncio.Task[None]] = set()
+        self.last_query = ""
         nav = {
             "navigate_to": (self.navigate_to, {"location": "string", "triggers": "array"}),
             "list_locations": (self.list_locations, {}),

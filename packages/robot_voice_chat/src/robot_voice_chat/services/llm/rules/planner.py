@@ -43,7 +43,6 @@ PAUSED_MARK = "mission is paused"
 
 @dataclass
 class _Session:
-    anchor: Message
     program: Program
     seen: int
     pending: list[ToolCall] = field(default_factory=list)
@@ -130,9 +129,7 @@ class RulesPlanner(LLMProvider):
         logger.info("rules_planner_mission", understood=command.describe(), resumed=resumed)
         program = MissionProgram(command, tools, self.settings, resumed=resumed).run()
         self._serial += 1
-        session = _Session(
-            anchor=instruction, program=program, seen=len(messages), serial=self._serial
-        )
+        session = _Session(program=program, seen=len(messages), serial=self._serial)
         self._sessions[key] = session
         while len(self._sessions) > self._max_sessions:
             self._sessions.popitem(last=False)

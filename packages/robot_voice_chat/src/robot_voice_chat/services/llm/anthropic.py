@@ -145,7 +145,7 @@ class AnthropicLLM(LLMProvider):
         self.effort = effort
         self._client = anthropic.AsyncAnthropic(
             api_key=key.get_secret_value(),
-            base_url=base_url,
+            base_url=base_url or None,  # "" from an empty env var = the default endpoint
             timeout=request_timeout_s,
             max_retries=max_retries,
         )

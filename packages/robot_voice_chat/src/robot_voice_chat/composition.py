@@ -5,6 +5,8 @@ This is the only module that constructs adapters (``_target_`` per adapter YAML)
 
 from __future__ import annotations
 
+import importlib
+import inspect
 from dataclasses import dataclass
 from typing import Any
 
@@ -12,8 +14,11 @@ import socketio
 import structlog
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
+from hydra.errors import HydraException
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+from pydantic import ValidationError
 
 from robot_voice_chat.agent.archive import SqliteMissionArchive
 from robot_voice_chat.agent.executor import MissionExecutor
@@ -38,13 +43,50 @@ class ConfigError(RuntimeError):
     """The composed configuration cannot run (bad values, missing required key)."""
 
 
+def one_line(text: str) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
 def compose_config(deployment: str = "dev", overrides: list[str] | None = None) -> AppConfig:
+    """Compose + validate; any bad preset, override or value is one :class:`ConfigError`."""
     GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base=None):
-        cfg = compose("config", overrides=[f"deployment={deployment}", *(overrides or [])])
-    data = OmegaConf.to_container(cfg, resolve=True)
-    assert isinstance(data, dict)
-    return AppConfig.model_validate({**data, "deployment": deployment})
+    try:
+        with initialize_config_dir(config_dir=str(CONFIG_DIR), version_base=None):
+            cfg = compose("config", overrides=[f"deployment={deployment}", *(overrides or [])])
+        data = OmegaConf.to_container(cfg, resolve=True)
+        assert isinstance(data, dict)
+        return AppConfig.model_validate({**data, "deployment": deployment})
+    except (HydraException, OmegaConfBaseException, ValidationError) as exc:
+        raise ConfigError(f"configuration ({deployment}): {one_line(str(exc))}") from exc
+
+
+def _reason(exc: BaseException) -> str:
+    """The one line a person needs: the missing package, or the adapter's own message."""
+    chain: list[BaseException] = []
+    current: BaseException | None = exc
+    while current is not None and current not in chain:
+        chain.append(current)
+        current = current.__cause__ or current.__context__
+    missing = next((e for e in chain if isinstance(e, ModuleNotFoundError) and e.name), None)
+    if isinstance(missing, ModuleNotFoundError):
+        return (
+            f"the Python package {missing.name!r} is not installed; install it "
+            "(uv sync --all-packages --inexact, or pip install it into this environment)"
+        )
+    own = next((e for e in chain if isinstance(e, ValueError | ImportError)), exc)
+    return one_line(str(own))
+
+
+def build_adapter(group: str, cfg: dict[str, Any], **wiring: Any) -> Any:
+    """Instantiate one adapter; ``wiring`` goes only to adapters that take it (e.g. the
+    emitter for browser speech). Failure = one :class:`ConfigError` line, never a traceback."""
+    target = str(cfg.get("_target_"))
+    try:
+        module, _, name = target.rpartition(".")
+        accepted = inspect.signature(getattr(importlib.import_module(module), name)).parameters
+        return instantiate(cfg, **{k: v for k, v in wiring.items() if k in accepted})
+    except Exception as exc:
+        raise ConfigError(f"cannot build {group} ({target}): {_reason(exc)}") from exc
 
 
 @dataclass
@@ -57,12 +99,7 @@ class Adapters:
 
 
 def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
-    try:
-        llm = instantiate(config.llm)
-    except Exception as exc:
-        raise ConfigError(
-            f"cannot build the fast-path LLM ({config.llm['_target_']}): {exc}"
-        ) from exc
+    llm = build_adapter("llm", config.llm)
     planner = _build_planner(config)
     tools = McpToolBackend(
         config.tools.servers,
@@ -76,22 +113,18 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         llm=llm,
         planner=planner,
         tools=tools,
-        speech_output=instantiate(config.speech_output, emitter=emitter),
-        speech_input=instantiate(config.speech_input),
+        speech_output=build_adapter("speech_output", config.speech_output, emitter=emitter),
+        speech_input=build_adapter("speech_input", config.speech_input),
     )
 
 
 def _build_planner(config: AppConfig) -> LLMProvider | None:
-    """Lazy and failure-tolerant (§7): without a key, missions are disabled, the app stays up."""
+    """A configured planner must build: a missing key or package refuses the start (exit 2).
+    Deployments without keys select the rules planner (ARCHITECTURE §6); ``agent.enabled:
+    false`` runs chat only."""
     if not config.agent.enabled or config.llm_planner is None:
         return None
-    try:
-        planner: LLMProvider = instantiate(config.llm_planner)
-    except Exception as exc:
-        logger.warning(
-            "planner_disabled", target=config.llm_planner.get("_target_"), error=str(exc)
-        )
-        return None
+    planner: LLMProvider = build_adapter("llm_planner", config.llm_planner)
     return planner
 
 

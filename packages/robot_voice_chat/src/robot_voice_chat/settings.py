@@ -9,7 +9,7 @@ from typing import Any
 
 import platformdirs
 from limits import parse
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from robot_voice_chat.services.tools.base import McpServerConfig
@@ -26,6 +26,7 @@ class EnvSettings(BaseSettings):
     deployment: str = "dev"
     log_format: str = "json"
     log_level: str = "INFO"
+    config_overrides: str = ""  # RVC_CONFIG_OVERRIDES: space-separated Hydra overrides
 
 
 class AgentConfig(BaseModel):
@@ -62,6 +63,26 @@ class McpToolsConfig(BaseModel):
     connect_timeout_s: float = Field(10.0, gt=0)
     reconnect_interval_s: float = Field(30.0, gt=0)
     health_interval_s: float = Field(15.0, gt=0)
+    # A robot refuses to start while a server that posts events has no secret (its events
+    # would all be rejected with 401): every entry with an event_secret key must have a value.
+    require_event_secrets: bool = False
+
+    @model_validator(mode="after")
+    def _secrets_present(self) -> McpToolsConfig:
+        if self.require_event_secrets:
+            missing = [
+                s.name for s in self.servers if s.event_secret is not None and not s.can_post_events
+            ]
+            if missing:
+                raise ValueError(
+                    f"servers without an event secret: {', '.join(missing)}; set the "
+                    "variables their event_secret names in config/tools/mcp.yaml "
+                    "(e.g. NAV_EVENT_SECRET) in .env"
+                )
+        return self
+
+    def servers_without_event_secret(self) -> list[str]:
+        return [s.name for s in self.servers if not s.can_post_events]
 
     @field_validator("servers")
     @classmethod

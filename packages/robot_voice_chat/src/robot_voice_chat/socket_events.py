@@ -57,6 +57,8 @@ class MissionFinished(SocketEvent):
     mission_id: str
     outcome: MissionState
     summary: str
+    # planner totals: input/output/cache tokens and cost_usd (null when no price is known)
+    usage: dict[str, float | None] | None = None
 
 
 class TeachingState(SocketEvent):

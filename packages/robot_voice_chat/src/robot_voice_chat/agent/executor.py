@@ -216,7 +216,10 @@ class MissionExecutor:
                 await asyncio.wait_for(run.wakeup.wait(), timeout)
             except TimeoutError:
                 self._check_wall_clock(run)
-                if run.mission.state != "paused":
+                # a task still reporting progress needs no planner call: keep waiting
+                if run.mission.state != "paused" and not self.registry.progressed(
+                    run.mission.id, within_s=timeout
+                ):
                     snapshot = self.registry.snapshot(run.mission.id)
                     run.inbox.append(
                         f"[timeout] still waiting after {timeout:g} s; tasks: {snapshot}"
@@ -268,7 +271,9 @@ class MissionExecutor:
             tool_calls=[c.model_dump() for c in response.tool_calls],
             text=response.text,
             duration_ms=duration_ms,
+            usage=response.usage.model_dump(),
         )
+        run.mission.usage = run.mission.usage + response.usage
         if response.usage.cost_usd is not None:
             run.cost_usd += response.usage.cost_usd
             if self.config.max_cost_usd is not None and run.cost_usd > self.config.max_cost_usd:
@@ -317,7 +322,12 @@ class MissionExecutor:
         mission.ended_at = mission.created_at.now(mission.created_at.tzinfo)
         await self.output.emit_plan(run)
         await self.emitter.emit(
-            MissionFinished(mission_id=mission.id, outcome=outcome, summary=summary)
+            MissionFinished(
+                mission_id=mission.id,
+                outcome=outcome,
+                summary=summary,
+                usage=mission.usage.model_dump(),
+            )
         )
         logger.info("mission_finished", outcome=outcome, summary=summary, steps=run.llm_steps)
         if summary:
@@ -325,7 +335,12 @@ class MissionExecutor:
         for process_id in mission.used_process_ids:
             await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
         self.trace.record(
-            mission.id, "final", outcome=outcome, summary=summary, llm_steps=run.llm_steps
+            mission.id,
+            "final",
+            outcome=outcome,
+            summary=summary,
+            llm_steps=run.llm_steps,
+            usage=mission.usage.model_dump(),
         )
         await self.trace.flush()
         if self.run is run:

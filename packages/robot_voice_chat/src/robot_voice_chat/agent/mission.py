@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal
 
+from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.socket_events import MissionPlan, StepView
 
 MissionState = Literal["planning", "running", "paused", "succeeded", "failed", "cancelled"]
@@ -51,6 +52,7 @@ class Mission:
     teaching: bool = False
     used_process_ids: list[str] = field(default_factory=list)
     ended_at: datetime | None = None
+    usage: Usage = field(default_factory=Usage)  # planner token + cost totals
 
     @classmethod
     def new(cls, instruction: str, teaching: bool = False) -> Mission:
@@ -98,6 +100,7 @@ class Mission:
             "started": self.created_at.isoformat(),
             "ended": self.ended_at.isoformat() if self.ended_at else None,
             "steps": counts,
+            "usage": self.usage.model_dump(),
         }
 
 

@@ -24,6 +24,7 @@ class TaskHandle:
     last_progress: str = ""
     skill_id: str | None = None  # a watcher's skill, stopped with the task
     skill_server: str | None = None
+    last_progress_at: float = 0.0  # monotonic time of the latest progress event
 
     @property
     def label(self) -> str:
@@ -125,6 +126,7 @@ class TaskRegistry:
             return None
         if event.type == "progress":
             handle.last_progress = progress_detail(event.payload)
+            handle.last_progress_at = time.monotonic()
         elif event.type in TERMINAL_EVENTS:
             handle.state = "succeeded" if event.type == "task_done" else "failed"
             del self._handles[event.task_id]
@@ -137,6 +139,11 @@ class TaskRegistry:
             if (mission_id is None or h.mission_id == mission_id)
             and (server is None or h.server == server)
         ]
+
+    def progressed(self, mission_id: str, within_s: float) -> bool:
+        """Did a live task of the mission report progress in the last ``within_s``?"""
+        since = time.monotonic() - within_s
+        return any(h.last_progress_at >= since for h in self.live(mission_id))
 
     def drop(self, task_id: str) -> TaskHandle | None:
         return self._handles.pop(task_id, None)

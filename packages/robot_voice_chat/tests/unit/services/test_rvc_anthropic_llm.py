@@ -1,21 +1,16 @@
-"""AnthropicLLM through the real ``anthropic`` SDK against a local fake Messages API (§7)."""
+"""AnthropicLLM through the real ``anthropic`` SDK against the strict local Messages API
+(robot_stack_testing.fake_anthropic): every request the adapter sends must pass the checks
+the real API makes (§7)."""
 
 from __future__ import annotations
 
-import asyncio
-import json
-from collections.abc import AsyncIterator
-from dataclasses import dataclass, field
+from collections.abc import AsyncIterator, Iterator
 from typing import Any
 
 import pytest
-import uvicorn
-from starlette.applications import Starlette
-from starlette.requests import Request
-from starlette.responses import JSONResponse, Response, StreamingResponse
-from starlette.routing import Route
 
-from robot_stack_testing import async_wait_until
+from robot_stack_testing.fake_anthropic import FakeAnthropicApi
+from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_voice_chat.services.llm.anthropic import AnthropicLLM
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -25,79 +20,25 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 
-
-@dataclass
-class FakeMessagesApi:
-    """Scripted answers: dicts are JSON messages, ints are error statuses, 'sse' streams,
-    'hang' never answers (timeouts)."""
-
-    script: list[Any] = field(default_factory=list)
-    requests: list[dict[str, Any]] = field(default_factory=list)
-
-    async def messages(self, request: Request) -> Response:
-        self.requests.append(json.loads(await request.body()))
-        item = self.script.pop(0)
-        if item == "hang":
-            await asyncio.sleep(1.5)
-        if isinstance(item, int):
-            return JSONResponse(
-                {"type": "error", "error": {"type": "overloaded_error", "message": "busy"}},
-                status_code=item,
-            )
-        if item == "sse":
-            return StreamingResponse(_sse(), media_type="text/event-stream")
-        return JSONResponse(item)
+Blocks = list[dict[str, Any]]
 
 
-def message(content: list[dict[str, Any]], stop: str = "end_turn") -> dict[str, Any]:
-    return {
-        "id": "msg_1",
-        "type": "message",
-        "role": "assistant",
-        "model": "claude-opus-4-8",
-        "content": content,
-        "stop_reason": stop,
-        "stop_sequence": None,
-        "usage": {"input_tokens": 10, "output_tokens": 5, "cache_read_input_tokens": 7},
-    }
+class Script:
+    """Answers in order (content blocks without ids)."""
 
+    def __init__(self) -> None:
+        self.answers: list[Blocks] = []
 
-def _delta(text: str) -> dict[str, Any]:
-    delta = {"type": "text_delta", "text": text}
-    return {"type": "content_block_delta", "index": 0, "delta": delta}
-
-
-async def _sse() -> AsyncIterator[bytes]:
-    start = message([])
-    start["usage"] = {"input_tokens": 3, "output_tokens": 0}
-    block = {"type": "text", "text": ""}
-    end = {"stop_reason": "end_turn", "stop_sequence": None}
-    events = [
-        {"type": "message_start", "message": start},
-        {"type": "content_block_start", "index": 0, "content_block": block},
-        _delta("Hello "),
-        _delta("there."),
-        {"type": "content_block_stop", "index": 0},
-        {"type": "message_delta", "delta": end, "usage": {"output_tokens": 2}},
-        {"type": "message_stop"},
-    ]
-    for data in events:
-        kind: Any = data["type"]  # type: ignore[index]
-        yield f"event: {kind}\ndata: {json.dumps(data)}\n\n".encode()
+    def __call__(self, body: dict[str, Any]) -> Blocks:
+        return self.answers.pop(0) if self.answers else [{"type": "text", "text": "ok"}]
 
 
 @pytest.fixture
-async def api(tcp_port: int) -> AsyncIterator[tuple[FakeMessagesApi, str]]:
-    fake = FakeMessagesApi()
-    app = Starlette(routes=[Route("/v1/messages", fake.messages, methods=["POST"])])
-    server = uvicorn.Server(
-        uvicorn.Config(app, host="127.0.0.1", port=tcp_port, log_level="warning", lifespan="off")
-    )
-    task = asyncio.create_task(server.serve())
-    await async_wait_until(lambda: server.started, 10, "fake API serving")
-    yield fake, f"http://127.0.0.1:{tcp_port}"
-    server.should_exit = True
-    await asyncio.wait_for(task, 10)
+def api() -> Iterator[tuple[FakeAnthropicApi, Script, str]]:
+    script = Script()
+    fake = FakeAnthropicApi(script)
+    with serve_in_thread(fake.app()) as url:
+        yield fake, script, url
 
 
 @pytest.fixture
@@ -132,26 +73,25 @@ CONVERSATION = [
 TOOLS = [
     ToolDefinition(
         name="set_plan", description="plan", parameters={"type": "object", "properties": {}}
-    )
+    ),
+    ToolDefinition(name="navigation.navigate_to", description="drive"),
 ]
 
 
 async def test_request_shape_and_tool_translation_both_ways(
-    api: tuple[FakeMessagesApi, str], clients: list[AnthropicLLM]
+    api: tuple[FakeAnthropicApi, Script, str], clients: list[AnthropicLLM]
 ) -> None:
-    fake, url = api
-    fake.script.append(
-        message(
-            [
-                {"type": "thinking", "thinking": "plan first", "signature": "sig"},
-                {"type": "text", "text": "Planning."},
-                {"type": "tool_use", "id": "tu_2", "name": "set_plan", "input": {"steps": []}},
-            ],
-            stop="tool_use",
-        )
+    fake, script, url = api
+    script.answers.append(
+        [
+            {"type": "text", "text": "Planning."},
+            {"type": "tool_use", "name": "navigation__navigate_to", "input": {"location": "x"}},
+        ]
     )
-    response = await llm(url, clients).chat(CONVERSATION, TOOLS)
+    prices = {"input": 5.0, "output": 25.0, "cache_read": 0.5, "cache_write": 6.25}
+    response = await llm(url, clients, prices=prices).chat(CONVERSATION, TOOLS)
 
+    assert not fake.rejections
     sent = fake.requests[0]
     assert sent["model"] == "claude-opus-4-8"
     assert sent["max_tokens"] == 16000
@@ -165,49 +105,54 @@ async def test_request_shape_and_tool_translation_both_ways(
             "cache_control": {"type": "ephemeral"},
         }
     ]
-    assert sent["tools"] == [
-        {
-            "name": "set_plan",
-            "description": "plan",
-            "input_schema": {"type": "object", "properties": {}},
-        }
-    ]
+    assert [t["name"] for t in sent["tools"]] == ["set_plan", "navigation__navigate_to"]
     assert [m["role"] for m in sent["messages"]] == ["user", "assistant", "user"]
-    assert sent["messages"][1]["content"] == [
+    assert sent["messages"][1]["content"][0]["name"] == "navigation__navigate_to"
+    assert sent["messages"][2]["content"] == [
         {
-            "type": "tool_use",
-            "id": "tu_1",
-            "name": "navigation.navigate_to",
-            "input": {"location": "mailroom"},
-        }
+            "type": "tool_result",
+            "tool_use_id": "tu_1",
+            "content": '{"task_id":"nav-1"}',
+            "is_error": False,
+        },
+        {"type": "text", "text": "[task nav-1] done"},
     ]
-    assert sent["messages"][2]["content"][0] == {
-        "type": "tool_result",
-        "tool_use_id": "tu_1",
-        "content": '{"task_id":"nav-1"}',
-        "is_error": False,
-    }
-    assert sent["messages"][2]["content"][1] == {"type": "text", "text": "[task nav-1] done"}
 
     assert response.has_tool_calls
-    assert response.tool_calls == [ToolCall(id="tu_2", name="set_plan", arguments={"steps": []})]
+    [call] = response.tool_calls
+    assert call.name == "navigation.navigate_to"  # back to the app's dotted name
+    assert call.arguments == {"location": "x"}
     assert response.text == "Planning."
-    assert response.usage.cache_read_tokens == 7
-    # the thinking block goes back verbatim on the next step
-    fake.script.append(message([{"type": "text", "text": "ok"}]))
-    await llm(url, clients).chat([*CONVERSATION, response.as_message()], TOOLS)
-    assert fake.requests[1]["messages"][-1]["content"][0] == {
-        "type": "thinking",
-        "thinking": "plan first",
-        "signature": "sig",
-    }
+    assert response.usage.input_tokens > 0
+    assert response.usage.cache_write_tokens > 0
+    usage = response.usage
+    expected = (
+        usage.input_tokens * 5 + usage.output_tokens * 25 + usage.cache_write_tokens * 6.25
+    ) / 1e6
+    assert usage.cost_usd == round(expected, 8)
+    # the signed thinking block goes back verbatim on the next step: the strict API checks it
+    answered = Message(role="user", tool_results=[ToolResult(tool_call_id=call.id, content="ok")])
+    again = await llm(url, clients).chat([*CONVERSATION, response.as_message(), answered], TOOLS)
+    assert not fake.rejections
+    assert fake.requests[1]["messages"][3]["content"][0]["type"] == "thinking"
+    assert again.usage.cache_read_tokens > 0
+
+
+async def test_a_history_the_api_rejects_is_an_llm_error_not_a_hang(
+    api: tuple[FakeAnthropicApi, Script, str], clients: list[AnthropicLLM]
+) -> None:
+    fake, _, url = api
+    broken = [*CONVERSATION[:3], Message(role="user", content="no tool result")]
+    with pytest.raises(LLMError, match="tool_result"):
+        await llm(url, clients).chat(broken, TOOLS)
+    assert fake.rejections
 
 
 async def test_streaming_yields_text_deltas_then_the_final_response(
-    api: tuple[FakeMessagesApi, str], clients: list[AnthropicLLM]
+    api: tuple[FakeAnthropicApi, Script, str], clients: list[AnthropicLLM]
 ) -> None:
-    fake, url = api
-    fake.script.append("sse")
+    fake, script, url = api
+    script.answers.append([{"type": "text", "text": "Hello there."}])
     events = [e async for e in llm(url, clients).chat_stream(CONVERSATION[:2])]
     assert [e.delta for e in events[:-1]] == ["Hello ", "there."]
     final = events[-1].response
@@ -217,23 +162,24 @@ async def test_streaming_yields_text_deltas_then_the_final_response(
 
 
 async def test_overloaded_and_server_errors_are_retried(
-    api: tuple[FakeMessagesApi, str], clients: list[AnthropicLLM]
+    api: tuple[FakeAnthropicApi, Script, str], clients: list[AnthropicLLM]
 ) -> None:
-    fake, url = api
-    fake.script += [529, 500, message([{"type": "text", "text": "finally"}])]
+    fake, script, url = api
+    fake.fail_next += [529, 500]
+    script.answers.append([{"type": "text", "text": "finally"}])
     response = await llm(url, clients, max_retries=2).chat(CONVERSATION[:2])
     assert response.text == "finally"
-    assert len(fake.requests) == 3
+    assert not fake.fail_next
 
 
 async def test_exhausted_retries_and_timeouts_become_llm_errors(
-    api: tuple[FakeMessagesApi, str], clients: list[AnthropicLLM]
+    api: tuple[FakeAnthropicApi, Script, str], clients: list[AnthropicLLM]
 ) -> None:
-    fake, url = api
-    fake.script += [529]
+    fake, _, url = api
+    fake.fail_next.append(529)
     with pytest.raises(LLMError, match="anthropic"):
         await llm(url, clients).chat(CONVERSATION[:2])
-    fake.script += ["hang"]
+    fake.delay_s = 1.5
     with pytest.raises(LLMError, match="Timeout"):
         await llm(url, clients, request_timeout_s=0.3).chat(CONVERSATION[:2])
 

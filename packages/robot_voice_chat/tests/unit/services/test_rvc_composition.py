@@ -9,7 +9,7 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import bootstrap, compose_config
+from robot_voice_chat.composition import ConfigError, bootstrap, compose_config
 from robot_voice_chat.main import main
 from robot_voice_chat.socket_events import json_schemas
 
@@ -20,7 +20,9 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path))
     monkeypatch.setenv("RVC_NAVIGATION_URL", "http://127.0.0.1:9/sse")
     config = compose_config("dev")
-    assert config.llm["_target_"].endswith("ReplayLLM")
+    assert config.llm["_target_"].endswith("RulesChat")
+    assert config.llm_planner is not None
+    assert config.llm_planner["_target_"].endswith("RulesPlanner")
     assert config.tools.servers[0].motion
     assert config.tools.servers[0].safety_stop_tool == "stop_navigation"
     container = bootstrap(config)
@@ -40,20 +42,24 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
         ready = (await c.get("/api/readyz")).json()
         assert ready["data"]["missions_enabled"] is True
         greeting = (await c.post("/api/chat", json={"text": "hello"})).json()
-        assert "recorded" in greeting["reply"]
+        assert "offline voice" in greeting["reply"]
 
 
-async def test_robot_deployment_disables_missions_without_an_anthropic_key(
+def test_robot_deployment_refuses_a_configured_planner_without_its_key(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setenv("GROQ_API_KEY", "test")
     monkeypatch.setenv("OPENAI_API_KEY", "test")
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "SKILL_CONTROL_EVENT_SECRET"):
+        monkeypatch.setenv(name, "secret")
     config = compose_config("robot", ["speech_output=socketio"])
-    container = bootstrap(config)
-    assert container.adapters.planner is None
-    assert not container.executor.enabled
-    assert container.adapters.llm.name == "openai_compat"
-    await container.stop()
+    with pytest.raises(ConfigError, match="ANTHROPIC_API_KEY is empty"):
+        bootstrap(config)
+
+
+def test_a_bad_override_is_one_config_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    with pytest.raises(ConfigError, match="configuration"):
+        compose_config("dev", ["agent.no_such_key=1"])
 
 
 def test_startup_refuses_an_empty_key_for_the_selected_fast_path_adapter(

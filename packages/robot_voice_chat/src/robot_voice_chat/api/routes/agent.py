@@ -136,6 +136,7 @@ def build_router(api: ApiConfig) -> APIRouter:
             "summary": mission.summary,
             "teaching": mission.teaching,
             "log": [line.model_dump(mode="json") for line in log],
+            "usage": mission.usage.model_dump(),
             "events": [
                 e
                 for e in events

@@ -19,13 +19,20 @@ async def livez() -> dict[str, str]:
 @router.get("/readyz", operation_id="readyz")
 async def readyz(container: ContainerDep) -> dict[str, Any]:
     states = container.adapters.tools.server_states()
+    planner = container.adapters.planner
+    # a planner chain running on its fallback (the cloud planner failed) is degraded
+    planner_degraded = bool(getattr(planner, "degraded", False))
+    ready = all(s == "connected" for s in states.values()) and not planner_degraded
     return {
-        "status": "ready" if all(s == "connected" for s in states.values()) else "degraded",
+        "status": "ready" if ready else "degraded",
         "data": {
             "mcp_servers": states,
             "missions_enabled": container.executor.enabled,
             "llm": container.adapters.llm.name,
-            "planner": container.adapters.planner.name if container.adapters.planner else None,
+            "planner": planner.name if planner else None,
+            "planner_state": None if planner is None else "degraded" if planner_degraded else "ok",
             "deployment": container.config.deployment,
+            # these servers' events are refused (401) until they get a secret
+            "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
         },
     }

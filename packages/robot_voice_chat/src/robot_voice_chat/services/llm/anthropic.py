@@ -24,10 +24,19 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     Usage,
 )
+from robot_voice_chat.services.llm.pricing import Prices, priced
+from robot_voice_chat.services.llm.tool_names import ToolNames
 
 
-def to_anthropic_messages(messages: list[Message]) -> list[dict[str, Any]]:
-    """App messages → Anthropic ``messages`` (system excluded; same-role runs merged)."""
+def to_anthropic_messages(
+    messages: list[Message], names: ToolNames | None = None
+) -> list[dict[str, Any]]:
+    """App messages → Anthropic ``messages`` (system excluded; same-role runs merged).
+
+    Assistant turns the model produced go back verbatim (``provider_blocks``: thinking
+    blocks unchanged, tool names as the model sent them); other tool names are encoded.
+    """
+    names = names or ToolNames()
     out: list[dict[str, Any]] = []
     for m in messages:
         if m.role == "system":
@@ -39,7 +48,7 @@ def to_anthropic_messages(messages: list[Message]) -> list[dict[str, Any]]:
             if m.content:
                 blocks.append({"type": "text", "text": m.content})
             blocks += [
-                {"type": "tool_use", "id": c.id, "name": c.name, "input": c.arguments}
+                {"type": "tool_use", "id": c.id, "name": names.wire(c.name), "input": c.arguments}
                 for c in m.tool_calls
             ]
         else:
@@ -76,10 +85,13 @@ def _block_param(block: Any) -> dict[str, Any] | None:
     return None
 
 
-def from_anthropic(message: Any) -> LLMResponse:
+def from_anthropic(
+    message: Any, names: ToolNames | None = None, prices: Prices | None = None
+) -> LLMResponse:
+    names = names or ToolNames()
     text = "".join(b.text for b in message.content if b.type == "text")
     calls = [
-        ToolCall(id=b.id, name=b.name, arguments=dict(b.input or {}))
+        ToolCall(id=b.id, name=names.app(b.name), arguments=dict(b.input or {}))
         for b in message.content
         if b.type == "tool_use"
     ]
@@ -89,14 +101,25 @@ def from_anthropic(message: Any) -> LLMResponse:
         text=text,
         tool_calls=calls,
         stop_reason=message.stop_reason or "end_turn",
-        usage=Usage(
-            input_tokens=usage.input_tokens or 0,
-            output_tokens=usage.output_tokens or 0,
-            cache_read_tokens=getattr(usage, "cache_read_input_tokens", None) or 0,
-            cache_write_tokens=getattr(usage, "cache_creation_input_tokens", None) or 0,
+        usage=priced(
+            Usage(
+                input_tokens=usage.input_tokens or 0,
+                output_tokens=usage.output_tokens or 0,
+                cache_read_tokens=getattr(usage, "cache_read_input_tokens", None) or 0,
+                cache_write_tokens=getattr(usage, "cache_creation_input_tokens", None) or 0,
+            ),
+            prices,
         ),
         provider_blocks=blocks,
     )
+
+
+def tool_names(tools: list[ToolDefinition] | None) -> ToolNames:
+    """The request's name map; a collision is a clear :class:`LLMError` before any call."""
+    try:
+        return ToolNames(t.name for t in tools or [])
+    except ValueError as exc:
+        raise LLMError(f"tool names: {exc}") from exc
 
 
 class AnthropicLLM(LLMProvider):
@@ -111,27 +134,33 @@ class AnthropicLLM(LLMProvider):
         request_timeout_s: float = 120.0,
         max_retries: int = 2,
         base_url: str | None = None,
+        prices: dict[str, float] | None = None,
     ) -> None:
         key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
         if not key.get_secret_value():
             raise ValueError("ANTHROPIC_API_KEY is empty but the anthropic adapter is selected")
+        self.prices = Prices.parse(prices)
         self.model = model
         self.max_tokens = max_tokens
         self.effort = effort
         self._client = anthropic.AsyncAnthropic(
             api_key=key.get_secret_value(),
-            base_url=base_url,
+            base_url=base_url or None,  # "" from an empty env var = the default endpoint
             timeout=request_timeout_s,
             max_retries=max_retries,
         )
 
     def request(
-        self, messages: list[Message], tools: list[ToolDefinition] | None
+        self,
+        messages: list[Message],
+        tools: list[ToolDefinition] | None,
+        names: ToolNames | None = None,
     ) -> dict[str, Any]:
+        names = names if names is not None else tool_names(tools)
         params: dict[str, Any] = {
             "model": self.model,
             "max_tokens": self.max_tokens,
-            "messages": to_anthropic_messages(messages),
+            "messages": to_anthropic_messages(messages, names),
             "thinking": {"type": "adaptive"},
             "output_config": {"effort": self.effort},
         }
@@ -142,7 +171,11 @@ class AnthropicLLM(LLMProvider):
             ]
         if tools:
             params["tools"] = [
-                {"name": t.name, "description": t.description, "input_schema": t.parameters}
+                {
+                    "name": names.wire(t.name),
+                    "description": t.description,
+                    "input_schema": t.parameters,
+                }
                 for t in tools
             ]
         return params
@@ -150,23 +183,27 @@ class AnthropicLLM(LLMProvider):
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:
+        names = tool_names(tools)
         try:
-            message = await self._client.messages.create(**self.request(messages, tools))
+            message = await self._client.messages.create(**self.request(messages, tools, names))
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        return from_anthropic(message)
+        return from_anthropic(message, names, self.prices)
 
     async def chat_stream(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> AsyncIterator[StreamEvent]:
+        names = tool_names(tools)
         try:
-            async with self._client.messages.stream(**self.request(messages, tools)) as stream:
+            async with self._client.messages.stream(
+                **self.request(messages, tools, names)
+            ) as stream:
                 async for text in stream.text_stream:
                     yield StreamEvent(delta=text)
                 final = await stream.get_final_message()
         except anthropic.APIError as exc:
             raise LLMError(f"anthropic: {type(exc).__name__}: {exc}") from exc
-        yield StreamEvent(response=from_anthropic(final))
+        yield StreamEvent(response=from_anthropic(final, names, self.prices))
 
     async def aclose(self) -> None:
         await self._client.close()

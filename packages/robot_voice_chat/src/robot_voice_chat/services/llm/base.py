@@ -49,6 +49,17 @@ class Usage(BaseModel):
     cache_write_tokens: int = 0
     cost_usd: float | None = None
 
+    def __add__(self, other: Usage) -> Usage:
+        """Totals (a mission's); the cost is known if any part of it is."""
+        costs = [c for c in (self.cost_usd, other.cost_usd) if c is not None]
+        return Usage(
+            input_tokens=self.input_tokens + other.input_tokens,
+            output_tokens=self.output_tokens + other.output_tokens,
+            cache_read_tokens=self.cache_read_tokens + other.cache_read_tokens,
+            cache_write_tokens=self.cache_write_tokens + other.cache_write_tokens,
+            cost_usd=round(sum(costs), 8) if costs else None,
+        )
+
 
 class LLMResponse(BaseModel):
     text: str = ""

@@ -1,6 +1,7 @@
 """OpenAICompatLLM: any OpenAI-compatible chat endpoint (OpenAI, Groq, Ollama, vLLM) by base_url.
 
-Function names may not contain dots, so ``server.tool`` travels as ``server__tool``.
+Function names may not contain dots: ``server.tool`` travels as ``server__tool``
+(:mod:`robot_voice_chat.services.llm.tool_names`, shared with the Anthropic adapter).
 """
 
 from __future__ import annotations
@@ -22,19 +23,35 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     Usage,
 )
-
-SEP = "__"
-
-
-def wire_name(name: str) -> str:
-    return name.replace(".", SEP)
+from robot_voice_chat.services.llm.pricing import Prices, priced
+from robot_voice_chat.services.llm.tool_names import ToolNames
 
 
-def app_name(name: str) -> str:
-    return name.replace(SEP, ".", 1) if SEP in name else name
+def openai_usage(usage: Any) -> Usage:
+    """prompt_tokens include the cached ones (prompt_tokens_details.cached_tokens)."""
+    if usage is None:
+        return Usage()
+    details = getattr(usage, "prompt_tokens_details", None)
+    cached = (getattr(details, "cached_tokens", None) or 0) if details is not None else 0
+    return Usage(
+        input_tokens=(usage.prompt_tokens or 0) - cached,
+        output_tokens=usage.completion_tokens or 0,
+        cache_read_tokens=cached,
+    )
 
 
-def to_openai_messages(messages: list[Message]) -> list[dict[str, Any]]:
+def tool_names(tools: list[ToolDefinition] | None) -> ToolNames:
+    """The request's name map; a collision is a clear :class:`LLMError` before any call."""
+    try:
+        return ToolNames(t.name for t in tools or [])
+    except ValueError as exc:
+        raise LLMError(f"tool names: {exc}") from exc
+
+
+def to_openai_messages(
+    messages: list[Message], names: ToolNames | None = None
+) -> list[dict[str, Any]]:
+    names = names or ToolNames()
     out: list[dict[str, Any]] = []
     for m in messages:
         if m.role == "assistant":
@@ -45,7 +62,7 @@ def to_openai_messages(messages: list[Message]) -> list[dict[str, Any]]:
                         "id": c.id,
                         "type": "function",
                         "function": {
-                            "name": wire_name(c.name),
+                            "name": names.wire(c.name),
                             "arguments": json.dumps(c.arguments),
                         },
                     }
@@ -82,7 +99,9 @@ class OpenAICompatLLM(LLMProvider):
         request_timeout_s: float = 30.0,
         max_retries: int = 2,
         require_key: bool = True,
+        prices: dict[str, float] | None = None,
     ) -> None:
+        self.prices = Prices.parse(prices)
         key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
         if require_key and not key.get_secret_value():
             raise ValueError(f"the API key for {base_url} is empty but this adapter is selected")
@@ -96,19 +115,23 @@ class OpenAICompatLLM(LLMProvider):
         )
 
     def request(
-        self, messages: list[Message], tools: list[ToolDefinition] | None
+        self,
+        messages: list[Message],
+        tools: list[ToolDefinition] | None,
+        names: ToolNames | None = None,
     ) -> dict[str, Any]:
+        names = names if names is not None else tool_names(tools)
         params: dict[str, Any] = {
             "model": self.model,
             "max_tokens": self.max_tokens,
-            "messages": to_openai_messages(messages),
+            "messages": to_openai_messages(messages, names),
         }
         if tools:
             params["tools"] = [
                 {
                     "type": "function",
                     "function": {
-                        "name": wire_name(t.name),
+                        "name": names.wire(t.name),
                         "description": t.description,
                         "parameters": t.parameters,
                     },
@@ -120,14 +143,19 @@ class OpenAICompatLLM(LLMProvider):
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:
+        names = tool_names(tools)
         try:
-            completion = await self._client.chat.completions.create(**self.request(messages, tools))
+            completion = await self._client.chat.completions.create(
+                **self.request(messages, tools, names)
+            )
         except openai.OpenAIError as exc:
             raise LLMError(f"{self.model}: {type(exc).__name__}: {exc}") from exc
         choice = completion.choices[0]
         calls = [
             ToolCall(
-                id=c.id, name=app_name(c.function.name), arguments=_arguments(c.function.arguments)
+                id=c.id,
+                name=names.app(c.function.name),
+                arguments=_arguments(c.function.arguments),
             )
             for c in choice.message.tool_calls or []
             if c.type == "function"
@@ -137,10 +165,7 @@ class OpenAICompatLLM(LLMProvider):
             text=choice.message.content or "",
             tool_calls=calls,
             stop_reason="tool_use" if calls else (choice.finish_reason or "stop"),
-            usage=Usage(
-                input_tokens=usage.prompt_tokens if usage else 0,
-                output_tokens=usage.completion_tokens if usage else 0,
-            ),
+            usage=priced(openai_usage(usage), self.prices),
         )
 
     async def chat_stream(
@@ -148,9 +173,10 @@ class OpenAICompatLLM(LLMProvider):
     ) -> AsyncIterator[StreamEvent]:
         text: list[str] = []
         partial: dict[int, dict[str, str]] = {}
+        names = tool_names(tools)
         try:
             stream = await self._client.chat.completions.create(
-                **self.request(messages, tools), stream=True
+                **self.request(messages, tools, names), stream=True
             )
             async for chunk in stream:
                 if not chunk.choices:
@@ -168,7 +194,7 @@ class OpenAICompatLLM(LLMProvider):
         except openai.OpenAIError as exc:
             raise LLMError(f"{self.model}: {type(exc).__name__}: {exc}") from exc
         calls = [
-            ToolCall(id=s["id"], name=app_name(s["name"]), arguments=_arguments(s["arguments"]))
+            ToolCall(id=s["id"], name=names.app(s["name"]), arguments=_arguments(s["arguments"]))
             for _, s in sorted(partial.items())
         ]
         yield StreamEvent(

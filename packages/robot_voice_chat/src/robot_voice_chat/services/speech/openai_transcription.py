@@ -44,3 +44,6 @@ class OpenAITranscriptionInput(SpeechInput):
         except openai.OpenAIError as exc:
             raise TranscriptionError(f"transcription failed: {exc}") from exc
         return result.text.strip()
+
+    async def aclose(self) -> None:
+        await self._client.close()

@@ -1,0 +1,97 @@
+"""What a typed or spoken command asks for: a pure parse of the words, no tools involved.
+
+Understood: "go / drive / head / navigate to <place>", "find / look for / search for <thing>
+[in the <place>]", "what do you see", "watch for <thing>", "fetch / bring / get <thing>
+from <place>". Anything else is ``unknown`` and the planner says so.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+Kind = Literal["goto", "find", "see", "watch", "fetch", "unknown"]
+
+_ARTICLE = r"(?:(?:the|a|an|my|our|some)\s+)?"
+_POLITE = re.compile(
+    r"^(?:(?:please|robot|hey robot|ok|okay|now|then|and|could you|can you|would you|"
+    r"will you|i want you to|i'd like you to)[\s,]+)+"
+)
+_TAIL = re.compile(r"\s*(?:[.!?:;]|,\s*please|\s+please|\s+and\s+(?:tell|report|let)\b).*$")
+_PATTERNS: list[tuple[Kind, re.Pattern[str]]] = [
+    (
+        "fetch",
+        re.compile(
+            rf"^(?:fetch|bring(?:\s+me)?|get(?:\s+me)?|pick\s+up|collect|grab)\s+{_ARTICLE}"
+            rf"(?P<obj>.+?)\s+from\s+{_ARTICLE}(?P<place>.+)$"
+        ),
+    ),
+    (
+        "see",
+        re.compile(
+            r"^(?:what\s+(?:do|can)\s+you\s+see|what'?s?\s+in\s+front\s+of\s+you|"
+            r"look\s+around|describe\s+(?:the\s+)?(?:scene|what you see))\b"
+        ),
+    ),
+    (
+        "watch",
+        re.compile(rf"^(?:watch|keep\s+an\s+eye|wait)\s+(?:out\s+)?for\s+{_ARTICLE}(?P<obj>.+)$"),
+    ),
+    (
+        "find",
+        re.compile(
+            rf"^(?:find|look\s+for|search\s+for|locate|where\s+is)\s+{_ARTICLE}(?P<obj>.+?)"
+            rf"(?:\s+(?:in|at)\s+{_ARTICLE}(?P<place>.+))?$"
+        ),
+    ),
+    (
+        "goto",
+        re.compile(
+            rf"^(?:go|drive|head|move|navigate|return|come)\s+(?:back\s+)?(?:over\s+)?"
+            rf"(?:to|into)\s+{_ARTICLE}(?P<place>.+)$"
+        ),
+    ),
+]
+
+
+@dataclass(frozen=True)
+class Command:
+    kind: Kind
+    text: str
+    obj: str | None = None
+    place: str | None = None
+
+    def describe(self) -> str:
+        """What was understood, in words ("find 'scissors' in 'kitchen'")."""
+        parts: list[str] = [self.kind]
+        if self.obj:
+            parts.append(repr(self.obj))
+        if self.place:
+            parts.append(f"at {self.place!r}")
+        return " ".join(parts)
+
+
+def normalise(text: str) -> str:
+    return " ".join(text.lower().replace("’", "'").split())
+
+
+def parse(text: str) -> Command:
+    """The first command found in ``text`` (the part before a colon is tried first, so a
+    restated instruction "Fetch the package from the mailroom: drive …" parses)."""
+    clean = normalise(text)
+    for candidate in (clean.split(":", 1)[0], *re.split(r"(?<=[.!?])\s+", clean)):
+        words = _TAIL.sub("", _POLITE.sub("", candidate.strip()))
+        for kind, pattern in _PATTERNS:
+            match = pattern.match(words)
+            if match is not None:
+                groups = match.groupdict()
+                return Command(kind, text, _strip(groups.get("obj")), _strip(groups.get("place")))
+    return Command("unknown", text)
+
+
+def _strip(value: str | None) -> str | None:
+    if value is None:
+        return None
+    value = re.sub(r"^(?:the|a|an)\s+", "", value.strip(" ,.!?"))
+    return value or None

@@ -1,0 +1,153 @@
+"""RulesPlanner: the offline planner behind the LLMProvider port (``llm_planner=rules``).
+
+Deterministic and honestly named: it understands the commands of :mod:`.commands`, plans
+them over the tools it is given and drives the executor with the same local tools an LLM
+uses (set_plan / update_plan / say / wait_for_events / finish_mission). Each conversation
+(one mission) gets a :class:`MissionProgram`; a conversation begun by another planner (the
+cloud one failed, :mod:`..chain`) is taken over from where it is. A distillation request
+(teaching, no tools, "Mission transcript:") is answered by the template distiller.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+
+import structlog
+
+from robot_voice_chat.services.llm.base import (
+    LLMProvider,
+    LLMResponse,
+    Message,
+    StreamEvent,
+    ToolCall,
+    ToolDefinition,
+    ToolResult,
+)
+from robot_voice_chat.services.llm.rules.commands import parse
+from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
+from robot_voice_chat.services.llm.rules.program import (
+    Act,
+    Call,
+    MissionProgram,
+    Observation,
+    Program,
+    Settings,
+)
+
+logger = structlog.get_logger(__name__)
+PAUSED_MARK = "mission is paused"
+
+
+@dataclass
+class _Session:
+    program: Program
+    seen: int
+    pending: list[ToolCall] = field(default_factory=list)
+    calls: int = 0
+    started: bool = False
+    serial: int = 0
+
+
+def _instruction(messages: list[Message]) -> Message | None:
+    return next((m for m in messages if m.role == "user" and m.content), None)
+
+
+def _observe(session: _Session, new: list[Message]) -> Observation:
+    """What came back since our last answer: the results of our calls (by id, or in order
+    when a gateway renamed the ids), the event and user lines, a paused-mission reply."""
+    returned = [r for m in new if m.role == "user" for r in m.tool_results]
+    by_id = {r.tool_call_id: r for r in returned}
+    if session.pending and not any(c.id in by_id for c in session.pending):
+        by_id = {c.id: r for c, r in zip(session.pending, returned, strict=False)}
+    results = [
+        by_id.get(c.id)
+        or ToolResult(tool_call_id=c.id, content="no result came back", is_error=True)
+        for c in session.pending
+    ]
+    observation = Observation(results=results)
+    for message in new:
+        if message.role != "user" or not message.content:
+            continue
+        if PAUSED_MARK in message.content and "User:" in message.content:
+            observation.paused_reply = message.content.rsplit("User:", 1)[1].strip()
+        observation.lines += [line for line in message.content.splitlines() if line.strip()]
+    return observation
+
+
+class RulesPlanner(LLMProvider):
+    name = "rules"
+
+    def __init__(
+        self,
+        prewarm: bool = True,
+        eta_trigger_s: float = 10.0,
+        find_timeout_s: float = 20.0,
+        max_legs: int = 6,
+        max_sessions: int = 16,
+    ) -> None:
+        self.settings = Settings(prewarm, eta_trigger_s, find_timeout_s, max_legs)
+        self._sessions: OrderedDict[str, _Session] = OrderedDict()
+        self._max_sessions = max_sessions
+        self._serial = 0
+
+    async def chat(
+        self, messages: list[Message], tools: list[ToolDefinition] | None = None
+    ) -> LLMResponse:
+        started = time.monotonic()
+        if not tools and messages and messages[-1].content.startswith(TRANSCRIPT_HEADER):
+            return LLMResponse(text=distill(messages[-1].content))
+        instruction = _instruction(messages)
+        if instruction is None:
+            return LLMResponse(text="I need an instruction to plan.")
+        session = self._session(instruction, messages, list(tools or []))
+        observation = _observe(session, messages[session.seen :])
+        act: Act = (
+            next(session.program) if session.calls == 0 else session.program.send(observation)
+        )
+        response = self._respond(session, act)
+        session.seen = len(messages) + 1  # the executor appends this answer next
+        logger.debug(
+            "rules_planner_step",
+            tool_calls=[c.name for c in response.tool_calls],
+            duration_ms=round((time.monotonic() - started) * 1000, 2),
+        )
+        return response
+
+    def _session(
+        self, instruction: Message, messages: list[Message], tools: list[ToolDefinition]
+    ) -> _Session:
+        # One mission = one conversation: the same instruction, and it only ever grows.
+        key = instruction.content
+        session = self._sessions.get(key)
+        if session is not None and session.seen <= len(messages) + 1:
+            return session
+        resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
+        command = parse(instruction.content)
+        logger.info("rules_planner_mission", understood=command.describe(), resumed=resumed)
+        program = MissionProgram(command, tools, self.settings, resumed=resumed).run()
+        self._serial += 1
+        session = _Session(program=program, seen=len(messages), serial=self._serial)
+        self._sessions[key] = session
+        while len(self._sessions) > self._max_sessions:
+            self._sessions.popitem(last=False)
+        return session
+
+    def _respond(self, session: _Session, act: Act) -> LLMResponse:
+        calls = []
+        for call in act.calls:
+            session.calls += 1
+            calls.append(_tool_call(call, f"rules_{session.serial}_{session.calls}"))
+        session.pending = calls
+        return LLMResponse(text=act.text, tool_calls=calls, stop_reason="tool_use")
+
+    async def chat_stream(
+        self, messages: list[Message], tools: list[ToolDefinition] | None = None
+    ) -> AsyncIterator[StreamEvent]:
+        yield StreamEvent(response=await self.chat(messages, tools))
+
+
+def _tool_call(call: Call, call_id: str) -> ToolCall:
+    return ToolCall(id=call_id, name=call.name, arguments=dict(call.arguments))

@@ -1,0 +1,492 @@
+"""A mission as a deterministic program over the live tools, written as a generator: it
+yields the tool calls of one planner step (:class:`Act`) and receives what came back
+(:class:`Observation`: the results of those calls, the event and user lines since).
+
+    set_plan + list_locations → navigate_to (eta trigger + prewarm reaction) → wait for the
+    task → on task_failed read get_task's suggestions and drive the first detour that needs
+    no person → find_object → wait_for_result → stop_skill → finish_mission
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Generator
+from dataclasses import dataclass, field
+from typing import Any
+
+from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
+from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.surface import (
+    Failure,
+    Locations,
+    as_json,
+    detour_legs,
+    error_of,
+    has_tool,
+    task_id_of,
+)
+
+NAVIGATE = "navigation.navigate_to"
+LIST_LOCATIONS = "navigation.list_locations"
+GET_TASK = "navigation.get_task"
+STOP_NAVIGATION = "navigation.stop_navigation"
+INSTANTIATE = "skill_control.instantiate_skill"
+PREWARM = "skill_control.prewarm_skill"
+STOP_SKILL = "skill_control.stop_skill"
+WAIT_RESULT = "perception.wait_for_result"
+WHAT_DO_YOU_SEE = "perception.what_do_you_see"
+UNDERSTOOD = (
+    "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
+    "fetch <thing> from <place>"
+)
+_EVENT = re.compile(
+    r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
+)
+_CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
+_ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
+
+
+@dataclass
+class Call:
+    name: str
+    arguments: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Act:
+    calls: list[Call]
+    text: str = ""
+
+
+@dataclass
+class Observation:
+    results: list[ToolResult] = field(default_factory=list)
+    lines: list[str] = field(default_factory=list)
+    paused_reply: str | None = None
+
+
+@dataclass
+class Settings:
+    prewarm: bool = True
+    eta_trigger_s: float = 10.0
+    find_timeout_s: float = 20.0
+    max_legs: int = 6
+
+
+@dataclass
+class Outcome:
+    kind: str  # done | failed | watch_event | paused
+    line: str = ""
+
+
+Program = Generator[Act, Observation, None]
+Steps = Generator[Act, Observation, Any]
+
+
+class _Finished(Exception):
+    def __init__(self, outcome: str, summary: str) -> None:
+        super().__init__(summary)
+        self.outcome, self.summary = outcome, summary
+
+
+@dataclass
+class _Step:
+    id: str
+    title: str
+    tool: str | None = None
+
+
+class MissionProgram:
+    """One mission's program; ``resumed`` = taking over a conversation another planner began."""
+
+    def __init__(
+        self,
+        command: Command,
+        tools: list[ToolDefinition],
+        settings: Settings | None = None,
+        resumed: bool = False,
+    ) -> None:
+        self.command = command
+        self.tools = tools
+        self.settings = settings or Settings()
+        self.resumed = resumed
+        self.prefix = "r" if resumed else "s"
+        self.steps: list[_Step] = []
+        self.terminal: dict[str, Outcome] = {}
+        self.pause_reply: str | None = None
+        self.reactions_fired: list[str] = []
+        self.planned = False
+        self.extra_steps = 0
+
+    # --- plumbing --------------------------------------------------------------------------
+    def run(self) -> Program:
+        try:
+            yield from self._main()
+            raise _Finished("failed", "I stopped without reaching the goal.")  # not reached
+        except _Finished as end:
+            calls = [Call("finish_mission", {"outcome": end.outcome, "summary": end.summary})]
+            tell = next((s for s in self.steps if s.tool is None), None)
+            if tell is not None and end.outcome == "succeeded":
+                calls.insert(0, Call("mark_step", {"step_id": tell.id, "status": "succeeded"}))
+            while True:
+                yield Act(calls)
+
+    def act(self, *calls: Call, text: str = "") -> Steps:
+        observation: Observation = yield Act(list(calls), text)
+        self.absorb(observation)
+        return observation.results
+
+    def absorb(self, observation: Observation) -> None:
+        for line in observation.lines:
+            match = _EVENT.match(line.strip())
+            if match is not None:
+                self.terminal[match["id"]] = Outcome(match["kind"], line.strip())
+            elif line.startswith("[reaction]"):
+                self.reactions_fired.append(line)
+        if observation.paused_reply is not None:
+            self.pause_reply = observation.paused_reply
+
+    def step_id(self, n: int) -> str:
+        return f"{self.prefix}{n}"
+
+    def plan_call(self) -> Call:
+        name = "update_plan" if self.planned or self.resumed else "set_plan"
+        self.planned = True
+        steps = [
+            {"id": s.id, "title": s.title, **({"tool": s.tool} if s.tool else {})}
+            for s in self.steps
+        ]
+        return Call(name, {"steps": steps})
+
+    def needs(self, *names: str) -> None:
+        missing = [n for n in names if not has_tool(self.tools, n)]
+        if missing:
+            server = missing[0].split(".")[0]
+            raise _Finished(
+                "failed",
+                f"I can't do that right now: the {server} server is not connected "
+                f"(missing {', '.join(missing)}).",
+            )
+
+    # --- the missions ------------------------------------------------------------------------
+    def _main(self) -> Steps:
+        c = self.command
+        if c.kind == "unknown":
+            raise _Finished(
+                "failed",
+                f"I can't do that offline: I didn't understand {c.text.strip()!r}. "
+                f"Offline I understand: {UNDERSTOOD}.",
+            )
+        if c.kind == "see":
+            yield from self._see()
+            return
+        if c.kind == "watch":
+            yield from self._watch(c.obj or "something")
+            return
+        place: str | None = None
+        if c.place is not None:
+            self.needs(NAVIGATE, LIST_LOCATIONS)
+            self.steps.append(_Step(self.step_id(1), f"Drive to the {c.place}", NAVIGATE))
+        if c.obj is not None:
+            self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
+            n = len(self.steps)
+            self.steps += [
+                _Step(self.step_id(n + 1), f"Look for the {c.obj}", INSTANTIATE),
+                _Step(self.step_id(n + 2), "Read what the camera found", WAIT_RESULT),
+                _Step(self.step_id(n + 3), "Stop the vision skill", STOP_SKILL),
+            ]
+        self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
+        if c.place is not None:
+            results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
+            locations = Locations.from_result(results[1].content)
+            place = locations.resolve(c.place)
+            if place is None:
+                known = ", ".join(locations.known()) or "none"
+                raise _Finished(
+                    "failed", f"I don't know a place called {c.place!r}. I know: {known}."
+                )
+            yield from self._drive(place, self.steps[0].id, prepare=c.obj)
+        else:
+            yield from self.act(self.plan_call())
+        if c.obj is None:
+            raise _Finished("succeeded", f"I'm at the {place}.")
+        found = yield from self._look_for(c.obj, self.steps[-4].id)
+        where = f" in the {place}" if place else ""
+        if found:
+            raise _Finished("succeeded", f"I found the {c.obj}{where}: {found}.")
+        raise _Finished("failed", f"I couldn't see the {c.obj}{where}.")
+
+    def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
+        """Drive to ``place``; on a failure try its suggestions in order, then give up."""
+        route, tried, legs = [place], set[str](), 0
+        current, before = step_id, [self.plan_call()] if not self.planned else []
+        while route:
+            leg = route[0]
+            legs += 1
+            if legs > self.settings.max_legs:
+                raise _Finished("failed", f"I could not reach the {place} after {legs - 1} drives.")
+            args: dict[str, Any] = {"step_id": current, "location": leg}
+            calls = [*before, Call(NAVIGATE, args)]
+            before = []
+            if legs == 1 and prepare and has_tool(self.tools, PREWARM) and self.settings.prewarm:
+                args["triggers"] = [{"type": "eta_below", "seconds": self.settings.eta_trigger_s}]
+                calls.insert(-1, self._prewarm_reaction(prepare))
+            result = (yield from self.act(*calls))[-1]
+            if (
+                result.is_error
+                and "BUSY" in result.content
+                and has_tool(self.tools, STOP_NAVIGATION)
+            ):
+                yield from self.act(Call(STOP_NAVIGATION))  # a drive begun by another planner
+                result = (yield from self.act(Call(NAVIGATE, args)))[0]
+            if result.is_error:
+                raise _Finished(
+                    "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
+                )
+            task_id = task_id_of(result.content)
+            if task_id is None:
+                raise _Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+            outcome = yield from self._await(task_id, f"driving to the {leg}")
+            if outcome.kind == "done":
+                route.pop(0)
+                if route:
+                    current = self._add_step(current, f"Drive on to the {route[0]}")
+                    before = [self.plan_call()]
+                continue
+            if outcome.kind == "paused":
+                current = self._add_step(current, f"Resume the drive to the {leg}")
+                before = [self.plan_call()]
+                continue
+            failure = yield from self._failure(task_id, outcome.line)
+            detour = next(
+                (
+                    (s, legs_of)
+                    for s in failure.suggestions
+                    if s not in tried and (legs_of := detour_legs(s))
+                ),
+                None,
+            )
+            if detour is None:
+                advice = "; ".join(failure.suggestions)
+                raise _Finished(
+                    "failed",
+                    f"I couldn't reach the {place}: {failure.code} {failure.message}".strip()
+                    + (f" Suggestions I can't follow alone: {advice}" if advice else ""),
+                )
+            suggestion, route = detour
+            tried.add(suggestion)
+            current = self._add_step(current, f"Detour via the {route[0]}")
+            said = f"{failure.message or failure.code} I'll {suggestion}."
+            before = [self.plan_call(), Call("say", {"text": said})]
+
+    def _add_step(self, after: str, title: str) -> str:
+        """A new drive step right after ``after``: s1 → s1b, s1c, … (ids never reused)."""
+        index = next(i for i, s in enumerate(self.steps) if s.id == after)
+        self.extra_steps += 1
+        new_id = f"{self.steps[0].id}{chr(ord('a') + self.extra_steps)}"
+        self.steps.insert(index + 1, _Step(new_id, title, NAVIGATE))
+        return new_id
+
+    def _prewarm_reaction(self, obj: str) -> Call:
+        return Call(
+            "register_reaction",
+            {
+                "event": {
+                    "server": "navigation",
+                    "type": "trigger_fired",
+                    "match": {"type": "eta_below"},
+                },
+                "call": {
+                    "tool": PREWARM,
+                    "arguments": {"template": "find_object", "params": {"query": obj}},
+                },
+            },
+        )
+
+    def _await(self, task_id: str, reason: str) -> Steps:
+        while True:
+            if task_id in self.terminal:
+                return self.terminal[task_id]
+            if self.pause_reply is not None:
+                reply, self.pause_reply = self.pause_reply.lower(), None
+                if any(re.search(rf"\b{w}\b", reply) for w in _ABORT):
+                    raise _Finished("failed", "Stopped by the user; mission aborted.")
+                if any(re.search(rf"\b{w}\b", reply) for w in _CONTINUE):
+                    return Outcome("paused")
+                yield from self.act(Call("ask_user", {"question": "Should I continue or abort?"}))
+                continue
+            yield from self.act(Call("wait_for_events", {"reason": reason}))
+
+    def _failure(self, task_id: str, line: str) -> Steps:
+        if has_tool(self.tools, GET_TASK):
+            [result] = yield from self.act(Call(GET_TASK, {"task_id": task_id}))
+            failure = Failure.from_task_info(result.content)
+            if failure is not None:
+                return failure
+        match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: (.*))?$", line)
+        if match is None:
+            return Failure("FAILED", line, [])
+        return Failure(match[1], match[2], [match[3]] if match[3] else [])
+
+    def _look_for(self, obj: str, step_id: str) -> Steps:
+        """instantiate find_object → wait_for_result → stop; the labels found ('' if none)."""
+        index = next(i for i, s in enumerate(self.steps) if s.id == step_id)
+        read, stop = self.steps[index + 1].id, self.steps[index + 2].id
+        [started] = yield from self.act(
+            Call(
+                INSTANTIATE,
+                {"step_id": step_id, "template": "find_object", "params": {"query": obj}},
+            )
+        )
+        if started.is_error:
+            raise _Finished(
+                "failed", f"I couldn't start looking for the {obj}: {error_of(started.content)}"
+            )
+        data = as_json(started.content)
+        skill = (
+            str(data.get("skill_id", "find_object")) if isinstance(data, dict) else "find_object"
+        )
+        [seen] = yield from self.act(
+            Call(
+                WAIT_RESULT,
+                {"step_id": read, "skill": skill, "timeout_s": self.settings.find_timeout_s},
+            )
+        )
+        stops = [Call(STOP_SKILL, {"step_id": stop, "skill_id": skill})]
+        if any(PREWARM in line for line in self.reactions_fired):
+            stops.append(Call(STOP_SKILL, {"skill_id": "prewarm_find_object"}))
+        yield from self.act(*stops)
+        if seen.is_error:
+            return ""
+        return _labels(as_json(seen.content))
+
+    def _see(self) -> Steps:
+        self.needs(WHAT_DO_YOU_SEE)
+        self.steps = [
+            _Step(self.step_id(1), "Check what the camera sees", WHAT_DO_YOU_SEE),
+            _Step(self.step_id(2), "Tell the user", None),
+        ]
+        [view] = (
+            yield from self.act(
+                self.plan_call(), Call(WHAT_DO_YOU_SEE, {"step_id": self.step_id(1)})
+            )
+        )[1:]
+        data = as_json(view.content) if not view.is_error else None
+        text = _scene_text(data) if isinstance(data, dict) and data.get("mode") == "warm" else ""
+        if not text and has_tool(self.tools, INSTANTIATE) and has_tool(self.tools, WAIT_RESULT):
+            look, read, stop = (self.step_id(n) for n in (3, 4, 5))
+            self.steps[1:1] = [
+                _Step(look, "Take a fresh look", INSTANTIATE),
+                _Step(read, "Read the description", WAIT_RESULT),
+                _Step(stop, "Stop the vision skill", STOP_SKILL),
+            ]
+            [started] = (
+                yield from self.act(
+                    self.plan_call(),
+                    Call(
+                        INSTANTIATE, {"step_id": look, "template": "describe_scene", "params": {}}
+                    ),
+                )
+            )[1:]
+            if not started.is_error:
+                info = as_json(started.content)
+                skill = (
+                    str(info.get("skill_id", "describe_scene"))
+                    if isinstance(info, dict)
+                    else "describe_scene"
+                )
+                [fresh] = yield from self.act(
+                    Call(
+                        WAIT_RESULT,
+                        {
+                            "step_id": read,
+                            "skill": skill,
+                            "timeout_s": self.settings.find_timeout_s,
+                        },
+                    )
+                )
+                yield from self.act(Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}))
+                fresh_data = as_json(fresh.content) if not fresh.is_error else None
+                text = _scene_text(fresh_data) if isinstance(fresh_data, dict) else ""
+        if not text:
+            raise _Finished(
+                "failed", "I can't tell what I see right now: the camera gave me nothing."
+            )
+        raise _Finished("succeeded", f"I see {text}")
+
+    def _watch(self, thing: str) -> Steps:
+        self.needs(INSTANTIATE)
+        start, wait, stop = (self.step_id(n) for n in (1, 2, 3))
+        self.steps = [
+            _Step(start, f"Start watching for {thing}", INSTANTIATE),
+            _Step(wait, f"Wait until {thing}", None),
+            _Step(stop, "Stop the watcher", STOP_SKILL),
+            _Step(self.step_id(4), "Tell the user", None),
+        ]
+        [started] = (
+            yield from self.act(
+                self.plan_call(),
+                Call(
+                    INSTANTIATE,
+                    {"step_id": start, "template": "watch_for", "params": {"condition": thing}},
+                ),
+            )
+        )[1:]
+        task_id = None if started.is_error else task_id_of(started.content)
+        if task_id is None:
+            raise _Finished(
+                "failed", f"I couldn't start watching for {thing}: {error_of(started.content)}"
+            )
+        info = as_json(started.content)
+        skill = str(info.get("skill_id", "watch_for")) if isinstance(info, dict) else "watch_for"
+        yield from self.act(Call("mark_step", {"step_id": wait, "status": "running"}))
+        while (
+            outcome := (yield from self._await(task_id, f"watching for {thing}"))
+        ).kind == "paused":
+            pass
+        yield from self.act(
+            Call(
+                "mark_step",
+                {
+                    "step_id": wait,
+                    "status": "succeeded" if outcome.kind == "watch_event" else "failed",
+                },
+            ),
+            Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}),
+        )
+        if outcome.kind == "failed":
+            raise _Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
+        raise _Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _labels(data: Any) -> str:
+    if not isinstance(data, dict):
+        return ""
+    detections = data.get("detections")
+    labels = [
+        f"{d.get('label')}"
+        + (f" ({d['score']:.2f})" if isinstance(d.get("score"), int | float) else "")
+        for d in detections or []
+        if isinstance(d, dict) and d.get("label")
+    ]
+    found = (data.get("outputs") or {}).get("found")
+    if not labels and isinstance(found, dict) and found.get("value") is True:
+        labels = ["it is visible"]
+    return ", ".join(labels)
+
+
+def _scene_text(data: dict[str, Any]) -> str:
+    for key in ("scene_description",):
+        value = data.get(key)
+        if isinstance(value, dict):
+            value = value.get("value")
+        if isinstance(value, str) and value.strip():
+            return value.strip()
+    outputs = data.get("outputs") or {}
+    described = outputs.get("scene_description") if isinstance(outputs, dict) else None
+    if isinstance(described, dict) and isinstance(described.get("value"), str):
+        return str(described["value"])
+    labels = [_labels(s) for s in data.get("skills") or [] if isinstance(s, dict)]
+    labels.append(_labels(data))
+    joined = ", ".join(label for label in labels if label)
+    return f"these objects: {joined}." if joined else ""

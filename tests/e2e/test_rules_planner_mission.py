@@ -1,0 +1,177 @@
+"""The dev preset as shipped (rules chat + rules planner, no keys) on the whole local stack,
+typed as a person would: every service a real OS process on free loopback ports, the test a
+user at the brain's REST + Socket.IO.
+
+    hello → go to the kitchen → find the scissors → fetch the package from the mailroom
+    (DOOR_CLOSED from the real navigation server → detour via corridor_b → found) → what do
+    you see → stop mid-drive → continue → Teach + mission → save_process → the same
+    instruction again → the process is retrieved (trace + processes_retrieved log)
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from robot_stack_testing import async_wait_until
+from robot_stack_testing.mission_driver import (
+    MissionDriver,
+    MissionRecord,
+    RunningStack,
+    call_mcp,
+    mailroom_stack,
+)
+from robot_stack_testing.stack import free_port_overrides
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
+
+ROOT = Path(__file__).resolve().parents[2]
+STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
+BOTH = ("yellow package", "scissors")
+
+
+def camera_frames(dest: Path) -> Path:
+    """Frames in which the package and the scissors are both plainly visible."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for annotation in sorted((ROOT / "data" / "scenes").glob("*.json")):
+        labels = {
+            a["label"]
+            for a in json.loads(annotation.read_text())["annotations"]
+            if a.get("difficulty") == "easy"
+        }
+        if set(BOTH) <= labels:
+            shutil.copyfile(annotation, dest / annotation.name)
+            shutil.copyfile(annotation.with_suffix(".png"), dest / f"{annotation.stem}.png")
+    assert any(dest.glob("*.png")), "no sample frame shows both objects"
+    return dest
+
+
+@pytest.fixture
+def stack(tmp_path: Path) -> Iterator[RunningStack]:
+    overrides = {
+        **free_port_overrides(STACK_FILE),
+        "nav_time_scale": "10",
+        "brain_config_overrides": "",  # the dev preset as shipped: rules, no recording
+        "frames_dir": str(camera_frames(tmp_path / "frames")),
+    }
+    with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
+        yield running
+
+
+async def mission(stack: RunningStack, text: str, timeout_s: float = 60.0) -> MissionRecord:
+    async with MissionDriver(stack.brain_url) as user:
+        return await user.run_mission(text, timeout_s=timeout_s)
+
+
+def statuses(record: MissionRecord) -> dict[str, str]:
+    return {s["id"]: s["status"] for s in record.snapshot["steps"]}
+
+
+async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
+    stack: RunningStack, tmp_path: Path
+) -> None:
+    async with MissionDriver(stack.brain_url) as user:
+        await user.wait_servers_connected(30.0)
+        hello = await user.send("hello")
+    assert hello["route"] == "fast"
+    assert "offline voice" in hello["reply"]
+
+    kitchen = await mission(stack, "go to the kitchen")
+    assert kitchen.outcome == "succeeded", kitchen.of("mission_finished")
+    assert kitchen.snapshot["summary"] == "I'm at the kitchen."
+    assert statuses(kitchen) == {"s1": "succeeded", "s2": "succeeded"}
+
+    scissors = await mission(stack, "find the scissors")
+    assert scissors.outcome == "succeeded", scissors.of("mission_finished")
+    assert {f.label for f in scissors.findings()} == {"scissors"}
+
+    fetch = await mission(stack, "Please fetch the package from the mailroom.")
+    assert fetch.outcome == "succeeded", fetch.of("mission_finished")
+    assert statuses(fetch) == {
+        "s1": "failed",
+        "s1b": "succeeded",
+        "s1c": "succeeded",
+        "s2": "succeeded",
+        "s3": "succeeded",
+        "s4": "succeeded",
+        "s5": "succeeded",
+    }
+    steps = {s["id"]: s for s in fetch.snapshot["steps"]}
+    assert steps["s1"]["detail"].startswith("DOOR_CLOSED")
+    assert any("failed DOOR_CLOSED (recoverable)" in line for line in fetch.event_lines())
+    assert any("east entrance" in s["text"] for s in fetch.of("speak"))
+    drives = [
+        json.loads(r["result"]).get("destination")
+        for r in fetch.tool_results("navigation.navigate_to")
+    ]
+    assert drives == ["mailroom", "corridor_b", "mailroom"]
+    assert {f.label for f in fetch.findings()} == {"yellow package"}
+    assert "yellow package" in fetch.snapshot["summary"]
+
+    seen = await mission(stack, "what do you see?")
+    assert seen.outcome == "succeeded", seen.of("mission_finished")
+    assert seen.snapshot["summary"].startswith("I see")
+
+    await stop_mid_drive_then_continue(stack)
+    await teaching_round_trip(stack, tmp_path)
+
+
+async def stop_mid_drive_then_continue(stack: RunningStack) -> None:
+    async with MissionDriver(stack.brain_url) as user:
+        started = await user.send("drive to the dock")
+        assert started["route"] == "mission_started", started
+
+        def driving() -> bool:
+            plans = user.record.of("mission_plan")
+            return bool(plans) and plans[-1]["steps"][0]["status"] == "running"
+
+        await async_wait_until(driving, 20, "the drive to the dock running")
+        assert (await user.send("stop"))["route"] == "mission"
+        await async_wait_until(
+            lambda: user.record.of("mission_plan")[-1]["state"] == "paused", 10, "paused"
+        )
+        await async_wait_until(
+            lambda: any("continue or abort" in s["text"] for s in user.record.of("speak")),
+            10,
+            "the robot asks whether to continue",
+        )
+        await user.send("continue")
+        record = await user.wait_finished(60)
+    assert record.outcome == "succeeded", record.of("mission_finished")
+    assert statuses(record)["s1"] == "failed"  # the safety stop
+    assert statuses(record)["s1b"] == "succeeded"  # the resumed drive
+
+
+async def teaching_round_trip(stack: RunningStack, tmp_path: Path) -> None:
+    instruction = "go to the reception"
+    async with MissionDriver(stack.brain_url) as user:
+        armed = await user.http.post("/api/agent/teaching", json={"enabled": True})
+        assert armed.json() == {"enabled": True}
+        taught = await user.run_mission(instruction, timeout_s=60)
+        assert taught.outcome == "succeeded"
+        await async_wait_until(lambda: user.record.of("teaching_saved"), 20, "teaching_saved")
+        process_id = user.record.of("teaching_saved")[0]["process_id"]
+    assert process_id == "go-to-the-reception"
+    saved: Any = await call_mcp(stack.url("memory", "/sse"), "get_process", {"id": process_id})
+    assert "navigation.navigate_to" in json.dumps(saved)
+
+    again = await mission(stack, instruction)
+    assert again.outcome == "succeeded"
+    trace = tmp_path / "var" / "missions" / f"{again.mission_id}.jsonl"
+    records = [json.loads(line) for line in trace.read_text().splitlines()]
+    retrieved = [r for r in records if r["kind"] == "processes"]
+    assert process_id in [p["id"] for p in retrieved[0]["processes"]]
+    brain_log = "".join(
+        p.read_text(errors="replace") for p in (tmp_path / "var").glob("brain-*.log")
+    )
+    assert "processes_retrieved" in brain_log
+    assert process_id in brain_log
+    async with httpx.AsyncClient(base_url=stack.brain_url) as http:
+        ready = (await http.get("/api/readyz")).json()["data"]
+    assert ready["planner"] == "rules"

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_voice_chat.agent.mission import Mission, PlanStep
+from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.socket_events import MissionEventLine
 
 _SCHEMA = """
@@ -117,6 +118,7 @@ def to_record(mission: Mission) -> dict[str, Any]:
     data = asdict(mission)
     data["created_at"] = _iso(mission.created_at)
     data["ended_at"] = _iso(mission.ended_at)
+    data["usage"] = mission.usage.model_dump()
     data["steps"] = [
         {**asdict(s), "started_at": _iso(s.started_at), "ended_at": _iso(s.ended_at)}
         for s in mission.steps
@@ -149,5 +151,6 @@ def from_record(data: dict[str, Any]) -> Mission:
             "steps": steps,
             "created_at": created,
             "ended_at": _dt(data.get("ended_at")),
+            "usage": Usage.model_validate(data.get("usage") or {}),
         }
     )

@@ -10,6 +10,7 @@ import pytest
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.composition import Adapters, Container, assemble, compose_config
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.settings import AgentConfig, AppConfig, data_dir
@@ -107,3 +108,23 @@ def test_state_lives_in_the_data_dir_never_the_working_directory(
     assert default.is_absolute()
     assert "robot-voice-chat" in default.parts
     assert tmp_path not in default.parents
+
+
+async def test_a_missions_token_and_cost_totals_survive_a_restart(tmp_path: Path) -> None:
+    costly = [
+        r.model_copy(update={"usage": Usage(input_tokens=100, output_tokens=10, cost_usd=0.01)})
+        for r in PLAN
+    ]
+    first = brain(tmp_path, FakeLLM(costly))
+    mission = await first.executor.start("find the mug")
+    await first.executor.wait_idle(5)
+    await first.stop()
+
+    second = brain(tmp_path, FakeLLM([]))
+    app = create_app(second, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        snap = (await c.get(f"/api/agent/missions/{mission.id}")).json()
+
+    assert snap["usage"]["input_tokens"] == 400
+    assert snap["usage"]["output_tokens"] == 40
+    assert snap["usage"]["cost_usd"] == pytest.approx(0.04)

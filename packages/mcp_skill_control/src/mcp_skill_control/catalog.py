@@ -1,9 +1,9 @@
 """The skill template catalog (spec 001 §3): load, list, fill.
 
 A template is a vision-node skill with ``{param}`` placeholders. :meth:`Catalog.fill`
-substitutes the params and validates the result with the vision node's own schema
-(:meth:`robot_mcp_perception.skills.Skill.from_dict`), so a skill that would be refused by
-the node is refused here first, with the same error code.
+substitutes the params and validates the result with the schema the vision node uses
+(:meth:`robot_skill_schema.Skill.from_dict`), so a skill that would be refused by the node is
+refused here first, with the same error code.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from robot_mcp_perception.skills import Skill, SkillError
+from robot_skill_schema import Skill, SkillError
 
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
 MAX_PARAM_CHARS = 500

@@ -15,9 +15,9 @@ from typing import Any
 import structlog
 
 from mcp_skill_control.catalog import Catalog, CatalogError, validate_skill
-from robot_mcp_perception.skills import is_topic_token
 from robot_ros_bridge import RemoteError
 from robot_ros_bridge.vision_tasks import VisionTasks
+from robot_skill_schema import is_topic_token
 
 logger = structlog.get_logger(__name__)
 

@@ -27,9 +27,14 @@ DET = {
 
 
 async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    """A tool's answer: its structuredContent object, or {"_error": ...} for a tool error."""
     result = await client.call_tool(tool, args or {})
     payload = json.loads(result.content[0].text)  # type: ignore[union-attr]
-    return {"_error": payload} if result.is_error else payload
+    if result.is_error:
+        return {"_error": payload}
+    assert isinstance(result.structured_content, dict)
+    assert payload == result.structured_content  # the text block mirrors it
+    return result.structured_content
 
 
 @pytest.fixture

@@ -129,3 +129,8 @@ def run() -> None:
         run_server(app.server, DEFAULT_PORT)
     finally:
         app.close()
+
+
+def main() -> None:
+    """Console script ``mcp-perception-buffer``: stdio by default, sse / streamable-http by env."""
+    run()

@@ -121,16 +121,21 @@ def build_server(perception: Perception) -> MCPServer:
     async def get_task(task_id: str) -> dict[str, Any]:
         """Return the state of a watcher task ("watch-<skill_id>").
 
-        Call this to check whether a watcher is still armed and how often it fired.
+        Call this to check whether a watcher is still armed and how often and when it fired.
+        Returns a TaskInfo {"task_id", "state", "skill", "output", "equals", "started_at",
+        "fired", "fired_at": [unix s, most recent last], "last_fired_at", and once ended
+        "finished_at" and "reason" ("cancelled_by_caller" | "skill_stopped")}.
         """
         return await _guard("get_task", lambda: perception.get_task(task_id))
 
     @server.tool()
-    async def cancel_task(task_id: str, stop_skill: bool = False) -> dict[str, Any]:
-        """Disarm a watcher task: no more watch_events are posted for it.
+    async def cancel_task(task_id: str, stop_skill: bool = True) -> dict[str, Any]:
+        """End a watcher task: disarm it (no more watch_events) and stop its skill.
 
-        Call this when you no longer care about the watched condition. The skill keeps
-        running unless `stop_skill` is true (or call skill_control.stop_skill yourself).
+        Call this when the watched condition no longer matters (the mission finished or was
+        aborted). A final task_done event (state "cancelled") is posted for the task. Pass
+        `stop_skill=false` only to keep the skill publishing without the watcher. Returns the
+        finished TaskInfo plus "skill_stopped" (and "skill_stop_error" if it could not be).
         """
         return await _guard("cancel_task", lambda: perception.cancel_task(task_id, stop_skill))
 
@@ -145,10 +150,3 @@ def build_server(perception: Perception) -> MCPServer:
         )
 
     return install_json_tool_errors(server)
-
-
-def main() -> None:
-    """Console script ``mcp-perception-buffer``: stdio by default, sse / streamable-http by env."""
-    from mcp_perception_buffer.composition import run
-
-    run()

@@ -148,12 +148,21 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
                     break
                 await asyncio.sleep(0.02)
             assert len(sink.events) == 1
-            cancelled = await call(
-                client, "cancel_task", {"task_id": "watch-door", "stop_skill": True}
-            )
+            fired = await call(client, "get_task", {"task_id": "watch-door"})
+            assert fired["fired"] == 1
+            assert fired["last_fired_at"] == fired["fired_at"][0]
+            cancelled = await call(client, "cancel_task", {"task_id": "watch-door"})
             assert cancelled["state"] == "cancelled"
             assert cancelled["skill_stopped"] is True
             assert "door" not in tasks.skills
+            await app.perception.sync_watchers()
+            for _ in range(100):
+                if len(sink.events) >= 2:
+                    break
+                await asyncio.sleep(0.02)
+            assert [e[2] for e in sink.events] == ["watch_event", "task_done"]
+            again = await call(client, "cancel_task", {"task_id": "watch-door"})
+            assert again["skill_stopped"] is False
             missing = await call(client, "get_task", {"task_id": "watch-x"})
             assert missing["_error"]["error"] == "unknown_task"
             missing = await call(client, "cancel_task", {"task_id": "watch-x"})
@@ -161,6 +170,26 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
             assert (await call(client, "list_tasks"))["tasks"][0]["state"] == "cancelled"
     finally:
         await app.perception.close()
+
+
+async def test_a_cancel_whose_skill_cannot_be_stopped_still_disarms_and_says_why(
+    app: PerceptionApp, tasks: FakeVisionTasks, sink: RecordingEventSink
+) -> None:
+    await tasks.create(
+        {
+            "name": "gone",
+            "mode": "describe",
+            "outputs": [{"name": "open", "type": "boolean"}],
+            "watch": {"output": "open", "equals": True},
+        }
+    )
+    await app.perception.sync_watchers()
+    del tasks.skills["gone"]  # deleted behind the buffer's back, before its next poll
+    async with Client(app.server) as client:
+        answer = await call(client, "cancel_task", {"task_id": "watch-gone"})
+    assert answer["state"] == "cancelled"
+    assert answer["skill_stopped"] is False
+    assert answer["skill_stop_error"] == "unknown_skill"
 
 
 async def test_a_failing_vision_node_does_not_break_the_watch_poll(

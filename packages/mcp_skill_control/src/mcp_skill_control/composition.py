@@ -8,6 +8,7 @@ from mcp.server.mcpserver import MCPServer
 
 from mcp_skill_control.catalog import Catalog
 from mcp_skill_control.config import DEFAULT_PORT, SkillControlConfig
+from mcp_skill_control.reconcile import CreateReconciler
 from mcp_skill_control.server import build_server
 from mcp_skill_control.tools import SkillControl
 from robot_ros_bridge import RosBridge
@@ -43,7 +44,10 @@ def build_app(
             timeout_s=config.call_timeout_s,
             wait_for_service_s=config.wait_for_service_s,
         )
-    control = SkillControl(catalog, tasks)
+    reconciler = CreateReconciler(
+        tasks, confirm_s=config.reconcile_s, sweep_s=config.orphan_sweep_s
+    )
+    control = SkillControl(catalog, tasks, reconciler)
     return SkillControlApp(config, build_server(control), control, bridge)
 
 
@@ -59,3 +63,8 @@ def run() -> None:
     finally:
         if app.bridge is not None:
             app.bridge.close()
+
+
+def main() -> None:
+    """Console script ``mcp-skill-control``: stdio by default, sse / streamable-http by env."""
+    run()

@@ -135,10 +135,3 @@ def _sync(fn: Callable[[], dict[str, Any]]) -> Callable[[], Awaitable[dict[str, 
         return fn()
 
     return call
-
-
-def main() -> None:
-    """Console script ``mcp-skill-control``: stdio by default, sse / streamable-http by env."""
-    from mcp_skill_control.composition import run
-
-    run()

@@ -118,6 +118,18 @@ def build_server(perception: Perception) -> MCPServer:
         return await _guard("list_buffers", _now(perception.list_buffers))
 
     @server.tool()
+    async def get_health() -> dict[str, Any]:
+        """Report whether this server's watch events reach the brain.
+
+        Call this when a watcher fired but no event arrived, or to check the server. Returns
+        {"status": "ok"|"degraded", "events": {"status": "ok"|"refused"|"not_posting",
+        "last_refusal", "pending", "dead_letters", ...}, "watchers_running", "following"}.
+        "refused" means the brain refuses our events (secret or clock): they wait in the
+        outbox and are delivered once that is fixed.
+        """
+        return await _guard("get_health", perception.health)
+
+    @server.tool()
     async def get_task(task_id: str) -> dict[str, Any]:
         """Return the state of a watcher task ("watch-<skill_id>").
 

@@ -223,6 +223,19 @@ class Perception:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(changed.wait(), min(remaining, _WAIT_SLICE_S))
 
+    async def health(self) -> dict[str, Any]:
+        """Event delivery to the brain and what is followed; ``status`` is the worst of them."""
+        events = await self._at_home(self._watchers.event_health)
+        running = await self._at_home(self._watchers.list, ["running"])
+        followed = self._follower.followed() if self._follower is not None else {}
+        status = "ok" if events.get("status") in ("ok", "not_posting") else "degraded"
+        return {
+            "status": status,
+            "events": events,
+            "watchers_running": len(running),
+            "following": sorted(followed),
+        }
+
     # -- watcher tasks ------------------------------------------------------------------
     async def get_task(self, task_id: str) -> dict[str, Any]:
         info = await self._at_home(self._watchers.get, task_id)

@@ -184,6 +184,9 @@ class WatcherService:
         return finished
 
     # -- tools ---------------------------------------------------------------------------
+    def event_health(self) -> dict[str, Any]:
+        return {**self._sink.health(), "queued": self._queue.qsize()}
+
     def get(self, task_id: str) -> TaskInfo | None:
         return self._tasks.get(task_id)
 

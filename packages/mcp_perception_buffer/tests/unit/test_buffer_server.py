@@ -14,7 +14,10 @@ from mcp import Client
 from mcp_perception_buffer.composition import PerceptionApp, build_app, event_sink
 from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import LoggingEventSink, PosterEventSink, RecordingEventSink
+from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
 from robot_ros_bridge.testing import FakeVisionTasks
+from robot_stack_testing import async_wait_until
+from robot_stack_testing.ports import free_tcp_port
 
 DET = {
     "label": "mug",
@@ -62,6 +65,7 @@ async def test_the_server_exposes_the_perception_and_task_tools(app: PerceptionA
         "get_history",
         "wait_for_result",
         "list_buffers",
+        "get_health",
         "get_task",
         "cancel_task",
         "list_tasks",
@@ -235,3 +239,50 @@ def test_config_from_env_requires_a_secret_with_an_events_url(tmp_path: Path) ->
     assert "s3cret" not in repr(config)
     assert isinstance(event_sink(config), PosterEventSink)
     assert isinstance(event_sink(PerceptionConfig()), LoggingEventSink)
+
+
+async def test_health_shows_that_the_brain_refuses_our_events_and_they_wait(
+    tasks: FakeVisionTasks, tmp_path: Path
+) -> None:
+    receiver = RecordingReceiver({"perception": "the-brain-has-another-secret-0123456789"})
+    async with ReceiverServer(receiver, free_tcp_port()) as brain:
+        sink = PosterEventSink(
+            brain.url, "our-secret-0123456789-0123456789", tmp_path / "o.sqlite3", "perception"
+        )
+        app = build_app(PerceptionConfig(), vision_tasks=tasks, sink=sink, follow_topics=False)
+        await app.perception.start()
+        try:
+            await tasks.create(
+                {
+                    "name": "door",
+                    "mode": "describe",
+                    "outputs": [{"name": "open", "type": "boolean"}],
+                    "watch": {"output": "open", "equals": True},
+                }
+            )
+            await app.perception.sync_watchers()
+            app.buffer.add_output("door", "open", True, time.time())
+            await async_wait_until(lambda: receiver.rejections, 10.0, "a refused post")
+            async with Client(app.server) as client:
+                health = await call(client, "get_health")
+        finally:
+            await app.perception.close()
+    assert health["status"] == "degraded"
+    assert health["events"]["status"] == "refused"
+    assert health["events"]["last_refusal"]["status"] == 401
+    assert health["events"]["pending"] == 1
+    assert health["watchers_running"] == 1
+
+
+async def test_health_without_a_brain_says_events_are_not_posted() -> None:
+    app_sinkless = build_app(
+        PerceptionConfig(), vision_tasks=FakeVisionTasks(), follow_topics=False
+    )
+    await app_sinkless.perception.start()
+    try:
+        async with Client(app_sinkless.server) as client:
+            health = await call(client, "get_health")
+    finally:
+        await app_sinkless.perception.close()
+    assert health["status"] == "ok"
+    assert health["events"]["status"] == "not_posting"

@@ -286,3 +286,9 @@ async def test_health_without_a_brain_says_events_are_not_posted() -> None:
         await app_sinkless.perception.close()
     assert health["status"] == "ok"
     assert health["events"]["status"] == "not_posting"
+
+
+def test_the_outbox_defaults_to_the_per_user_data_dir_not_the_working_directory() -> None:
+    path = PerceptionConfig().outbox_path
+    assert path.is_absolute()
+    assert "mcp-perception-buffer" in path.parts

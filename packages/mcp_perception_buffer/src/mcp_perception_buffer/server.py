@@ -145,9 +145,10 @@ def build_server(perception: Perception) -> MCPServer:
         """End a watcher task: disarm it (no more watch_events) and stop its skill.
 
         Call this when the watched condition no longer matters (the mission finished or was
-        aborted). A final task_done event (state "cancelled") is posted for the task. Pass
-        `stop_skill=false` only to keep the skill publishing without the watcher. Returns the
-        finished TaskInfo plus "skill_stopped" (and "skill_stop_error" if it could not be).
+        aborted). A final task_failed event (error_code CANCELLED, state "cancelled") is
+        posted. Pass `stop_skill=false` only to keep the skill publishing without the
+        watcher. Returns the finished TaskInfo plus "skill_stopped" (and "skill_stop_error"
+        if it could not be).
         """
         return await _guard("cancel_task", lambda: perception.cancel_task(task_id, stop_skill))
 

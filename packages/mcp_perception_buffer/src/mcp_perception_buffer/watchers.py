@@ -1,8 +1,10 @@
 """Watchers (ARCHITECTURE.md §4.4): the ``watch: {output, equals}`` blocks of running skills,
 evaluated on their output values; a rising edge (false -> true, and the first true after
 arming) emits exactly one ``watch_event``. A watcher that ends — cancelled, or its skill left
-``list_vision_tasks`` — posts one terminal ``task_done`` whose payload says why
-(``state: "cancelled"``, ``reason``) and how often it fired, so the brain retires the task.
+``list_vision_tasks`` — posts one terminal ``task_failed`` (a ``TaskFailure`` with
+``error_code`` ``CANCELLED`` or ``SKILL_STOPPED``, ``recoverable: true``, plus ``state:
+"cancelled"``, ``reason`` and how often it fired), as navigation does for a cancelled task, so
+the brain retires the task.
 
 ``WatchEvaluator`` is the pure edge detector; ``WatcherService`` arms/disarms from
 ``list_vision_tasks``, keeps the watcher tasks (kit ``TaskInfo``s, keyed by task id; a
@@ -29,6 +31,19 @@ from robot_mcp_kit.models import EventType, TaskInfo, TaskState
 logger = structlog.get_logger(__name__)
 
 WATCH_TOOL = "instantiate_skill"
+_END_FAILURES: dict[str, dict[str, Any]] = {
+    "cancelled_by_caller": {
+        "error_code": "CANCELLED",
+        "message": "the watcher was cancelled",
+        "recoverable": True,
+    },
+    "skill_stopped": {
+        "error_code": "SKILL_STOPPED",
+        "message": "the watched skill is no longer running on the vision node",
+        "recoverable": True,
+        "suggestions": ["instantiate the watcher template again if still needed"],
+    },
+}
 MAX_FIRED_AT = 20
 """How many fire times a watcher task reports (the most recent)."""
 
@@ -179,8 +194,9 @@ class WatcherService:
             }
         )
         self._tasks[watch.task_id] = finished
-        payload = {"skill": skill, "state": state, "reason": reason, **_firing(watch)}
-        self._queue.put_nowait((watch.task_id, "task_done", payload))
+        failure = _END_FAILURES[reason]
+        payload = {**failure, "skill": skill, "state": state, "reason": reason, **_firing(watch)}
+        self._queue.put_nowait((watch.task_id, "task_failed", payload))
         return finished
 
     # -- tools ---------------------------------------------------------------------------

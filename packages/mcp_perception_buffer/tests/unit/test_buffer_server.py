@@ -164,7 +164,7 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
                 if len(sink.events) >= 2:
                     break
                 await asyncio.sleep(0.02)
-            assert [e[2] for e in sink.events] == ["watch_event", "task_done"]
+            assert [e[2] for e in sink.events] == ["watch_event", "task_failed"]
             again = await call(client, "cancel_task", {"task_id": "watch-door"})
             assert again["skill_stopped"] is False
             missing = await call(client, "get_task", {"task_id": "watch-x"})

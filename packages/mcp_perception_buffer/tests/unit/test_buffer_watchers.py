@@ -4,6 +4,7 @@ import time
 from mcp_perception_buffer.buffer import RollingBuffer
 from mcp_perception_buffer.events import LoggingEventSink, RecordingEventSink
 from mcp_perception_buffer.watchers import WatcherService, WatchEvaluator
+from robot_mcp_kit.models import TaskFailure
 from robot_stack_testing import async_wait_until
 
 WATCHED = [{"name": "door", "watch": {"output": "open", "equals": True}}]
@@ -88,8 +89,9 @@ async def test_cancel_disarms_and_polling_does_not_re_arm_it() -> None:
         buffer.add_output("door", "open", True, 1.0)
         await asyncio.sleep(0.05)
         await service.drain()
-        assert [e[:3] for e in sink.events] == [("watch-door", "instantiate_skill", "task_done")]
+        assert [e[:3] for e in sink.events] == [("watch-door", "instantiate_skill", "task_failed")]
         assert sink.events[0][3]["reason"] == "cancelled_by_caller"
+        assert sink.events[0][3]["error_code"] == "CANCELLED"
         assert sink.events[0][3]["state"] == "cancelled"
         assert service.cancel("watch-nobody") is None
         assert [t.task_id for t in service.list(["cancelled"])] == ["watch-door"]
@@ -133,9 +135,10 @@ async def test_a_watcher_whose_skill_was_deleted_posts_one_terminal_event() -> N
         await service.drain()
     finally:
         await service.close()
-    assert [e[2] for e in sink.events] == ["watch_event", "task_done"]
+    assert [e[2] for e in sink.events] == ["watch_event", "task_failed"]
     terminal = sink.events[1][3]
     assert terminal["reason"] == "skill_stopped"
+    assert TaskFailure.model_validate(terminal).error_code == "SKILL_STOPPED"
     assert terminal["fired"] == 1
     assert terminal["last_fired_at"] == terminal["fired_at"][-1]
 
@@ -169,4 +172,4 @@ async def test_closing_hands_queued_terminal_events_to_the_sink() -> None:
     service.refresh(WATCHED)
     service.cancel("watch-door")
     await service.close()
-    assert [e[2] for e in sink.events] == ["task_done"]
+    assert [e[2] for e in sink.events] == ["task_failed"]

@@ -34,4 +34,16 @@ if uv run --frozen python -c "import robot_mcp_perception.sample_scenes" 2>/dev/
   uv run --frozen python -m robot_mcp_perception.sample_scenes data/scenes
   touch data/scenes/.complete
 fi
+# The MCP Inspector CLI (a third-party MCP client) for the stdio tests: pinned by
+# tools/mcp-inspector/package-lock.json, installed once; nothing downloads at test time.
+inspector=tools/mcp-inspector
+if [[ ! -f $inspector/node_modules/.package-lock.json \
+      || $inspector/package-lock.json -nt $inspector/node_modules/.package-lock.json ]]; then
+  if command -v npm >/dev/null 2>&1; then
+    echo "setup: installing the MCP Inspector CLI (npm ci in $inspector)"
+    (cd "$inspector" && npm ci --no-audit --no-fund --loglevel=error)
+  else
+    echo "setup: npm not found; the stdio tests need it (apt-get install npm)" >&2
+  fi
+fi
 echo "setup: done"

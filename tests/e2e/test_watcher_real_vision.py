@@ -10,7 +10,7 @@ The SDK's MCP client drives mcp-skill-control and mcp-perception-buffer server p
     frames with one           -> exactly one watch_event (server perception, task watch-…)
     staying true              -> nothing more
     false, then true again    -> a second event with a higher seq
-    perception.cancel_task    -> disarmed: a further rising edge posts nothing
+    perception.cancel_task    -> disarmed, skill stopped, one task_failed CANCELLED; then nothing
 """
 
 import json
@@ -204,16 +204,24 @@ async def test_a_watch_for_skill_on_the_real_vision_node_posts_one_signed_event_
             assert all(e.payload["skill"] == "watch_for" for e in events)
             assert receiver.rejections == []  # every post carried a valid HMAC
 
-            # cancel_task disarms: a further rising edge posts nothing.
+            # cancel_task disarms and stops the skill: one task_failed CANCELLED, then nothing.
+            fired = await call(perception, "get_task", {"task_id": task_id})
+            assert fired["fired"] == 2
+            assert len(fired["fired_at"]) == 2
             cancelled = await call(perception, "cancel_task", {"task_id": task_id})
             assert cancelled["state"] == "cancelled", cancelled
+            assert cancelled["skill_stopped"] is True, cancelled
+            await async_wait_until(lambda: len(receiver.accepted()) >= 3, 30.0, "the end event")
+            end = receiver.accepted()[2].event
+            assert (end.task_id, end.type) == (task_id, "task_failed")
+            assert (end.payload["error_code"], end.payload["state"]) == ("CANCELLED", "cancelled")
+            running = await call(skills, "list_running_skills")
+            assert "watch_for" not in {s["skill_id"] for s in running["skills"]}
             frames.show(without)
-            await async_wait_until(lambda: triggered_is(False), 30.0, "false after cancel")
             frames.show(with_mug)
-            await async_wait_until(lambda: triggered_is(True), 30.0, "true after cancel")
             with pytest.raises(TimeoutError):
                 await async_wait_until(
-                    lambda: len(receiver.accepted()) > 2, 2.0, "no event once cancelled"
+                    lambda: len(receiver.accepted()) > 3, 2.0, "no event once cancelled"
                 )
 
 

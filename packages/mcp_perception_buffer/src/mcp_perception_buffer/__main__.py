@@ -1,5 +1,5 @@
 """``python -m mcp_perception_buffer``: same as the console script."""
 
-from mcp_perception_buffer.server import main
+from mcp_perception_buffer.composition import main
 
 main()

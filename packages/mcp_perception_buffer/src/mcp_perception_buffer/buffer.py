@@ -22,6 +22,8 @@ class Result:
     received: float
     source: bytes | None = None
     """The publisher's GID (which incarnation of the skill published it), if known."""
+    meta: dict[str, Any] = field(default_factory=dict)
+    """The result-level JSON ``extra`` (stale markers, grounding provenance), if sent."""
 
 
 @dataclass(frozen=True)
@@ -81,9 +83,14 @@ class RollingBuffer:
         stamp: float,
         detections: list[dict[str, Any]] | tuple[dict[str, Any], ...],
         source: bytes | None = None,
+        meta: dict[str, Any] | None = None,
     ) -> Result:
         result = Result(
-            stamp=stamp, detections=tuple(detections), received=self._clock(), source=source
+            stamp=stamp,
+            detections=tuple(detections),
+            received=self._clock(),
+            source=source,
+            meta=dict(meta or {}),
         )
         with self._lock:
             buf = self._ensure(skill)

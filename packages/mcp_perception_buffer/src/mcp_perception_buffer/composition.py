@@ -9,6 +9,7 @@ event loop in a daemon thread for the life of the process, independent of the MC
 from __future__ import annotations
 
 import asyncio
+import os
 import threading
 from collections.abc import Coroutine
 from dataclasses import dataclass, field
@@ -23,10 +24,15 @@ from mcp_perception_buffer.ros_side import TopicFollower
 from mcp_perception_buffer.server import build_server
 from mcp_perception_buffer.service import Perception
 from mcp_perception_buffer.watchers import WatcherService
+from robot_mcp_kit.logging import configure_logging
+from robot_mcp_kit.mcp_runtime import reserve_stdout, run_server, transport_settings
+from robot_mcp_kit.outbox import OutboxError
+from robot_mcp_kit.startup import refuse_to_start
 from robot_ros_bridge import RosBridge
 from robot_ros_bridge.vision_tasks import RosVisionTasks, VisionTasks
 
 T = TypeVar("T")
+SERVICE = "mcp-perception-buffer"
 
 
 class BackgroundLoop:
@@ -118,14 +124,27 @@ def build_app(
 
 
 def run() -> None:
-    from robot_mcp_kit.logging import configure_logging
-    from robot_mcp_kit.mcp_runtime import run_server
-
-    config = PerceptionConfig.from_env()
-    configure_logging("mcp-perception-buffer", level=config.log_level)
-    app = build_app(config)
-    app.start_background()
+    """The process: over stdio, stdout is reserved for JSON-RPC before ROS starts (rcl and
+    Fast DDS output goes to stderr); a bad configuration exits 2 with one line."""
     try:
-        run_server(app.server, DEFAULT_PORT)
+        settings = transport_settings(os.environ, DEFAULT_PORT)
+        config = PerceptionConfig.from_env()
+    except ValueError as error:
+        refuse_to_start(SERVICE, error)
+    wire = reserve_stdout() if settings.transport == "stdio" else None
+    configure_logging(SERVICE, level=config.log_level)
+    app = build_app(config)
+    try:
+        app.start_background()
+    except OutboxError as error:
+        app.close()
+        refuse_to_start(SERVICE, error)
+    try:
+        run_server(app.server, DEFAULT_PORT, wire)
     finally:
         app.close()
+
+
+def main() -> None:
+    """Console script ``mcp-perception-buffer``: stdio by default, sse / streamable-http by env."""
+    run()

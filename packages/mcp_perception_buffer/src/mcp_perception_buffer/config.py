@@ -6,10 +6,12 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
+import platformdirs
 from pydantic import BaseModel, ConfigDict, Field, SecretStr, model_validator
 
 DEFAULT_PORT = 9202
 SERVER_NAME = "perception"
+APP_NAME = "mcp-perception-buffer"
 
 _ENV = {
     "vision_node_name": "VISION_NODE_NAME",
@@ -34,7 +36,10 @@ class PerceptionConfig(BaseModel):
     events_url: str | None = None
     """The brain's ``/api/agent/events``; unset = watch events are logged, not posted."""
     event_secret: SecretStr | None = None
-    outbox_path: Path = Path(".state/perception-outbox.sqlite3")
+    outbox_path: Path = Field(
+        default_factory=lambda: platformdirs.user_data_path(APP_NAME) / "outbox.sqlite3"
+    )
+    """Per-user data dir by default (never the working directory: hosts spawn us from /)."""
     max_count: int = Field(default=50, ge=1, le=10_000)
     max_age_s: float = Field(default=300.0, gt=0)
     stale_after_s: float = Field(default=10.0, gt=0)

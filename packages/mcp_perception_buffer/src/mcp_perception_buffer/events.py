@@ -27,6 +27,10 @@ class EventSink(abc.ABC):
     async def emit(self, task_id: str, tool: str, type: EventType, payload: dict[str, Any]) -> None:
         """Deliver one task event (durably queued when this returns)."""
 
+    def health(self) -> dict[str, Any]:
+        """Whether events reach the brain (``status``) and the delivery counters."""
+        return {"status": "ok"}
+
 
 class PosterEventSink(EventSink):
     def __init__(self, url: str, secret: str, outbox_path: Path, server: str) -> None:
@@ -39,6 +43,9 @@ class PosterEventSink(EventSink):
     async def close(self) -> None:
         await self._poster.close()
 
+    def health(self) -> dict[str, Any]:
+        return self._poster.health()
+
     async def emit(self, task_id: str, tool: str, type: EventType, payload: dict[str, Any]) -> None:
         event = await self._poster.emit(task_id, tool, type, payload)
         logger.info("watch_event_queued", task_id=task_id, event_id=event.event_id, seq=event.seq)
@@ -47,6 +54,9 @@ class PosterEventSink(EventSink):
 class LoggingEventSink(EventSink):
     """Used when RVC_EVENTS_URL is not set: watchers still run and are visible via the task
     tools, but nothing is pushed to a brain."""
+
+    def health(self) -> dict[str, Any]:
+        return {"status": "not_posting", "reason": "RVC_EVENTS_URL is not set"}
 
     async def emit(self, task_id: str, tool: str, type: EventType, payload: dict[str, Any]) -> None:
         logger.warning("watch_event_not_posted", task_id=task_id, reason="RVC_EVENTS_URL unset")

@@ -66,6 +66,11 @@ def detections_from_msg(msg: Any) -> tuple[float, list[dict[str, Any]]]:
     return stamp_seconds(msg.header), detections
 
 
+def result_extra_from_msg(msg: Any) -> dict[str, Any]:
+    """The array-level JSON ``extra`` (nodes built before that field existed have none)."""
+    return decode_extra(str(getattr(msg, "extra", "") or ""))
+
+
 def value_from_msg(msg: Any) -> tuple[float, Any]:
     """A StampedString as ``(stamp, value)``; ``data`` is the JSON encoding of the value."""
     try:
@@ -209,7 +214,8 @@ class TopicFollower:
             source, accept = self._source(skill, info)
             if accept:
                 stamp, detections = detections_from_msg(msg)
-                self._buffer.add_result(skill, stamp, detections, source)
+                meta = result_extra_from_msg(msg)
+                self._buffer.add_result(skill, stamp, detections, source, meta)
 
         return callback
 

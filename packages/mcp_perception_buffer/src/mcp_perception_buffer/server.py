@@ -1,7 +1,8 @@
 """The ``perception`` MCP server (the brain's eyes): tool definitions written for the planner
 and the console entry point ``mcp-perception-buffer``.
 
-Every tool returns a JSON string with ``stamp`` (source image time, unix s), ``age_s`` and
+Every tool returns a JSON object as MCP structured content (``structuredContent``; the text
+block carries the same JSON) with ``stamp`` (source image time, unix s), ``age_s`` and
 ``stale``. Detections carry label, score, kind, box, point and a ``mask_ref`` — never pixels.
 Failures are tool errors whose text is JSON ``{"error": "<code>", "detail": "<sentence>"}``.
 """
@@ -32,14 +33,20 @@ INSTRUCTIONS = (
 StateName = Literal["running", "succeeded", "failed", "cancelled"]
 
 
-async def _guard(name: str, call: Callable[[], Awaitable[dict[str, Any]]]) -> str:
+async def _guard(name: str, call: Callable[[], Awaitable[dict[str, Any]]]) -> dict[str, Any]:
     try:
-        return json.dumps(await call(), default=str)
+        return _jsonable(await call())
     except PerceptionError as error:
         raise tool_error(error.code, error.detail) from error
     except RosBridgeError as error:
         logger.warning("tool_failed", tool=name, error=error.code, detail=error.detail)
         raise tool_error(error.code, error.detail) from error
+
+
+def _jsonable(answer: dict[str, Any]) -> dict[str, Any]:
+    """Plain JSON types only (values read from topics may be anything JSON decodes to)."""
+    decoded: dict[str, Any] = json.loads(json.dumps(answer, default=str))
+    return decoded
 
 
 def _now(fn: Callable[[], dict[str, Any]]) -> Callable[[], Awaitable[dict[str, Any]]]:
@@ -53,7 +60,7 @@ def build_server(perception: Perception) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
     @server.tool()
-    async def what_do_you_see() -> str:
+    async def what_do_you_see() -> dict[str, Any]:
         """Answer "what do you see?" from what is already buffered (free, instant).
 
         Call this first whenever you need to know what is in front of the robot. Returns
@@ -65,7 +72,7 @@ def build_server(perception: Perception) -> MCPServer:
         return await _guard("what_do_you_see", _now(perception.what_do_you_see))
 
     @server.tool()
-    async def get_latest(skill: str) -> str:
+    async def get_latest(skill: str) -> dict[str, Any]:
         """Return the newest result of one running skill (non-blocking).
 
         Call this to read a standing skill's current answer; `skill` is the skill_id that
@@ -76,7 +83,7 @@ def build_server(perception: Perception) -> MCPServer:
         return await _guard("get_latest", _now(lambda: perception.get_latest(skill)))
 
     @server.tool()
-    async def get_history(skill: str, seconds: float = 30.0) -> str:
+    async def get_history(skill: str, seconds: float = 30.0) -> dict[str, Any]:
         """Return a skill's buffered results of the last `seconds` seconds, oldest first.
 
         Call this to see how something changed (did the object move, when did the door
@@ -88,7 +95,7 @@ def build_server(perception: Perception) -> MCPServer:
     @server.tool()
     async def wait_for_result(
         skill: str, timeout_s: float = 15.0, after_stamp: float | None = None
-    ) -> str:
+    ) -> dict[str, Any]:
         """Block until `skill` has a result, then return it (same shape as get_latest).
 
         Call this right after skill_control.instantiate_skill for a one-shot skill (e.g.
@@ -101,7 +108,7 @@ def build_server(perception: Perception) -> MCPServer:
         )
 
     @server.tool()
-    async def list_buffers() -> str:
+    async def list_buffers() -> dict[str, Any]:
         """List every skill the buffer follows, with counts and freshness.
 
         Call this to see which skills currently publish and how fresh each is. Returns
@@ -111,24 +118,42 @@ def build_server(perception: Perception) -> MCPServer:
         return await _guard("list_buffers", _now(perception.list_buffers))
 
     @server.tool()
-    async def get_task(task_id: str) -> str:
+    async def get_health() -> dict[str, Any]:
+        """Report whether this server's watch events reach the brain.
+
+        Call this when a watcher fired but no event arrived, or to check the server. Returns
+        {"status": "ok"|"degraded", "events": {"status": "ok"|"refused"|"not_posting",
+        "last_refusal", "pending", "dead_letters", ...}, "watchers_running", "following"}.
+        "refused" means the brain refuses our events (secret or clock): they wait in the
+        outbox and are delivered once that is fixed.
+        """
+        return await _guard("get_health", perception.health)
+
+    @server.tool()
+    async def get_task(task_id: str) -> dict[str, Any]:
         """Return the state of a watcher task ("watch-<skill_id>").
 
-        Call this to check whether a watcher is still armed and how often it fired.
+        Call this to check whether a watcher is still armed and how often and when it fired.
+        Returns a TaskInfo {"task_id", "state", "skill", "output", "equals", "started_at",
+        "fired", "fired_at": [unix s, most recent last], "last_fired_at", and once ended
+        "finished_at" and "reason" ("cancelled_by_caller" | "skill_stopped")}.
         """
         return await _guard("get_task", lambda: perception.get_task(task_id))
 
     @server.tool()
-    async def cancel_task(task_id: str, stop_skill: bool = False) -> str:
-        """Disarm a watcher task: no more watch_events are posted for it.
+    async def cancel_task(task_id: str, stop_skill: bool = True) -> dict[str, Any]:
+        """End a watcher task: disarm it (no more watch_events) and stop its skill.
 
-        Call this when you no longer care about the watched condition. The skill keeps
-        running unless `stop_skill` is true (or call skill_control.stop_skill yourself).
+        Call this when the watched condition no longer matters (the mission finished or was
+        aborted). A final task_failed event (error_code CANCELLED, state "cancelled") is
+        posted. Pass `stop_skill=false` only to keep the skill publishing without the
+        watcher. Returns the finished TaskInfo plus "skill_stopped" (and "skill_stop_error"
+        if it could not be).
         """
         return await _guard("cancel_task", lambda: perception.cancel_task(task_id, stop_skill))
 
     @server.tool()
-    async def list_tasks(states: list[StateName] | None = None) -> str:
+    async def list_tasks(states: list[StateName] | None = None) -> dict[str, Any]:
         """List watcher tasks, optionally only those in `states` (e.g. ["running"]).
 
         Call this to see which watchers are armed. Returns {"tasks": [TaskInfo...]}.
@@ -138,10 +163,3 @@ def build_server(perception: Perception) -> MCPServer:
         )
 
     return install_json_tool_errors(server)
-
-
-def main() -> None:
-    """Console script ``mcp-perception-buffer``: stdio by default, sse / streamable-http by env."""
-    from mcp_perception_buffer.composition import run
-
-    run()

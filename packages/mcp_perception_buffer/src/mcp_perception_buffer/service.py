@@ -223,6 +223,19 @@ class Perception:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(changed.wait(), min(remaining, _WAIT_SLICE_S))
 
+    async def health(self) -> dict[str, Any]:
+        """Event delivery to the brain and what is followed; ``status`` is the worst of them."""
+        events = await self._at_home(self._watchers.event_health)
+        running = await self._at_home(self._watchers.list, ["running"])
+        followed = self._follower.followed() if self._follower is not None else {}
+        status = "ok" if events.get("status") in ("ok", "not_posting") else "degraded"
+        return {
+            "status": status,
+            "events": events,
+            "watchers_running": len(running),
+            "following": sorted(followed),
+        }
+
     # -- watcher tasks ------------------------------------------------------------------
     async def get_task(self, task_id: str) -> dict[str, Any]:
         info = await self._at_home(self._watchers.get, task_id)
@@ -234,13 +247,26 @@ class Perception:
         tasks = await self._at_home(self._watchers.list, states)
         return {"tasks": [t.model_dump(mode="json") for t in tasks]}
 
-    async def cancel_task(self, task_id: str, stop_skill: bool = False) -> dict[str, Any]:
+    async def cancel_task(self, task_id: str, stop_skill: bool = True) -> dict[str, Any]:
+        """Disarm the watcher (its terminal event is queued) and, by default, stop its skill.
+
+        A skill that cannot be stopped (already gone, node unreachable) does not undo the
+        cancel: the answer says ``skill_stopped: false`` and why.
+        """
+        was = await self._at_home(self._watchers.get, task_id)
         info = await self._at_home(self._watchers.cancel, task_id)
         if info is None:
             raise PerceptionError("unknown_task", f"no watcher task {task_id!r}")
         result = info.model_dump(mode="json")
-        if stop_skill:
-            skill = str(result.get("skill") or task_id.removeprefix("watch-"))
+        if not stop_skill or (was is not None and was.state != "running"):
+            result["skill_stopped"] = False
+            return result
+        skill = str(result.get("skill") or task_id.removeprefix("watch-"))
+        try:
             await self._vision.manage(skill, "delete")
+        except RosBridgeError as error:
+            logger.warning("watch_skill_stop_failed", skill=skill, error=error.code)
+            result.update(skill_stopped=False, skill_stop_error=error.code, detail=error.detail)
+        else:
             result["skill_stopped"] = True
         return result

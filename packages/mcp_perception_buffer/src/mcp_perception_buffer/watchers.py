@@ -1,6 +1,10 @@
 """Watchers (ARCHITECTURE.md §4.4): the ``watch: {output, equals}`` blocks of running skills,
 evaluated on their output values; a rising edge (false -> true, and the first true after
-arming) emits exactly one ``watch_event``.
+arming) emits exactly one ``watch_event``. A watcher that ends — cancelled, or its skill left
+``list_vision_tasks`` — posts one terminal ``task_failed`` (a ``TaskFailure`` with
+``error_code`` ``CANCELLED`` or ``SKILL_STOPPED``, ``recoverable: true``, plus ``state:
+"cancelled"``, ``reason`` and how often it fired), as navigation does for a cancelled task, so
+the brain retires the task.
 
 ``WatchEvaluator`` is the pure edge detector; ``WatcherService`` arms/disarms from
 ``list_vision_tasks``, keeps the watcher tasks (kit ``TaskInfo``s, keyed by task id; a
@@ -15,18 +19,33 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import structlog
 
 from mcp_perception_buffer.buffer import RollingBuffer
 from mcp_perception_buffer.events import EventSink
-from robot_mcp_kit.models import TaskInfo, TaskState
+from robot_mcp_kit.models import EventType, TaskInfo, TaskState
 
 logger = structlog.get_logger(__name__)
 
 WATCH_TOOL = "instantiate_skill"
+_END_FAILURES: dict[str, dict[str, Any]] = {
+    "cancelled_by_caller": {
+        "error_code": "CANCELLED",
+        "message": "the watcher was cancelled",
+        "recoverable": True,
+    },
+    "skill_stopped": {
+        "error_code": "SKILL_STOPPED",
+        "message": "the watched skill is no longer running on the vision node",
+        "recoverable": True,
+        "suggestions": ["instantiate the watcher template again if still needed"],
+    },
+}
+MAX_FIRED_AT = 20
+"""How many fire times a watcher task reports (the most recent)."""
 
 
 def watch_task_id(skill: str) -> str:
@@ -40,6 +59,8 @@ class Watch:
     equals: Any
     last: bool | None = None
     fired: int = 0
+    fired_at: list[float] = field(default_factory=list)
+    """Wall-clock times (unix s) of the most recent rising edges, oldest first."""
 
     @property
     def task_id(self) -> str:
@@ -79,6 +100,7 @@ class WatchEvaluator:
         watch.last = now_true
         if rising:
             watch.fired += 1
+            watch.fired_at = [*watch.fired_at, round(time.time(), 3)][-MAX_FIRED_AT:]
             return watch
         return None
 
@@ -91,7 +113,7 @@ class WatcherService:
         self._tasks: dict[str, TaskInfo] = {}
         self._eval = WatchEvaluator()
         self._cancelled: set[str] = set()
-        self._queue: asyncio.Queue[tuple[str, dict[str, Any]]] = asyncio.Queue()
+        self._queue: asyncio.Queue[tuple[str, EventType, dict[str, Any]]] = asyncio.Queue()
         self._worker: asyncio.Task[None] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
 
@@ -102,7 +124,9 @@ class WatcherService:
         self._worker = asyncio.create_task(self._deliver(), name="watch-events")
         self._buffer.add_listener(self._on_buffer_write)
 
-    async def close(self) -> None:
+    async def close(self, drain_timeout_s: float = 2.0) -> None:
+        with contextlib.suppress(TimeoutError):  # hand queued (terminal) events to the sink
+            await asyncio.wait_for(self._queue.join(), drain_timeout_s)
         if self._worker is not None:
             self._worker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -146,31 +170,39 @@ class WatcherService:
             output=output,
             equals=equals,
             started_at=round(time.time(), 3),
+            **_firing(watch),
         )
         logger.info("watcher_armed", task_id=task_id, skill=skill, output=output)
         latest = self._buffer.latest_output(skill, output)
         if latest is not None:
             self._evaluate(skill, output, latest.value, latest.stamp)
 
-    def _end(self, skill: str, state: TaskState, **extra: Any) -> TaskInfo | None:
+    def _end(self, skill: str, state: TaskState, reason: str) -> TaskInfo | None:
+        """Disarm ``skill``'s watcher, finish its task and queue the terminal event."""
         watch = self._eval.disarm(skill)
         if watch is None:
             return None
-        logger.info("watcher_ended", task_id=watch.task_id, state=state, **extra)
+        logger.info("watcher_ended", task_id=watch.task_id, state=state, reason=reason)
         current = self._tasks[watch.task_id]
         finished = TaskInfo.model_validate(
             {
                 **current.model_dump(),
-                **extra,
+                **_firing(watch),
+                "reason": reason,
                 "state": state,
-                "fired": watch.fired,
                 "finished_at": round(time.time(), 3),
             }
         )
         self._tasks[watch.task_id] = finished
+        failure = _END_FAILURES[reason]
+        payload = {**failure, "skill": skill, "state": state, "reason": reason, **_firing(watch)}
+        self._queue.put_nowait((watch.task_id, "task_failed", payload))
         return finished
 
     # -- tools ---------------------------------------------------------------------------
+    def event_health(self) -> dict[str, Any]:
+        return {**self._sink.health(), "queued": self._queue.qsize()}
+
     def get(self, task_id: str) -> TaskInfo | None:
         return self._tasks.get(task_id)
 
@@ -212,14 +244,28 @@ class WatcherService:
             "topic": f"/vision/{skill}/{output}",
         }
         logger.info("watch_fired", task_id=watch.task_id, fired=watch.fired)
-        self._queue.put_nowait((watch.task_id, payload))
+        current = self._tasks.get(watch.task_id)
+        if current is not None:
+            self._tasks[watch.task_id] = TaskInfo.model_validate(
+                {**current.model_dump(), **_firing(watch)}
+            )
+        self._queue.put_nowait((watch.task_id, "watch_event", payload))
 
     async def _deliver(self) -> None:
         while True:
-            task_id, payload = await self._queue.get()
+            task_id, type_, payload = await self._queue.get()
             try:
-                await self._sink.emit(task_id, WATCH_TOOL, "watch_event", payload)
+                await self._sink.emit(task_id, WATCH_TOOL, type_, payload)
             except Exception:  # the delivery loop is a boundary: log, keep going
                 logger.exception("watch_event_failed", task_id=task_id)
             finally:
                 self._queue.task_done()
+
+
+def _firing(watch: Watch) -> dict[str, Any]:
+    """How often and when a watcher fired, as its task reports it."""
+    return {
+        "fired": watch.fired,
+        "fired_at": list(watch.fired_at),
+        "last_fired_at": watch.fired_at[-1] if watch.fired_at else None,
+    }

@@ -14,7 +14,10 @@ from mcp import Client
 from mcp_perception_buffer.composition import PerceptionApp, build_app, event_sink
 from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import LoggingEventSink, PosterEventSink, RecordingEventSink
+from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
 from robot_ros_bridge.testing import FakeVisionTasks
+from robot_stack_testing import async_wait_until
+from robot_stack_testing.ports import free_tcp_port
 
 DET = {
     "label": "mug",
@@ -27,9 +30,14 @@ DET = {
 
 
 async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    """A tool's answer: its structuredContent object, or {"_error": ...} for a tool error."""
     result = await client.call_tool(tool, args or {})
     payload = json.loads(result.content[0].text)  # type: ignore[union-attr]
-    return {"_error": payload} if result.is_error else payload
+    if result.is_error:
+        return {"_error": payload}
+    assert isinstance(result.structured_content, dict)
+    assert payload == result.structured_content  # the text block mirrors it
+    return result.structured_content
 
 
 @pytest.fixture
@@ -57,6 +65,7 @@ async def test_the_server_exposes_the_perception_and_task_tools(app: PerceptionA
         "get_history",
         "wait_for_result",
         "list_buffers",
+        "get_health",
         "get_task",
         "cancel_task",
         "list_tasks",
@@ -143,12 +152,21 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
                     break
                 await asyncio.sleep(0.02)
             assert len(sink.events) == 1
-            cancelled = await call(
-                client, "cancel_task", {"task_id": "watch-door", "stop_skill": True}
-            )
+            fired = await call(client, "get_task", {"task_id": "watch-door"})
+            assert fired["fired"] == 1
+            assert fired["last_fired_at"] == fired["fired_at"][0]
+            cancelled = await call(client, "cancel_task", {"task_id": "watch-door"})
             assert cancelled["state"] == "cancelled"
             assert cancelled["skill_stopped"] is True
             assert "door" not in tasks.skills
+            await app.perception.sync_watchers()
+            for _ in range(100):
+                if len(sink.events) >= 2:
+                    break
+                await asyncio.sleep(0.02)
+            assert [e[2] for e in sink.events] == ["watch_event", "task_failed"]
+            again = await call(client, "cancel_task", {"task_id": "watch-door"})
+            assert again["skill_stopped"] is False
             missing = await call(client, "get_task", {"task_id": "watch-x"})
             assert missing["_error"]["error"] == "unknown_task"
             missing = await call(client, "cancel_task", {"task_id": "watch-x"})
@@ -156,6 +174,26 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
             assert (await call(client, "list_tasks"))["tasks"][0]["state"] == "cancelled"
     finally:
         await app.perception.close()
+
+
+async def test_a_cancel_whose_skill_cannot_be_stopped_still_disarms_and_says_why(
+    app: PerceptionApp, tasks: FakeVisionTasks, sink: RecordingEventSink
+) -> None:
+    await tasks.create(
+        {
+            "name": "gone",
+            "mode": "describe",
+            "outputs": [{"name": "open", "type": "boolean"}],
+            "watch": {"output": "open", "equals": True},
+        }
+    )
+    await app.perception.sync_watchers()
+    del tasks.skills["gone"]  # deleted behind the buffer's back, before its next poll
+    async with Client(app.server) as client:
+        answer = await call(client, "cancel_task", {"task_id": "watch-gone"})
+    assert answer["state"] == "cancelled"
+    assert answer["skill_stopped"] is False
+    assert answer["skill_stop_error"] == "unknown_skill"
 
 
 async def test_a_failing_vision_node_does_not_break_the_watch_poll(
@@ -201,3 +239,56 @@ def test_config_from_env_requires_a_secret_with_an_events_url(tmp_path: Path) ->
     assert "s3cret" not in repr(config)
     assert isinstance(event_sink(config), PosterEventSink)
     assert isinstance(event_sink(PerceptionConfig()), LoggingEventSink)
+
+
+async def test_health_shows_that_the_brain_refuses_our_events_and_they_wait(
+    tasks: FakeVisionTasks, tmp_path: Path
+) -> None:
+    receiver = RecordingReceiver({"perception": "the-brain-has-another-secret-0123456789"})
+    async with ReceiverServer(receiver, free_tcp_port()) as brain:
+        sink = PosterEventSink(
+            brain.url, "our-secret-0123456789-0123456789", tmp_path / "o.sqlite3", "perception"
+        )
+        app = build_app(PerceptionConfig(), vision_tasks=tasks, sink=sink, follow_topics=False)
+        await app.perception.start()
+        try:
+            await tasks.create(
+                {
+                    "name": "door",
+                    "mode": "describe",
+                    "outputs": [{"name": "open", "type": "boolean"}],
+                    "watch": {"output": "open", "equals": True},
+                }
+            )
+            await app.perception.sync_watchers()
+            app.buffer.add_output("door", "open", True, time.time())
+            await async_wait_until(lambda: receiver.rejections, 10.0, "a refused post")
+            async with Client(app.server) as client:
+                health = await call(client, "get_health")
+        finally:
+            await app.perception.close()
+    assert health["status"] == "degraded"
+    assert health["events"]["status"] == "refused"
+    assert health["events"]["last_refusal"]["status"] == 401
+    assert health["events"]["pending"] == 1
+    assert health["watchers_running"] == 1
+
+
+async def test_health_without_a_brain_says_events_are_not_posted() -> None:
+    app_sinkless = build_app(
+        PerceptionConfig(), vision_tasks=FakeVisionTasks(), follow_topics=False
+    )
+    await app_sinkless.perception.start()
+    try:
+        async with Client(app_sinkless.server) as client:
+            health = await call(client, "get_health")
+    finally:
+        await app_sinkless.perception.close()
+    assert health["status"] == "ok"
+    assert health["events"]["status"] == "not_posting"
+
+
+def test_the_outbox_defaults_to_the_per_user_data_dir_not_the_working_directory() -> None:
+    path = PerceptionConfig().outbox_path
+    assert path.is_absolute()
+    assert "mcp-perception-buffer" in path.parts

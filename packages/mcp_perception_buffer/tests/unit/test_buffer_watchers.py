@@ -1,8 +1,10 @@
 import asyncio
+import time
 
 from mcp_perception_buffer.buffer import RollingBuffer
 from mcp_perception_buffer.events import LoggingEventSink, RecordingEventSink
 from mcp_perception_buffer.watchers import WatcherService, WatchEvaluator
+from robot_mcp_kit.models import TaskFailure
 from robot_stack_testing import async_wait_until
 
 WATCHED = [{"name": "door", "watch": {"output": "open", "equals": True}}]
@@ -87,7 +89,10 @@ async def test_cancel_disarms_and_polling_does_not_re_arm_it() -> None:
         buffer.add_output("door", "open", True, 1.0)
         await asyncio.sleep(0.05)
         await service.drain()
-        assert sink.events == []
+        assert [e[:3] for e in sink.events] == [("watch-door", "instantiate_skill", "task_failed")]
+        assert sink.events[0][3]["reason"] == "cancelled_by_caller"
+        assert sink.events[0][3]["error_code"] == "CANCELLED"
+        assert sink.events[0][3]["state"] == "cancelled"
         assert service.cancel("watch-nobody") is None
         assert [t.task_id for t in service.list(["cancelled"])] == ["watch-door"]
         assert service.list(["running"]) == []
@@ -102,6 +107,7 @@ async def test_a_stopped_skill_ends_its_watcher_and_a_new_skill_of_that_name_re_
     try:
         service.refresh(WATCHED)
         service.refresh([{"name": "door"}, {"name": "x", "watch": {"equals": 1}}, {"watch": {}}])
+        await service.drain()
         ended = service.get("watch-door")
         assert ended is not None
         assert ended.state == "cancelled"
@@ -113,3 +119,57 @@ async def test_a_stopped_skill_ends_its_watcher_and_a_new_skill_of_that_name_re_
         await service._sink.emit("watch-door", "instantiate_skill", "watch_event", {})
     finally:
         await service.close()
+
+
+async def test_a_watcher_whose_skill_was_deleted_posts_one_terminal_event() -> None:
+    buffer = RollingBuffer()
+    sink = RecordingEventSink()
+    service = WatcherService(buffer, sink)
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        buffer.add_output("door", "open", True, 1.0)
+        await async_wait_until(lambda: len(sink.events) >= 1, 5.0, "the watch_event")
+        service.refresh([])
+        service.refresh([])
+        await service.drain()
+    finally:
+        await service.close()
+    assert [e[2] for e in sink.events] == ["watch_event", "task_failed"]
+    terminal = sink.events[1][3]
+    assert terminal["reason"] == "skill_stopped"
+    assert TaskFailure.model_validate(terminal).error_code == "SKILL_STOPPED"
+    assert terminal["fired"] == 1
+    assert terminal["last_fired_at"] == terminal["fired_at"][-1]
+
+
+async def test_get_shows_how_often_and_when_a_running_watcher_fired() -> None:
+    buffer = RollingBuffer()
+    sink = RecordingEventSink()
+    service = WatcherService(buffer, sink)
+    await service.start()
+    try:
+        service.refresh(WATCHED)
+        before = time.time()
+        for stamp, value in enumerate((True, False, True)):
+            buffer.add_output("door", "open", value, float(stamp))
+        await async_wait_until(lambda: len(sink.events) >= 2, 5.0, "two watch_events")
+        info = service.get("watch-door")
+    finally:
+        await service.close()
+    assert info is not None
+    dumped = info.model_dump()
+    assert dumped["state"] == "running"
+    assert dumped["fired"] == 2
+    assert len(dumped["fired_at"]) == 2
+    assert before - 1 <= dumped["fired_at"][0] <= dumped["last_fired_at"] <= time.time() + 1
+
+
+async def test_closing_hands_queued_terminal_events_to_the_sink() -> None:
+    sink = RecordingEventSink()
+    service = WatcherService(RollingBuffer(), sink)
+    await service.start()
+    service.refresh(WATCHED)
+    service.cancel("watch-door")
+    await service.close()
+    assert [e[2] for e in sink.events] == ["task_failed"]

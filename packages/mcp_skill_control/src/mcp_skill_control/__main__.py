@@ -1,5 +1,5 @@
 """``python -m mcp_skill_control``: same as the console script."""
 
-from mcp_skill_control.server import main
+from mcp_skill_control.composition import main
 
 main()

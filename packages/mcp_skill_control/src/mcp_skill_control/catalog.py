@@ -1,9 +1,9 @@
 """The skill template catalog (spec 001 §3): load, list, fill.
 
 A template is a vision-node skill with ``{param}`` placeholders. :meth:`Catalog.fill`
-substitutes the params and validates the result with the vision node's own schema
-(:meth:`robot_mcp_perception.skills.Skill.from_dict`), so a skill that would be refused by
-the node is refused here first, with the same error code.
+substitutes the params and validates the result with the schema the vision node uses
+(:meth:`robot_skill_schema.Skill.from_dict`), so a skill that would be refused by the node is
+refused here first, with the same error code.
 """
 
 from __future__ import annotations
@@ -17,26 +17,20 @@ from typing import Any
 
 import yaml
 
-from robot_mcp_perception.skills import Skill, SkillError
+from mcp_skill_control.errors import CatalogError
+from mcp_skill_control.params import ParamSpec, ParamValue, as_text, parse_param
+from robot_skill_schema import Skill, SkillError
+
+__all__ = ["Catalog", "CatalogError", "Template", "validate_skill"]
 
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
-MAX_PARAM_CHARS = 500
-
-
-class CatalogError(ValueError):
-    """A template or a fill request was rejected; ``code`` is stable, ``detail`` is for humans."""
-
-    def __init__(self, code: str, detail: str) -> None:
-        super().__init__(f"{code}: {detail}")
-        self.code = code
-        self.detail = detail
 
 
 @dataclass(frozen=True)
 class Template:
     name: str
     description: str
-    params: tuple[str, ...]
+    params: tuple[ParamSpec, ...]
     skill: Mapping[str, Any]
     watch: Mapping[str, Any] | None = None
 
@@ -48,7 +42,8 @@ class Template:
         return {
             "name": self.name,
             "description": self.description,
-            "params": list(self.params),
+            "params": [p.name for p in self.params],
+            "param_types": {p.name: p.type for p in self.params},
             "watcher": self.is_watcher,
             "mode": self.skill.get("mode"),
         }
@@ -62,7 +57,7 @@ class Catalog:
         if len(self._templates) != len(templates):
             raise CatalogError("duplicate_template", "two templates share a name")
         for template in templates:  # every template must fill into a valid skill
-            self.fill(template.name, dict.fromkeys(template.params, "x"))
+            self.fill(template.name, {p.name: p.sample for p in template.params})
 
     @classmethod
     def load(cls, path: str | Path) -> Catalog:
@@ -91,24 +86,23 @@ class Catalog:
         The skill is named after the template; the caller may rename it (collisions).
         """
         template = self.get(template_name)
-        missing = [p for p in template.params if p not in params]
+        names = [p.name for p in template.params]
+        missing = [name for name in names if name not in params]
         if missing:
             raise CatalogError(
                 "missing_params",
-                f"template {template.name!r} needs params {list(template.params)}; "
-                f"missing {missing}",
+                f"template {template.name!r} needs params {names}; missing {missing}",
             )
-        unknown = sorted(set(params) - set(template.params))
+        unknown = sorted(set(params) - set(names))
         if unknown:
             raise CatalogError(
                 "unknown_params",
-                f"template {template.name!r} takes params {list(template.params)}; "
-                f"got unexpected {unknown}",
+                f"template {template.name!r} takes params {names}; got unexpected {unknown}",
             )
-        values = {key: _param_value(key, value) for key, value in params.items()}
+        values = {p.name: p.convert(params[p.name]) for p in template.params}
         skill = _substitute(copy.deepcopy(dict(template.skill)), values)
         skill["name"] = template.name
-        skill.setdefault("description", _substitute(template.description, values))
+        skill.setdefault("description", _fill_text(template.description, values))
         if template.watch is not None:
             skill["watch"] = dict(template.watch)
         return validate_skill(skill)
@@ -123,32 +117,27 @@ def validate_skill(skill: Mapping[str, Any]) -> dict[str, Any]:
     return dict(skill)
 
 
-def _param_value(key: str, value: Any) -> str:
-    if not isinstance(value, str | int | float) or isinstance(value, bool):
-        raise CatalogError("invalid_params", f"param {key!r} must be a string")
-    text = str(value).strip()
-    if not text:
-        raise CatalogError("invalid_params", f"param {key!r} must not be empty")
-    if len(text) > MAX_PARAM_CHARS:
-        raise CatalogError("invalid_params", f"param {key!r} is over {MAX_PARAM_CHARS} chars")
-    return text
-
-
-def _substitute(node: Any, values: Mapping[str, str]) -> Any:
+def _substitute(node: Any, values: Mapping[str, ParamValue]) -> Any:
     if isinstance(node, str):
-
-        def replace(match: re.Match[str]) -> str:
-            key = match.group(1)
-            if key not in values:
-                raise CatalogError("undeclared_param", f"placeholder {{{key}}} is not a param")
-            return values[key]
-
-        return _PLACEHOLDER.sub(replace, node)
+        whole = _PLACEHOLDER.fullmatch(node)
+        if whole is not None:
+            return _lookup(whole.group(1), values)
+        return _fill_text(node, values)
     if isinstance(node, list):
         return [_substitute(item, values) for item in node]
     if isinstance(node, dict):
         return {key: _substitute(item, values) for key, item in node.items()}
     return node
+
+
+def _fill_text(text: str, values: Mapping[str, ParamValue]) -> str:
+    return _PLACEHOLDER.sub(lambda match: as_text(_lookup(match.group(1), values)), text)
+
+
+def _lookup(key: str, values: Mapping[str, ParamValue]) -> ParamValue:
+    if key not in values:
+        raise CatalogError("undeclared_param", f"placeholder {{{key}}} is not a param")
+    return values[key]
 
 
 def _parse_template(item: Any) -> Template:
@@ -162,14 +151,14 @@ def _parse_template(item: Any) -> Template:
         raise CatalogError("catalog_invalid", "a template needs a 'name'")
     if not isinstance(skill, dict):
         raise CatalogError("catalog_invalid", f"template {name!r} needs a 'skill' mapping")
-    if not isinstance(params, list) or not all(isinstance(p, str) for p in params):
+    if not isinstance(params, list):
         raise CatalogError("catalog_invalid", f"template {name!r}: 'params' must be a list")
     if watch is not None and not isinstance(watch, dict):
         raise CatalogError("catalog_invalid", f"template {name!r}: 'watch' must be a mapping")
     return Template(
         name=name,
         description=str(item.get("description", "")),
-        params=tuple(params),
+        params=tuple(parse_param(p, name) for p in params),
         skill=skill,
         watch=watch,
     )

@@ -21,6 +21,10 @@ class SkillControlConfig(BaseModel):
     """Deadline of one VisionTask service call, discovery included."""
     wait_for_service_s: float = Field(default=3.0, ge=0, le=60)
     """How long a call tolerates a not-yet-discovered vision node before service_unavailable."""
+    reconcile_s: float = Field(default=5.0, ge=0, le=120)
+    """After a create timeout: how long to look for the skill in the node's list (adopt it)."""
+    orphan_sweep_s: float = Field(default=60.0, ge=0, le=3600)
+    """After an unconfirmed create: how long a late-appearing skill is still removed."""
     ros_node_name: str = "mcp_skill_control"
     log_level: str = "INFO"
 
@@ -40,6 +44,8 @@ class SkillControlConfig(BaseModel):
             ("skills_catalog", "SKILLS_CATALOG"),
             ("call_timeout_s", "SKILL_CONTROL_CALL_TIMEOUT_S"),
             ("wait_for_service_s", "SKILL_CONTROL_WAIT_FOR_SERVICE_S"),
+            ("reconcile_s", "SKILL_CONTROL_RECONCILE_S"),
+            ("orphan_sweep_s", "SKILL_CONTROL_ORPHAN_SWEEP_S"),
             ("ros_node_name", "SKILL_CONTROL_ROS_NODE_NAME"),
             ("log_level", "LOG_LEVEL"),
         ):

@@ -1,13 +1,14 @@
 """The ``skill_control`` MCP server: tool definitions (docstrings written for the planner) and
 the console entry point ``mcp-skill-control``.
 
-Every tool returns a JSON string. Failures are clean tool errors whose text is JSON
-``{"error": "<code>", "detail": "<sentence>"}`` (the vision node's own code when it refused).
+Every tool returns a JSON object as MCP structured content (``structuredContent``, with an
+object output schema; the text block carries the same JSON for clients that read text).
+Failures are clean tool errors whose text is JSON ``{"error": "<code>", "detail": "<sentence>"}``
+(the vision node's own code when it refused).
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -15,6 +16,7 @@ import structlog
 from mcp.server.mcpserver import MCPServer
 
 from mcp_skill_control.catalog import CatalogError
+from mcp_skill_control.params import ParamValue
 from mcp_skill_control.tools import SkillControl
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_ros_bridge import RosBridgeError
@@ -30,10 +32,10 @@ INSTRUCTIONS = (
 )
 
 
-async def _guard(name: str, call: Callable[[], Awaitable[dict[str, Any]]]) -> str:
+async def _guard(name: str, call: Callable[[], Awaitable[dict[str, Any]]]) -> dict[str, Any]:
     """Run a tool body; map domain / ROS failures to a clean tool error."""
     try:
-        return json.dumps(await call())
+        return await call()
     except CatalogError as error:
         raise tool_error(error.code, error.detail) from error
     except RosBridgeError as error:
@@ -45,17 +47,18 @@ def build_server(control: SkillControl) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
     @server.tool()
-    async def list_skill_templates() -> str:
+    async def list_skill_templates() -> dict[str, Any]:
         """List the skill templates the robot can be configured with.
 
         Call this first when you need the robot to look for, segment, locate or watch
         something, to learn which templates exist and which params each one needs.
-        Returns {"templates": [{"name", "description", "params", "watcher", "mode"}]}.
+        Returns {"templates": [{"name", "description", "params", "param_types", "watcher",
+        "mode"}]}; param_types says whether each param is a string, number, integer or boolean.
         """
         return await _guard("list_skill_templates", _sync(control.templates))
 
     @server.tool()
-    async def list_running_skills() -> str:
+    async def list_running_skills() -> dict[str, Any]:
         """List the skills currently running on the vision node.
 
         Call this before instantiating a skill (one may already publish what you need) and to
@@ -65,7 +68,9 @@ def build_server(control: SkillControl) -> MCPServer:
         return await _guard("list_running_skills", control.running_skills)
 
     @server.tool()
-    async def instantiate_skill(template: str, params: dict[str, str] | None = None) -> str:
+    async def instantiate_skill(
+        template: str, params: dict[str, ParamValue] | None = None
+    ) -> dict[str, Any]:
         """Start a skill from a catalog template on the robot's camera pipeline.
 
         Call this when you need fresh perception: e.g. template "find_object" with params
@@ -82,7 +87,7 @@ def build_server(control: SkillControl) -> MCPServer:
         )
 
     @server.tool()
-    async def instantiate_raw_skill(skill: dict[str, Any]) -> str:
+    async def instantiate_raw_skill(skill: dict[str, Any]) -> dict[str, Any]:
         """Start an ad-hoc skill that is not in the catalog (escape hatch).
 
         Call this only when no template fits. `skill` is a full vision skill object:
@@ -93,7 +98,9 @@ def build_server(control: SkillControl) -> MCPServer:
         return await _guard("instantiate_raw_skill", lambda: control.instantiate_raw(skill))
 
     @server.tool()
-    async def prewarm_skill(template: str, params: dict[str, str] | None = None) -> str:
+    async def prewarm_skill(
+        template: str, params: dict[str, ParamValue] | None = None
+    ) -> dict[str, Any]:
         """Pre-compute a template's grounding so a later instantiate_skill answers faster.
 
         Call this when you expect to need a grounding skill shortly (e.g. while the robot
@@ -103,7 +110,7 @@ def build_server(control: SkillControl) -> MCPServer:
         return await _guard("prewarm_skill", lambda: control.prewarm(template, dict(params or {})))
 
     @server.tool()
-    async def stop_skill(skill_id: str) -> str:
+    async def stop_skill(skill_id: str) -> dict[str, Any]:
         """Stop a running skill and remove its topics.
 
         Call this when you no longer need a skill's results (after a one-shot find, when a
@@ -112,7 +119,7 @@ def build_server(control: SkillControl) -> MCPServer:
         return await _guard("stop_skill", lambda: control.stop(skill_id))
 
     @server.tool()
-    async def set_skill_enabled(skill_id: str, enabled: bool) -> str:
+    async def set_skill_enabled(skill_id: str, enabled: bool) -> dict[str, Any]:
         """Pause (enabled=false) or resume (enabled=true) a skill without losing its config.
 
         Call this to save compute while a standing skill is temporarily not needed.
@@ -128,10 +135,3 @@ def _sync(fn: Callable[[], dict[str, Any]]) -> Callable[[], Awaitable[dict[str, 
         return fn()
 
     return call
-
-
-def main() -> None:
-    """Console script ``mcp-skill-control``: stdio by default, sse / streamable-http by env."""
-    from mcp_skill_control.composition import run
-
-    run()

@@ -15,9 +15,10 @@ from typing import Any
 import structlog
 
 from mcp_skill_control.catalog import Catalog, CatalogError, validate_skill
-from robot_mcp_perception.skills import is_topic_token
-from robot_ros_bridge import RemoteError
+from mcp_skill_control.reconcile import CreateReconciler
+from robot_ros_bridge import RemoteError, ServiceTimeoutError
 from robot_ros_bridge.vision_tasks import VisionTasks
+from robot_skill_schema import is_topic_token
 
 logger = structlog.get_logger(__name__)
 
@@ -42,9 +43,12 @@ class _Origin:
 class SkillControl:
     """The application service behind the MCP tools."""
 
-    def __init__(self, catalog: Catalog, tasks: VisionTasks) -> None:
+    def __init__(
+        self, catalog: Catalog, tasks: VisionTasks, reconciler: CreateReconciler | None = None
+    ) -> None:
         self._catalog = catalog
         self._tasks = tasks
+        self._reconciler = reconciler or CreateReconciler(tasks, confirm_s=5.0, sweep_s=60.0)
         self._origins: dict[str, _Origin] = {}
         self._create_lock = asyncio.Lock()
 
@@ -113,7 +117,7 @@ class SkillControl:
             for _attempt in range(3):
                 skill_id = _free_name(base, taken)
                 try:
-                    await self._tasks.create({**skill, "name": skill_id})
+                    await self._create_or_adopt({**skill, "name": skill_id})
                     break
                 except RemoteError as error:
                     if error.code != "duplicate_name":
@@ -145,6 +149,28 @@ class SkillControl:
                 watch=watch,
             )
         return result
+
+    async def _create_or_adopt(self, skill: dict[str, Any]) -> None:
+        """Create ``skill``; after a timeout adopt it if the node lists it, else report the
+        timeout and make sure a late creation is removed (no orphan skill)."""
+        name = str(skill["name"])
+        try:
+            await self._tasks.create(skill)
+        except ServiceTimeoutError as error:
+            if await self._reconciler.find(skill):
+                logger.warning("skill_create_reconciled", skill_id=name, outcome="adopted")
+                return
+            self._reconciler.sweep_later(skill)
+            logger.error("skill_create_reconciled", skill_id=name, outcome="not_created")
+            raise ServiceTimeoutError(
+                f"{error.detail}; the skill {name!r} did not appear in the node's list either, "
+                "so it is not running (if the node creates it late it is removed). Check the "
+                "vision node and retry."
+            ) from error
+        self._reconciler.cancel_sweep(name)
+
+    async def close(self) -> None:
+        await self._reconciler.close()
 
     # -- control -------------------------------------------------------------------------
     async def stop(self, skill_id: str) -> dict[str, Any]:

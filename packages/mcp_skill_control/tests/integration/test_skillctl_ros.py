@@ -158,3 +158,62 @@ async def test_every_tool_fails_cleanly_and_in_time_when_the_vision_node_is_abse
                 or "manage_vision_task" in answer["_error"]["detail"]
             )
             assert time.monotonic() - started < 10.0
+
+
+async def _service_in_graph(bridge: RosBridge, vision: FakeVisionNode) -> None:
+    await async_wait_until(
+        lambda: f"/{vision.name}/create_vision_task" in bridge.service_names_and_types(),
+        10.0,
+        "the service in the graph",
+    )
+
+
+async def test_a_create_answered_after_the_client_timeout_is_adopted(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    config = SkillControlConfig(
+        vision_node_name=vision.name, call_timeout_s=0.5, wait_for_service_s=0.5, reconcile_s=10
+    )
+    app = build_app(config, bridge=bridge)
+    vision.reply_delays["create"] = 1.5  # the node creates the skill after the client gave up
+    try:
+        async with Client(app.server) as client:
+            await _service_in_graph(bridge, vision)
+            made = await call(client, "instantiate_skill", {"template": "segment_all"})
+            running = await call(client, "list_running_skills")
+    finally:
+        await app.control.close()
+    assert "_error" not in made, made
+    assert made["skill_id"] == "segment_all"
+    assert [s["skill_id"] for s in running["skills"]] == ["segment_all"]
+    assert [s for s, _ in vision.requests].count("create") == 1  # adopted, not created twice
+
+
+async def test_a_create_that_never_shows_up_in_time_is_an_error_and_leaves_no_orphan(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    config = SkillControlConfig(
+        vision_node_name=vision.name,
+        call_timeout_s=0.5,
+        wait_for_service_s=0.5,
+        reconcile_s=0.3,
+        orphan_sweep_s=30,
+    )
+    app = build_app(config, bridge=bridge)
+    vision.reply_delays["create"] = 2.5  # lands after the reconcile window
+    try:
+        async with Client(app.server) as client:
+            await _service_in_graph(bridge, vision)
+            failed = await call(client, "instantiate_skill", {"template": "segment_all"})
+            assert failed["_error"]["error"] == "service_timeout"
+            assert "not running" in failed["_error"]["detail"]
+            await async_wait_until(
+                lambda: (
+                    ("manage", {"task_name": "segment_all", "action": "delete"}) in vision.requests
+                ),
+                20.0,
+                "the late skill removed",
+            )
+    finally:
+        await app.control.close()
+    assert vision.skills() == {}

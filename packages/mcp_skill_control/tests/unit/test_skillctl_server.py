@@ -14,12 +14,14 @@ from robot_ros_bridge.testing import FakeVisionTasks
 
 
 async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
+    """A tool's answer: its structuredContent object, or {"_error": ...} for a tool error."""
     result = await client.call_tool(tool, args or {})
-    text = result.content[0].text  # type: ignore[union-attr]
-    payload = json.loads(text)
+    payload = json.loads(result.content[0].text)  # type: ignore[union-attr]
     if result.is_error:
         return {"_error": payload}
-    return payload
+    assert isinstance(result.structured_content, dict)
+    assert payload == result.structured_content  # the text block mirrors it
+    return result.structured_content
 
 
 @pytest.fixture
@@ -134,3 +136,44 @@ def test_config_refuses_a_missing_catalog_at_start_up(tmp_path: Path) -> None:
 def test_the_catalog_ships_inside_the_package() -> None:
     assert DEFAULT_CATALOG.is_file()
     assert DEFAULT_CATALOG.parent.parent.name == "mcp_skill_control"
+
+
+async def test_every_tool_answers_with_structured_content_and_an_object_schema(
+    config: SkillControlConfig, tasks: FakeVisionTasks
+) -> None:
+    app = build_app(config, tasks=tasks)
+    async with Client(app.server) as client:
+        tools = (await client.list_tools()).tools
+        result = await client.call_tool(
+            "instantiate_skill", {"template": "find_object", "params": {"query": "mug"}}
+        )
+    assert all((t.output_schema or {}).get("type") == "object" for t in tools)
+    assert not result.is_error
+    assert isinstance(result.structured_content, dict)
+    assert result.structured_content["topic"] == "/vision/find_object/detections"
+    assert "result" not in result.structured_content  # not a JSON string wrapped in "result"
+    assert json.loads(result.content[0].text) == result.structured_content  # type: ignore[union-attr]
+
+
+async def test_instantiate_skill_accepts_numbers_and_booleans_the_template_declares(
+    tmp_path: Path, tasks: FakeVisionTasks
+) -> None:
+    catalog = tmp_path / "skills.yaml"
+    catalog.write_text(
+        "templates:\n"
+        "  - name: look\n"
+        "    params: [{name: rate, type: number}, {name: once, type: boolean}]\n"
+        "    skill: {mode: describe, rate_hz: '{rate}', once: '{once}'}\n",
+        encoding="utf-8",
+    )
+    app = build_app(SkillControlConfig(skills_catalog=catalog), tasks=tasks)
+    async with Client(app.server) as client:
+        made = await call(
+            client, "instantiate_skill", {"template": "look", "params": {"rate": 2.5, "once": True}}
+        )
+        wrong = await call(
+            client, "instantiate_skill", {"template": "look", "params": {"rate": "x", "once": 1}}
+        )
+    assert made["skill_id"] == "look"
+    assert (tasks.skills["look"]["rate_hz"], tasks.skills["look"]["once"]) == (2.5, True)
+    assert wrong["_error"]["error"] == "invalid_params"

@@ -144,6 +144,7 @@ def test_templates_lists_name_description_and_params(control: SkillControl) -> N
         "name": "find_object",
         "description": "Locate and segment a specific object the user names.",
         "params": ["query"],
+        "param_types": {"query": "string"},
         "watcher": False,
         "mode": "ground_and_segment",
     }

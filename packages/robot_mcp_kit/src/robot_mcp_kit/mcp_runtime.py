@@ -6,21 +6,28 @@ with ``isError: true`` whose text is ``Error executing tool <name>: <message>``;
 strips that prefix, so the client reads exactly ``{"error": code, "detail": detail}``. Other
 tool failures (bad arguments, crashes) become ``{"error": "tool_error", "detail": <text>}``.
 :func:`parse_tool_error` reads either form on the client side.
+
+Stdio: :func:`reserve_stdout` keeps the process's standard output for JSON-RPC alone, for
+the whole life of the process — native libraries (rcl, Fast DDS) that write to fd 1 at start-up
+or shutdown, outside the SDK's own serving window, land on stderr.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Any, BinaryIO, Literal, get_args
 
 import anyio
 from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
+from mcp.server.stdio import stdio_server
 
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
@@ -121,11 +128,36 @@ def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSe
     return TransportSettings(transport, host, port)
 
 
-async def serve_mcp(server: MCPServer, settings: TransportSettings) -> None:
+def reserve_stdout() -> BinaryIO:
+    """Take fd 1 for the MCP wire and point fd 1 (and ``sys.stdout``) at stderr for the rest
+    of the process. Call it first thing in a stdio server's entry point, before anything that
+    may print (ROS start-up); pass the result to :func:`run_server` / :func:`serve_mcp`."""
+    sys.stdout.flush()
+    wire = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    return wire
+
+
+async def _serve_stdio(server: MCPServer, wire: BinaryIO) -> None:
+    text = io.TextIOWrapper(wire, encoding="utf-8", newline="\n")
+    async with stdio_server(stdout=anyio.wrap_file(text)) as (read_stream, write_stream):
+        # MCPServer.run_stdio_async without its own stdout claim (the SDK has no public
+        # hook to hand it the reserved wire).
+        lowlevel = server._lowlevel_server
+        await lowlevel.run(read_stream, write_stream, lowlevel.create_initialization_options())
+
+
+async def serve_mcp(
+    server: MCPServer, settings: TransportSettings, wire: BinaryIO | None = None
+) -> None:
     """Serve ``server`` on ``settings``' transport until it stops (for servers that need to
-    run their own start-up and shutdown around the transport, inside one event loop)."""
+    run their own start-up and shutdown around the transport, inside one event loop).
+    ``wire``: the stdout reserved by :func:`reserve_stdout` (stdio only)."""
     install_json_tool_errors(server)
-    if settings.transport == "stdio":
+    if settings.transport == "stdio" and wire is not None:
+        await _serve_stdio(server, wire)
+    elif settings.transport == "stdio":
         await server.run_stdio_async()
     elif settings.transport == "sse":
         await server.run_sse_async(host=settings.host, port=settings.port)
@@ -133,7 +165,7 @@ async def serve_mcp(server: MCPServer, settings: TransportSettings) -> None:
         await server.run_streamable_http_async(host=settings.host, port=settings.port)
 
 
-def run_server(server: MCPServer, default_port: int) -> None:
+def run_server(server: MCPServer, default_port: int, wire: BinaryIO | None = None) -> None:
     """Run ``server`` on the transport chosen by the environment (blocks until it stops)."""
     settings = transport_settings(os.environ, default_port)
-    anyio.run(serve_mcp, server, settings)
+    anyio.run(serve_mcp, server, settings, wire)

@@ -32,6 +32,18 @@ CREATE TABLE IF NOT EXISTS events (
     created_at REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS events_by_type ON events (type, id);
+CREATE TABLE IF NOT EXISTS dead_letters (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    event_id TEXT NOT NULL,
+    task_id TEXT NOT NULL,
+    type TEXT NOT NULL,
+    seq INTEGER NOT NULL,
+    body BLOB NOT NULL,
+    status INTEGER,
+    reason TEXT NOT NULL,
+    created_at REAL NOT NULL,
+    dead_at REAL NOT NULL
+);
 CREATE TABLE IF NOT EXISTS task_seq (
     task_id TEXT PRIMARY KEY,
     next_seq INTEGER NOT NULL,
@@ -62,6 +74,44 @@ class StoredEvent:
     type: str
     seq: int
     body: bytes
+
+
+@dataclass(frozen=True)
+class DeadLetter:
+    """An event the receiver refused as malformed (HTTP 400 / 422 ...): kept, not retried."""
+
+    event_id: str
+    task_id: str
+    type: str
+    seq: int
+    status: int | None
+    reason: str
+    dead_at: float
+    body: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "event_id": self.event_id,
+            "task_id": self.task_id,
+            "type": self.type,
+            "seq": self.seq,
+            "status": self.status,
+            "reason": self.reason,
+            "dead_at": self.dead_at,
+            "body": self.body,
+        }
+
+
+def read_dead_letters(db: sqlite3.Connection, limit: int) -> list[DeadLetter]:
+    rows = db.execute(
+        "SELECT event_id, task_id, type, seq, status, reason, dead_at, body FROM dead_letters "
+        "ORDER BY id DESC LIMIT ?",
+        (max(0, limit),),
+    ).fetchall()
+    return [
+        DeadLetter(r[0], r[1], r[2], r[3], r[4], r[5], r[6], bytes(r[7]).decode("utf-8", "replace"))
+        for r in rows
+    ]
 
 
 @dataclass(frozen=True)
@@ -194,6 +244,37 @@ class SqliteOutbox:
             "of them may be dropped (only progress and trigger_fired are); the receiver has "
             "been unreachable too long"
         )
+
+    def dead_letter(self, row_id: int, status: int | None, reason: str) -> bool:
+        """Move an event the receiver refused as malformed to the dead-letter table (kept for
+        an operator, never retried); False if it was already gone."""
+        db = self._db()
+        db.execute("PRAGMA synchronous=FULL")
+        db.execute("BEGIN IMMEDIATE")
+        try:
+            moved = db.execute(
+                "INSERT INTO dead_letters "
+                "(event_id, task_id, type, seq, body, status, reason, created_at, dead_at) "
+                "SELECT event_id, task_id, type, seq, body, ?, ?, created_at, ? "
+                "FROM events WHERE id = ?",
+                (status, reason[:500], time.time(), row_id),
+            ).rowcount
+            db.execute("DELETE FROM events WHERE id = ?", (row_id,))
+            db.execute("COMMIT")
+        except BaseException:
+            db.execute("ROLLBACK")
+            raise
+        if moved:
+            self._count -= 1
+        return moved > 0
+
+    def dead_letters(self, limit: int = 100) -> list[DeadLetter]:
+        """The most recent dead letters, newest first."""
+        return read_dead_letters(self._db(), limit)
+
+    def dead_letter_count(self) -> int:
+        (count,) = self._db().execute("SELECT COUNT(*) FROM dead_letters").fetchone()
+        return int(count)
 
     def remove(self, row_id: int) -> bool:
         """Forget a delivered (or rejected) event; False if it was already gone.

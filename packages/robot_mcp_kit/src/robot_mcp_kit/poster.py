@@ -2,8 +2,13 @@
 
 Guarantees (see the README): at-least-once (the same ``event_id`` and body bytes on every
 retry), strictly in ``seq`` order within a task (the next event of a task is posted only
-after the previous one was accepted or rejected), durable before :meth:`EventPoster.emit`
+after the previous one was accepted or dead-lettered), durable before :meth:`EventPoster.emit`
 returns (a SQLite outbox that survives receiver outages and the poster's own restarts).
+
+Nothing is dropped silently: an authentication or configuration refusal (401, 403, 404, 405)
+keeps the event in the outbox, retried with backoff and logged as an error
+(``event_refused``), and :meth:`EventPoster.health` reports it; a malformed-event refusal
+(any other 4xx) moves the event to the outbox's dead-letter table (``event_dead_lettered``).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import httpx
 import structlog
 
 from robot_mcp_kit.models import EventType, TaskEvent
-from robot_mcp_kit.outbox import Appended, SqliteOutbox, StoredEvent
+from robot_mcp_kit.outbox import Appended, DeadLetter, SqliteOutbox, StoredEvent
 from robot_mcp_kit.retry import backoff_delay, parse_retry_after
 from robot_mcp_kit.signing import _secret_bytes, signed_headers
 
@@ -33,6 +38,10 @@ logger = structlog.get_logger("robot_mcp_kit.poster")
 
 T = TypeVar("T")
 _State = Literal["new", "started", "closing", "closed"]
+REFUSED_STATUSES = frozenset({401, 403, 404, 405})
+"""The receiver refuses us, not the event (secret mismatch, clock skew, wrong URL): keep the
+event and retry — an operator fixes the configuration and delivery resumes."""
+RETRY_STATUSES = frozenset({408, 425, 429})
 
 
 class PosterClosedError(RuntimeError):
@@ -41,7 +50,7 @@ class PosterClosedError(RuntimeError):
 
 @dataclass(frozen=True)
 class _Outcome:
-    kind: Literal["delivered", "rejected", "retry"]
+    kind: Literal["delivered", "dead", "refused", "retry"]
     reason: str
     status: int | None = None
     retry_after_s: float | None = None
@@ -109,7 +118,16 @@ class EventPoster:
         self._drained = asyncio.Event()
         self._drained.set()
         self._slots = asyncio.Semaphore(max_concurrency)
-        self._stats = {"emitted": 0, "delivered": 0, "rejected": 0, "dropped": 0, "retries": 0}
+        self._stats = {
+            "emitted": 0,
+            "delivered": 0,
+            "rejected": 0,
+            "refused": 0,
+            "dropped": 0,
+            "retries": 0,
+        }
+        self._refusal: dict[str, Any] | None = None
+        self._dead_letters = 0
 
     # -- life cycle ----------------------------------------------------------------------
 
@@ -142,6 +160,7 @@ class EventPoster:
                 timeout=self._request_timeout_s,
                 limits=httpx.Limits(max_connections=self._max_concurrency),
             )
+        self._dead_letters = await self._db(self._outbox.dead_letter_count)
         self._state = "started"
         for stored in pending:
             self._enqueue(stored)
@@ -216,8 +235,23 @@ class EventPoster:
         return len(self._queued_rows)
 
     def stats(self) -> dict[str, int]:
-        """Counters since start: emitted, delivered, rejected (4xx), dropped, retries."""
-        return {**self._stats, "pending": self.pending_count()}
+        """Counters since start: emitted, delivered, rejected (dead-lettered), refused (401 /
+        403 / 404 / 405 answers, retried), dropped, retries; plus pending and dead letters."""
+        return {**self._stats, "pending": self.pending_count(), "dead_letters": self._dead_letters}
+
+    def health(self) -> dict[str, Any]:
+        """``status`` is ``"refused"`` while the receiver refuses us (events wait in the
+        outbox; ``last_refusal`` says why), ``"ok"`` otherwise; with :meth:`stats`."""
+        return {
+            "status": "refused" if self._refusal is not None else "ok",
+            "last_refusal": dict(self._refusal) if self._refusal is not None else None,
+            "outbox": str(self._outbox_path),
+            **self.stats(),
+        }
+
+    async def dead_letters(self, limit: int = 100) -> list[DeadLetter]:
+        """The most recent dead-lettered events (newest first)."""
+        return await self._db(self._outbox.dead_letters, limit)
 
     async def wait_drained(self, timeout_s: float) -> bool:
         """Wait until nothing is pending; False at the deadline."""
@@ -288,9 +322,18 @@ class EventPoster:
             while queue:
                 head = queue[0]
                 try:
-                    finished = await self._deliver(head)
-                    if finished:
-                        await self._db(self._outbox.remove, head.row_id)
+                    outcome = await self._deliver(head)
+                    if outcome is not None:
+                        if outcome.kind == "dead":
+                            await self._db(
+                                self._outbox.dead_letter,
+                                head.row_id,
+                                outcome.status,
+                                outcome.reason,
+                            )
+                            self._dead_letters += 1
+                        else:
+                            await self._db(self._outbox.remove, head.row_id)
                         self._forget(head)
                 except Exception:  # lane boundary: log, back off, keep the event
                     logger.exception("event_lane_error", task_id=task_id, event_id=head.event_id)
@@ -300,9 +343,9 @@ class EventPoster:
             if not queue and self._queues.get(task_id) is queue:
                 del self._queues[task_id]
 
-    async def _deliver(self, head: StoredEvent) -> bool:
-        """Post ``head`` until it is accepted or rejected (True), or was dropped meanwhile
-        (False)."""
+    async def _deliver(self, head: StoredEvent) -> _Outcome | None:
+        """Post ``head`` until it is accepted or dead-lettered (that outcome), or was dropped
+        meanwhile (None)."""
         attempt = 0
         while head.row_id in self._queued_rows:
             started = time.monotonic()
@@ -323,21 +366,33 @@ class EventPoster:
             }
             if outcome.kind == "delivered":
                 self._stats["delivered"] += 1
+                self._refusal = None
                 logger.debug("event_delivered", **fields)
-                return True
-            if outcome.kind == "rejected":
+                return outcome
+            if outcome.kind == "dead":
                 self._stats["rejected"] += 1
-                logger.error("event_rejected", reason=outcome.reason, **fields)
-                return True
+                logger.error("event_dead_lettered", reason=outcome.reason, **fields)
+                return outcome
             delay = backoff_delay(attempt, self._backoff_initial_s, self._backoff_max_s, self._rng)
             if outcome.retry_after_s is not None:
                 delay = min(outcome.retry_after_s, self._retry_after_max_s)
             self._stats["retries"] += 1
             attempt += 1
-            log = logger.info if attempt == 1 else logger.warning
-            log("event_retry", reason=outcome.reason, delay_s=round(delay, 3), **fields)
+            if outcome.kind == "refused":
+                self._stats["refused"] += 1
+                self._refusal = {
+                    "status": outcome.status,
+                    "reason": outcome.reason,
+                    "at": time.time(),
+                }
+                logger.error(
+                    "event_refused", reason=outcome.reason, delay_s=round(delay, 3), **fields
+                )
+            else:
+                log = logger.info if attempt == 1 else logger.warning
+                log("event_retry", reason=outcome.reason, delay_s=round(delay, 3), **fields)
             await asyncio.sleep(delay)
-        return False
+        return None
 
     async def _post_once(self, head: StoredEvent) -> _Outcome:
         assert self._client is not None
@@ -352,10 +407,14 @@ class EventPoster:
         status = response.status_code
         if 200 <= status < 300:
             return _Outcome("delivered", "accepted", status)
-        if status == 429 or status >= 500:
+        if status in RETRY_STATUSES or status >= 500:
             retry_after = parse_retry_after(response.headers.get("Retry-After"))
             return _Outcome("retry", f"http_{status}", status, retry_after)
-        return _Outcome("rejected", f"http_{status}: {response.text[:200]}", status)
+        if status in REFUSED_STATUSES:
+            return _Outcome("refused", f"http_{status}: {response.text[:200]}", status)
+        if 400 <= status < 500:
+            return _Outcome("dead", f"http_{status}: {response.text[:200]}", status)
+        return _Outcome("refused", f"unexpected http_{status}", status)
 
     # -- plumbing ------------------------------------------------------------------------
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import random
 from collections import Counter
 from pathlib import Path
@@ -11,12 +12,15 @@ from typing import Any
 import httpx
 import pytest
 
+from robot_mcp_kit.dead_letters import main as dead_letters_cli
 from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.outbox import OutboxFullError, OutboxLockedError
 from robot_mcp_kit.poster import PosterClosedError
 from robot_mcp_kit.signing import HEADER_SERVER
 from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver, Reply, order_violations
 from robot_stack_testing import async_wait_until
+
+SECRET = "kit-test-secret-\u00e9"  # the fixtures' secret (conftest.py)
 
 FAILURE = {"error_code": "DOOR_CLOSED", "message": "the door is closed", "recoverable": True}
 
@@ -118,7 +122,7 @@ async def test_server_errors_and_429_are_retried_with_the_same_event_id(
     assert poster.stats()["retries"] == 3
 
 
-async def test_a_rejected_event_is_dropped_and_the_task_moves_on(
+async def test_a_malformed_event_goes_to_the_dead_letters_and_the_task_moves_on(
     make_poster: Any, receiver: RecordingReceiver, receiver_server: ReceiverServer
 ) -> None:
     receiver.responder = lambda event: Reply(422) if event.payload.get("bad") else None
@@ -136,9 +140,40 @@ async def test_a_rejected_event_is_dropped_and_the_task_moves_on(
     ]
     assert poster.stats()["rejected"] == 1
     assert await poster.wait_drained(5)
+    letters = await poster.dead_letters()
+    assert [(d.event_id, d.status) for d in letters] == [(bad.event_id, 422)]
+    assert TaskEvent.model_validate_json(letters[0].body) == bad
+    assert poster.health()["dead_letters"] == 1
 
 
-async def test_a_wrong_secret_is_rejected_by_the_receiver_and_not_retried(
+async def test_a_400_is_dead_lettered_kept_across_restarts_and_listed_by_the_cli(
+    make_poster: Any,
+    receiver: RecordingReceiver,
+    receiver_server: ReceiverServer,
+    outbox_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    receiver.responder = lambda event: Reply(400)
+    await receiver_server.start()
+    poster = make_poster()
+    await poster.start()
+    bad = await poster.emit("nav-9", "navigate_to", "task_done", {"x": 1})
+    assert await poster.wait_drained(10)
+    await poster.close()
+    capsys.readouterr()  # drop the poster's own log lines
+
+    assert dead_letters_cli([str(outbox_path)]) == 0
+    listed = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [(d["event_id"], d["status"], d["type"]) for d in listed] == [
+        (bad.event_id, 400, "task_done")
+    ]
+    again = make_poster()
+    await again.start()
+    assert again.health()["dead_letters"] == 1
+    assert again.pending_count() == 0
+
+
+async def test_a_wrong_secret_keeps_the_event_retries_it_and_shows_in_health(
     make_poster: Any, receiver: RecordingReceiver, receiver_server: ReceiverServer
 ) -> None:
     receiver.secrets["navigation"] = "another-secret"
@@ -146,11 +181,39 @@ async def test_a_wrong_secret_is_rejected_by_the_receiver_and_not_retried(
     poster = make_poster()
     await poster.start()
 
-    await poster.emit("nav-3", "navigate_to", "progress", {})
-    assert await poster.wait_drained(10)
+    event = await poster.emit("nav-3", "navigate_to", "task_done", {})
+    await async_wait_until(lambda: len(receiver.rejections) >= 3, 10.0, "three refused attempts")
 
-    assert receiver.rejections == ["bad_signature"]
-    assert receiver.accepted() == []
+    assert set(receiver.rejections) == {"bad_signature"}
+    assert poster.pending_count() == 1  # kept in the outbox, not dropped
+    health = poster.health()
+    assert health["status"] == "refused"
+    assert health["last_refusal"]["status"] == 401
+    assert health["refused"] >= 3
+
+    receiver.secrets["navigation"] = SECRET  # the operator fixes the secret
+    await wait_accepted(receiver, {event.event_id})
+    assert poster.health()["status"] == "ok"
+    assert await poster.wait_drained(5)
+
+
+@pytest.mark.parametrize("status", [401, 403, 404])
+async def test_refusals_of_the_receiver_keep_the_event(
+    make_poster: Any, receiver: RecordingReceiver, receiver_server: ReceiverServer, status: int
+) -> None:
+    refuse = {"on": True}
+    receiver.responder = lambda event: Reply(status) if refuse["on"] else None
+    await receiver_server.start()
+    poster = make_poster()
+    await poster.start()
+
+    event = await poster.emit("nav-4", "navigate_to", "watch_event", {})
+    await async_wait_until(lambda: len(receiver.deliveries) >= 2, 10.0, "two refused attempts")
+    assert poster.pending_count() == 1
+    assert poster.health()["last_refusal"]["status"] == status
+    refuse["on"] = False
+    await wait_accepted(receiver, {event.event_id})
+    assert await poster.dead_letters() == []
 
 
 async def test_a_failing_head_blocks_only_its_own_task(

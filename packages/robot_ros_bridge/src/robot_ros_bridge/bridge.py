@@ -19,6 +19,7 @@ create must not run twice).
 from __future__ import annotations
 
 import asyncio
+import inspect
 import threading
 import time
 import weakref
@@ -42,6 +43,43 @@ T = TypeVar("T")
 _SERVICE_POLL_S = 0.05
 DEFAULT_DISCOVERY_SETTLE_S = 1.0
 """How long a service must have been continuously ready before the first request."""
+
+
+def _contained(callback: Callable[..., Any], where: str) -> Callable[..., Any]:
+    """``callback`` with its exceptions logged instead of raised into the executor.
+
+    An exception that reaches ``executor.spin()`` unwinds the spin with other work of that
+    turn in flight (a service reply being delivered can be lost, and its call times out), so
+    a callback's failure stays inside the callback. Keeps the arity: rclpy passes the
+    ``MessageInfo`` only to two-argument subscription callbacks.
+    """
+    if _accepts_two(callback):
+
+        def two(first: Any, second: Any) -> Any:
+            try:
+                return callback(first, second)
+            except Exception:  # a ROS callback is a boundary: log it, keep spinning
+                logger.exception("ros_callback_failed", where=where)
+                return second  # a service handler's response object: answered as is
+
+        return two
+
+    def one(msg: Any) -> Any:
+        try:
+            return callback(msg)
+        except Exception:  # a ROS callback is a boundary: log it, keep spinning
+            logger.exception("ros_callback_failed", where=where)
+            return None
+
+    return one
+
+
+def _accepts_two(callback: Callable[..., Any]) -> bool:
+    try:
+        inspect.signature(callback).bind(object(), object())
+    except TypeError:
+        return False
+    return True
 
 
 class ReadinessTracker:
@@ -199,7 +237,9 @@ class RosBridge:
         self, srv_type: Any, service_name: str, handler: Callable[[Any, Any], Any]
     ) -> Any:
         """A service server whose handler may run concurrently with other callbacks."""
-        return self.node.create_service(srv_type, service_name, handler, callback_group=self._group)
+        return self.node.create_service(
+            srv_type, service_name, _contained(handler, service_name), callback_group=self._group
+        )
 
     def create_subscription(
         self,
@@ -211,7 +251,7 @@ class RosBridge:
         """A subscription whose callback runs on an executor thread (keep it short); a
         two-argument callback also gets the rclpy ``MessageInfo`` (publisher GID, ...)."""
         return self.node.create_subscription(
-            msg_type, topic, callback, qos, callback_group=self._group
+            msg_type, topic, _contained(callback, topic), qos, callback_group=self._group
         )
 
     def destroy_subscription(self, subscription: Any) -> None:

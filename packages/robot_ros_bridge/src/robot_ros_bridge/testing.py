@@ -46,7 +46,9 @@ class FakeVisionNode:
 
     ``requests`` records every ``(service, payload)``; ``fail_next[service] = (code, detail)``
     makes the next call of that service answer ``success=false``; ``reply_delay_s`` delays
-    every answer (to exercise client timeouts); ``auto_publish_hz`` publishes one synthetic
+    every answer (to exercise client timeouts) and ``reply_delays[service]`` one service's
+    (``"create"``: the skill is created after the delay, as a slow node would — the client
+    may have given up by then); ``auto_publish_hz`` publishes one synthetic
     detection (+ outputs) per enabled skill at that rate.
     """
 
@@ -55,10 +57,12 @@ class FakeVisionNode:
         name: str = DEFAULT_VISION_NODE,
         *,
         reply_delay_s: float = 0.0,
+        reply_delays: dict[str, float] | None = None,
         auto_publish_hz: float | None = None,
     ) -> None:
         self.name = name
         self.reply_delay_s = reply_delay_s
+        self.reply_delays: dict[str, float] = dict(reply_delays or {})
         self.requests: list[tuple[str, dict[str, Any]]] = []
         self.fail_next: dict[str, tuple[str, str]] = {}
         self._bridge = RosBridge(name, num_threads=4)
@@ -107,8 +111,9 @@ class FakeVisionNode:
             except json.JSONDecodeError:
                 data = {"_raw": request.data}
             self.requests.append((key, data))
-            if self.reply_delay_s:
-                time.sleep(self.reply_delay_s)
+            delay = self.reply_delays.get(key, self.reply_delay_s)
+            if delay:
+                time.sleep(delay)
             failure = self.fail_next.pop(key, None)
             if failure is not None:
                 return _reply(response, False, {"error": failure[0], "detail": failure[1]})

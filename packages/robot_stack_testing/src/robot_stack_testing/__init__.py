@@ -3,13 +3,23 @@ process fixtures and deadline-bound waits."""
 
 from robot_stack_testing.ports import free_tcp_port, wait_for_tcp_port
 from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher
+from robot_stack_testing.stdio import (
+    StdioTranscript,
+    inspector_tools_list,
+    non_protocol_lines,
+    stdio_session,
+)
 from robot_stack_testing.waiting import async_wait_until, wait_until
 
 __all__ = [
     "LaunchedProcess",
     "ProcessLauncher",
+    "StdioTranscript",
     "async_wait_until",
     "free_tcp_port",
+    "inspector_tools_list",
+    "non_protocol_lines",
+    "stdio_session",
     "wait_for_tcp_port",
     "wait_until",
 ]

@@ -1,11 +1,25 @@
-"""A tiny MCP server run through robot_mcp_kit.mcp_runtime.run_server (transport from env)."""
+"""A tiny MCP server run through robot_mcp_kit.mcp_runtime.run_server (transport from env).
+
+``KIT_PROC_NOISE=1`` makes it behave like a process with a native library that writes to fd 1
+at start-up, in a tool and at shutdown (as rcl / Fast DDS may); ``KIT_PROC_RESERVE=1`` makes it
+reserve stdout for the protocol first, as the ROS servers do.
+"""
 
 from __future__ import annotations
+
+import os
 
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.logging import configure_logging
-from robot_mcp_kit.mcp_runtime import run_server, tool_error
+from robot_mcp_kit.mcp_runtime import reserve_stdout, run_server, tool_error
+
+NOISE = os.environ.get("KIT_PROC_NOISE") == "1"
+
+
+def native_print(text: str) -> None:
+    if NOISE:
+        os.write(1, f"[native] {text}\n".encode())
 
 
 def build() -> MCPServer:
@@ -19,11 +33,17 @@ def build() -> MCPServer:
     @server.tool()
     async def echo(text: str) -> str:
         """Returns its input."""
+        native_print("in a tool")
         return text
 
     return server
 
 
 if __name__ == "__main__":
+    wire = reserve_stdout() if os.environ.get("KIT_PROC_RESERVE") == "1" else None
     configure_logging("kit-proc")
-    run_server(build(), default_port=9999)
+    native_print("at start-up")
+    try:
+        run_server(build(), default_port=9999, wire=wire)
+    finally:
+        native_print("at shutdown")

@@ -1,4 +1,4 @@
-"""skills.py: (de)serialisation and validation of skills (spec 000 §9 item 1)."""
+"""robot_skill_schema: (de)serialisation and validation of skills (spec 000 §9 item 1)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from robot_mcp_perception.skills import (
+from robot_skill_schema import (
     MAX_SKILL_JSON_BYTES,
     Skill,
     SkillError,
@@ -134,3 +134,47 @@ def test_bad_skill_json_is_rejected_with_a_stable_code(payload: str, code: str) 
     assert caught.value.code == code
     assert json.loads(caught.value.to_json()) == {"error": code, "detail": caught.value.detail}
     assert caught.value.detail
+
+
+@pytest.mark.parametrize("kind", ["text", "number", "list", "position", "pose"])
+def test_a_watch_on_an_output_not_declared_boolean_is_rejected(kind: str) -> None:
+    payload = {
+        "name": "s",
+        "mode": "describe",
+        "outputs": [{"name": "seen", "type": kind}],
+        "watch": {"output": "seen", "equals": True},
+    }
+
+    with pytest.raises(SkillError) as caught:
+        Skill.from_dict(payload)
+
+    assert caught.value.code == "invalid_watch"
+    assert "boolean" in caught.value.detail
+
+
+def test_a_watch_comparing_with_a_non_boolean_is_rejected() -> None:
+    payload = {
+        "name": "s",
+        "mode": "describe",
+        "outputs": [{"name": "seen", "type": "boolean"}],
+        "watch": {"output": "seen", "equals": "yes"},
+    }
+
+    with pytest.raises(SkillError) as caught:
+        Skill.from_dict(payload)
+
+    assert caught.value.code == "invalid_watch"
+
+
+def test_a_watch_on_a_boolean_output_defaults_to_equals_true() -> None:
+    skill = Skill.from_dict(
+        {
+            "name": "door",
+            "mode": "describe",
+            "outputs": [{"name": "open", "type": "boolean"}],
+            "watch": {"output": "open"},
+        }
+    )
+
+    assert skill.watch == WatchSpec("open", True)
+    assert skill.to_dict()["watch"] == {"output": "open", "equals": True}

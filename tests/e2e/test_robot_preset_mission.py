@@ -55,7 +55,6 @@ def stack(
         "GROQ_BASE_URL": f"{openai_url}/v1",
         "OPENAI_API_KEY": "dummy-openai-key",
         "OPENAI_BASE_URL": f"{openai_url}/v1",
-        "SKILL_CONTROL_EVENT_SECRET": "unused-by-skill-control",
     }.items():
         monkeypatch.setenv(name, value)
     overrides = {

@@ -21,9 +21,8 @@ KEYS = {
     "ANTHROPIC_API_KEY": "dummy-anthropic-key",
     "GROQ_API_KEY": "dummy-groq-key",
     "OPENAI_API_KEY": "dummy-openai-key",
-    "NAV_EVENT_SECRET": "dummy-nav-secret",
-    "PERCEPTION_EVENT_SECRET": "dummy-perception-secret",
-    "SKILL_CONTROL_EVENT_SECRET": "dummy-skill-secret",
+    "NAV_EVENT_SECRET": "dummy-navigation-event-secret-of-32-bytes",
+    "PERCEPTION_EVENT_SECRET": "dummy-perception-event-secret-of-32-bytes",
 }
 PLANNERS = {"dev": "rules", "robot": "chain[anthropic,rules]", "test": "replay"}
 

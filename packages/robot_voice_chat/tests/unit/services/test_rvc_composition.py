@@ -50,8 +50,8 @@ def test_robot_deployment_refuses_a_configured_planner_without_its_key(
 ) -> None:
     monkeypatch.setenv("GROQ_API_KEY", "test")
     monkeypatch.setenv("OPENAI_API_KEY", "test")
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "SKILL_CONTROL_EVENT_SECRET"):
-        monkeypatch.setenv(name, "secret")
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+        monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     config = compose_config("robot", ["speech_output=socketio"])
     with pytest.raises(ConfigError, match="ANTHROPIC_API_KEY is empty"):
         bootstrap(config)

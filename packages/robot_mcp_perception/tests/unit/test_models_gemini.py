@@ -2,102 +2,32 @@
 
 from __future__ import annotations
 
-import asyncio
 import base64
 import json
-import threading
 from collections.abc import AsyncIterator, Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import cv2
 import numpy as np
 import pytest
-import uvicorn
 from pydantic import SecretStr
 
+from robot_mcp_perception.fake_gemini import FakeGemini, serve_fake_gemini
 from robot_mcp_perception.models.base import ModelError, ModelUnavailableError, SemanticRequest
 from robot_mcp_perception.models.gemini_er import DEFAULT_MODEL, GeminiERGrounder
 from robot_mcp_perception.prompt_builder import BadModelAnswerError
-from robot_stack_testing.ports import wait_for_tcp_port
 
 IMAGE = np.zeros((100, 200, 3), np.uint8)
 IMAGE[20:60, 40:120] = (200, 30, 30)
 
 
-@dataclass
-class FakeGemini:
-    """A tiny ASGI app speaking ``POST /v1beta/models/{model}:generateContent``."""
-
-    port: int
-    requests: list[dict[str, Any]] = field(default_factory=list)
-    replies: list[tuple[int, Any]] = field(default_factory=list)
-    """Scripted (status, body) pairs; the last one repeats. A str body is the model's text."""
-    hang: bool = False
-
-    @property
-    def base_url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
-
-    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
-        assert scope["type"] == "http"
-        body = b""
-        while True:
-            message = await receive()
-            body += message.get("body", b"")
-            if not message.get("more_body"):
-                break
-        headers = {k.decode(): v.decode() for k, v in scope["headers"]}
-        self.requests.append(
-            {
-                "method": scope["method"],
-                "path": scope["path"],
-                "headers": headers,
-                "json": json.loads(body or b"{}"),
-            }
-        )
-        if self.hang:
-            await asyncio.sleep(1)
-        status, reply = self.replies[min(len(self.requests) - 1, len(self.replies) - 1)]
-        if isinstance(reply, str):
-            reply = {
-                "candidates": [
-                    {
-                        "content": {"role": "model", "parts": [{"text": reply}]},
-                        "finishReason": "STOP",
-                    }
-                ]
-            }
-        payload = json.dumps(reply).encode()
-        await send(
-            {
-                "type": "http.response.start",
-                "status": status,
-                "headers": [(b"content-type", b"application/json")],
-            }
-        )
-        await send({"type": "http.response.body", "body": payload})
-
-
 @pytest.fixture
-def gemini(tcp_port: int) -> Iterator[FakeGemini]:
-    app = FakeGemini(tcp_port)
-    config = uvicorn.Config(
-        app,
-        host="127.0.0.1",
-        port=tcp_port,
-        lifespan="off",
-        ws="none",
-        log_level="warning",
-        timeout_graceful_shutdown=1,
-    )
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    wait_for_tcp_port(tcp_port, timeout_s=10)
-    yield app
-    server.should_exit = True
-    thread.join(timeout=10)
+def gemini() -> Iterator[FakeGemini]:
+    """The strict fake: a request the real API would refuse fails the test with a 400."""
+    app = FakeGemini(api_key="test-key")
+    with serve_fake_gemini(app):
+        yield app
+    assert app.rejected == [], app.rejected
 
 
 @pytest.fixture
@@ -275,10 +205,10 @@ async def test_client_errors_are_not_retried(
 
 
 async def test_a_hanging_server_times_out_as_a_model_error(gemini: FakeGemini) -> None:
-    gemini.hang = True
+    gemini.hang_s = 1.0
     gemini.replies = [(200, WELL_FORMED)]
     g = GeminiERGrounder(
-        "k", timeout_s=0.2, retries=1, retry_backoff_s=0.0, base_url=gemini.base_url
+        "test-key", timeout_s=0.2, retries=1, retry_backoff_s=0.0, base_url=gemini.base_url
     )
     with pytest.raises(ModelError, match="timed out"):
         await g.ground(IMAGE, "q")

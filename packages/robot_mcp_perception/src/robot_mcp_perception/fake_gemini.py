@@ -160,7 +160,7 @@ def _fields(obj: Any, allowed: frozenset[str], where: str) -> dict[str, Any]:
         name = _camel(str(key))
         if name not in allowed:
             raise RequestRejectedError(
-                f'Invalid JSON payload received. Unknown name "{key}" at \'{where}\': '
+                f"Invalid JSON payload received. Unknown name \"{key}\" at '{where}': "
                 "Cannot find field."
             )
         if name in out:

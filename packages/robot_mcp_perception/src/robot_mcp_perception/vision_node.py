@@ -29,7 +29,9 @@ from robot_mcp_perception.conversions import frame_header, json_to_msg, ns_to_st
 from robot_mcp_perception.cost import CostPolicy, PrewarmCache
 from robot_mcp_perception.engine import SkillEngine
 from robot_mcp_perception.frames import Frame
+from robot_mcp_perception.pipelines import grounder_requests
 from robot_mcp_perception.pipelines.common import PipelineContext, PipelineSettings, SkillResult
+from robot_mcp_perception.provenance import Provenance
 from robot_mcp_perception.publishers import DIAGNOSTICS_QOS, SkillPublishers
 from robot_mcp_perception.registry import SkillRegistry, SkillState, topics_for
 from robot_mcp_perception.runtime import Runtime
@@ -64,16 +66,13 @@ class VisionNode(Node):
             runtime.overlay_renderer,
             art.deleted_skills_kept,
         )
+        pipeline_settings = runtime.pipeline_settings or PipelineSettings()
         self.engine = SkillEngine(
             registry=self.registry,
             scheduler=self.scheduler,
             policy=self.policy,
             prewarm=self.prewarm,
-            context=PipelineContext(
-                runtime.grounder,
-                runtime.segmenter,
-                runtime.pipeline_settings or PipelineSettings(),
-            ),
+            context=PipelineContext(runtime.grounder, runtime.segmenter, pipeline_settings),
             runner=runtime.runner,
             sink=self,
             default_rate_hz=default_rate,
@@ -82,6 +81,7 @@ class VisionNode(Node):
                 if runtime.gate_factory
                 else None
             ),
+            grounder_requests=partial(grounder_requests, settings=pipeline_settings),
         )
         self.tasks = TaskService(
             self.registry,
@@ -184,28 +184,34 @@ class VisionNode(Node):
         self.engine.tick(self.runtime.frame_source.latest())
 
     def publish(
-        self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None
+        self, state: SkillState, frame: Frame, result: SkillResult, provenance: Provenance
     ) -> None:
         """ResultSink: called by the engine with its lock held."""
         publishers = state.publishers
         if not isinstance(publishers, SkillPublishers):
             return
-        if stale_reason is None:
+        render: Any = None
+        if not provenance.stale:
             refs = self.artifacts.add(state.skill.name, state.topics.detections, frame, result)
             state.last_extras = [{"mask_ref": ref} if ref else {} for ref in refs]
-            extras = state.last_extras
             renderer = self.runtime.overlay_renderer
             render = (lambda: renderer(frame.image, result)) if renderer else (lambda: frame.image)
-        else:
-            extras = [
-                {**extra, "stale": True, "reason": stale_reason} for extra in state.last_extras
-            ]
-            render = None
-        if not publishers.publish(frame, result, extras, render):
+        marks = provenance.detection_marks()
+        extras = [{**extra, **marks} for extra in state.last_extras]
+        outputs_header = None
+        if provenance.grounding_stamp_ns is not None:  # outputs come from the grounding frame
+            outputs_header = Header(
+                stamp=ns_to_stamp(provenance.grounding_stamp_ns),
+                frame_id=provenance.grounding_frame_id or frame.frame_id,
+            )
+        published = publishers.publish(
+            frame, result, extras, render, provenance.result_extra(), outputs_header
+        )
+        if not published:
             return
         state.published += 1
         state.last_publish_wall = time.monotonic()
-        if stale_reason is None:
+        if not provenance.stale:
             state.last_published_stamp_ns = frame.stamp_ns
             latency_ms = (time.time_ns() - frame.stamp_ns) / 1e6
             self.latencies_ms.append(latency_ms)

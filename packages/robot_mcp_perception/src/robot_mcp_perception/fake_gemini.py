@@ -90,7 +90,9 @@ GENERATION_CONFIG_FIELDS = frozenset(
     }
 )
 THINKING_FIELDS = frozenset({"includeThoughts", "thinkingBudget", "thinkingLevel"})
-THINKING_LEVELS = frozenset({"THINKING_LEVEL_UNSPECIFIED", "MINIMAL", "LOW", "MEDIUM", "HIGH"})
+THINKING_LEVELS = frozenset(
+    {"THINKING_LEVEL_UNSPECIFIED", "MINIMAL", "LOW", "MEDIUM", "HIGH", "XHIGH"}
+)
 RESPONSE_MIME_TYPES = frozenset({"text/plain", "application/json", "text/x.enum"})
 INLINE_MIME_TYPES = frozenset(
     {

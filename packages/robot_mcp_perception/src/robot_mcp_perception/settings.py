@@ -12,6 +12,10 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 
+class StartupError(RuntimeError):
+    """The node cannot start as configured; the message names the problem (exit code 2)."""
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -31,7 +35,8 @@ class NodeSettings(_Strict):
     """Default rate_hz of a skill that gives none."""
     max_in_flight: int = Field(4, ge=1, le=64)
     workers: int = Field(2, ge=1, le=32)
-    model_timeout_s: float = Field(30.0, gt=0)
+    model_timeout_s: float = Field(60.0, gt=0)
+    """Time limit of one skill run (a hung model frees its worker)."""
     tick_hz: float = Field(50.0, gt=0, le=500)
     """How often due skills are checked when no new frame arrives."""
     default_skills: list[dict[str, Any]] = Field(default_factory=list)

@@ -265,3 +265,27 @@ def test_prewarm_entry_expires_after_the_ttl(
 
     harness.create({"name": "late", "mode": "describe", "grounding": "x", "once": True})
     harness.pump(lambda: harness.grounder.ground_calls == 2, what="a fresh grounding")
+
+
+def test_segment_all_tile_and_ground_requests_each_count_and_a_run_that_does_not_fit_is_skipped(
+    start_node: Any, settings_factory: Any, scene_factory: Any, log_events: list[dict[str, Any]]
+) -> None:
+    settings = settings_factory(
+        cost={"max_cloud_calls_per_min": 7, "max_cloud_rate_hz": 30.0, "cloud_requires_gate": False}
+    )
+    harness = start_node(settings=settings)
+    harness.create(
+        {
+            "name": "everything",
+            "mode": "segment_all",
+            "segment": True,
+            "rate_hz": 10,
+            "outputs": [{"name": "count", "type": "number"}],
+        }
+    )
+
+    harness.pump(lambda: _skipped(log_events, "max_cloud_calls_per_min"), what="a budget skip")
+    _push_frames(harness, scene_factory(40), 5)
+
+    assert (harness.grounder.point_calls, harness.grounder.ground_calls) == (4, 1)  # 2x2 tiles
+    assert harness.node.policy.budget.used() == 5

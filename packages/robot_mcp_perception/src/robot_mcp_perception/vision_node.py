@@ -36,10 +36,17 @@ from robot_mcp_perception.publishers import DIAGNOSTICS_QOS, SkillPublishers
 from robot_mcp_perception.registry import SkillRegistry, SkillState, topics_for
 from robot_mcp_perception.runtime import Runtime
 from robot_mcp_perception.scheduler import Scheduler
-from robot_mcp_perception.skills import Skill, SkillError
+from robot_mcp_perception.skills import Skill, SkillError, SkillOutput
 from robot_mcp_perception.task_service import Operation, TaskService, serve
 
 logger = structlog.get_logger("robot_mcp_perception.vision_node")
+
+AMBIENT_OUTPUTS = (
+    SkillOutput("scene_description", "text", "a detailed description of the scene"),
+    SkillOutput("scene_objects", "list", "the main objects, up to 10"),
+)
+"""What ambient_scene publishes: the output names the perception buffer reads for
+``what_do_you_see`` (its scene description and object list)."""
 
 
 class VisionNode(Node):
@@ -144,6 +151,7 @@ class VisionNode(Node):
                 mode="describe",
                 description="ambient scene description (cost.ambient_scene)",
                 grounding=ambient.grounding,
+                outputs=AMBIENT_OUTPUTS,
                 rate_hz=ambient.rate_hz,
             )
             ok, message = serve("create_vision_task", self.tasks.create, skill.to_json())

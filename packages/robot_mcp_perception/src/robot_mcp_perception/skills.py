@@ -271,8 +271,18 @@ def _watch(value: object, outputs: tuple[SkillOutput, ...]) -> WatchSpec | None:
         raise SkillError("invalid_type", "'watch' must be an object {output, equals}.")
     _reject_unknown(value, _WATCH_KEYS, "watch")
     output = _require_str(value, "output")
-    if output not in {declared.name for declared in outputs}:
+    declared = {o.name: o.type for o in outputs}
+    if output not in declared:
         raise SkillError(
             "invalid_watch", f"watch.output {output!r} is not one of the skill's outputs."
         )
-    return WatchSpec(output=output, equals=value.get("equals", True))
+    if declared[output] != "boolean":
+        raise SkillError(
+            "invalid_watch",
+            f"watch.output {output!r} is a {declared[output]} output; a watcher watches a "
+            "boolean output (its rising edge fires the watch event).",
+        )
+    equals = value.get("equals", True)
+    if not isinstance(equals, bool):
+        raise SkillError("invalid_watch", "watch.equals must be true or false (boolean output).")
+    return WatchSpec(output=output, equals=equals)

@@ -134,3 +134,22 @@ def test_bad_skill_json_is_rejected_with_a_stable_code(payload: str, code: str) 
     assert caught.value.code == code
     assert json.loads(caught.value.to_json()) == {"error": code, "detail": caught.value.detail}
     assert caught.value.detail
+
+
+@pytest.mark.parametrize(
+    ("output_type", "equals"), [("text", True), ("number", 1), ("list", True), ("boolean", "yes")]
+)
+def test_a_watcher_must_watch_a_boolean_output_for_a_boolean_value(
+    output_type: str, equals: object
+) -> None:
+    payload = {
+        "name": "watch_door",
+        "mode": "describe",
+        "outputs": [{"name": "door", "type": output_type}],
+        "watch": {"output": "door", "equals": equals},
+    }
+    with pytest.raises(SkillError) as caught:
+        Skill.from_dict(payload)
+
+    assert caught.value.code == "invalid_watch"
+    assert "boolean" in caught.value.detail

@@ -305,6 +305,11 @@ def _check_thinking(thinking: Any, where: str) -> None:
             )
 
 
+UNAVAILABLE = {
+    "error": {"code": 503, "message": "The model is overloaded.", "status": "UNAVAILABLE"}
+}
+
+
 def text_reply(text: str) -> dict[str, Any]:
     """A generateContent answer whose only candidate says ``text``."""
     return {
@@ -327,6 +332,8 @@ class FakeGemini:
     rejected: list[dict[str, Any]] = field(default_factory=list)
     """Refused requests: path, status, message."""
     hang_s: float = 0.0
+    fail_every: int = 0
+    """When > 0, every n-th accepted request is answered 503 UNAVAILABLE (a flaky service)."""
     base_url: str = ""
     """Set by :func:`serve_fake_gemini`."""
     _lock: threading.Lock = field(default_factory=threading.Lock)
@@ -360,10 +367,13 @@ class FakeGemini:
                     "model": model,
                     "headers": headers,
                     "json": json.loads(body),
+                    "at": time.monotonic(),
                 }
             )
             index = min(len(self.requests) - 1, len(self.replies) - 1)
             status, reply = self.replies[index]
+            if self.fail_every and len(self.requests) % self.fail_every == 0:
+                status, reply = 503, UNAVAILABLE
         if self.hang_s:
             await asyncio.sleep(self.hang_s)
         await _send_json(send, status, text_reply(reply) if isinstance(reply, str) else reply)

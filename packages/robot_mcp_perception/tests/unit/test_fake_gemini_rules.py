@@ -204,3 +204,9 @@ def test_scripted_replies_are_served_in_order_and_the_last_repeats(fake: Any) ->
     for _ in range(2):
         reply = post(client, valid()).json()
         assert reply["candidates"][0]["content"]["parts"][0]["text"] == "hello"
+
+
+def test_a_flaky_fake_answers_every_nth_request_503(fake: Any) -> None:
+    app, client = fake
+    app.fail_every = 2
+    assert [post(client, valid()).status_code for _ in range(4)] == [200, 503, 200, 503]

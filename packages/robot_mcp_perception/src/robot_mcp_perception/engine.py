@@ -194,6 +194,7 @@ class SkillEngine:
         if state.runs == 0 and state.grounding is None and not skill.prewarm:
             cached = self.prewarm.lookup(skill, frame.image)
             if cached is not None:
+                state.grounding = cached
                 if state.gate is not None:
                     state.gate.passes(frame.image)  # the cached grounding is for this scene
                 logger.info("prewarm_hit", skill=skill.name)

@@ -139,3 +139,29 @@ def test_a_prewarmed_grounding_reused_by_a_later_skill_is_marked_with_the_prewar
     assert extra["grounding_stamp"] <= prewarm_frame.stamp_ns
     assert extra["grounding_stamp"] <= stamp_to_ns(detections[0].header.stamp)
     assert harness.grounder.ground_calls == 1
+
+
+def test_a_continuous_skill_keeps_segmenting_on_a_prewarmed_grounding_while_the_scene_holds(
+    start_node: Any, scene_factory: Any
+) -> None:
+    harness = start_node()
+    harness.create(
+        {"name": "warm", "mode": "ground_and_segment", "grounding": "mug", "prewarm": True}
+    )
+    harness.pump(lambda: len(harness.node.prewarm) == 1, image=scene_factory(40), what="prewarm")
+    detections = harness.probe.subscribe("/vision/grasp/detections", VisionDetectionArray)
+    harness.create(
+        {"name": "grasp", "mode": "ground_and_segment", "grounding": "mug", "rate_hz": 10}
+    )
+
+    def reused_fresh() -> list[Any]:
+        return [
+            m
+            for m in detections
+            if _det_extra(m).get("grounding_reused") and not _det_extra(m).get("stale")
+        ]
+
+    harness.pump(lambda: len(reused_fresh()) >= 3, image=scene_factory(40), what="3 results")
+
+    assert harness.grounder.ground_calls == 1
+    assert len({_det_extra(m)["grounding_stamp"] for m in reused_fresh()}) == 1

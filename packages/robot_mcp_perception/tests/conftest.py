@@ -6,7 +6,6 @@ from a :class:`ManualFrameSource` the test pushes into; models are the fakes at 
 
 from __future__ import annotations
 
-import asyncio
 import json
 import threading
 import time
@@ -24,67 +23,17 @@ from robot_mcp_perception.models.base import (
     GroundingResult,
     Image,
     Segmenter,
-    SemanticRequest,
 )
 from robot_mcp_perception.models.fakes import FakeGrounder
 from robot_mcp_perception.models.null import NullSegmenter
-from robot_mcp_perception.pipelines.common import Detection, SkillResult
+from robot_mcp_perception.pipelines import run_skill
+from robot_mcp_perception.pipelines.watch import FrameDiffGate
 from robot_mcp_perception.runtime import Runtime
 from robot_mcp_perception.settings import PerceptionSettings
 
-
-async def _mini_run_skill(
-    skill: Any, image: Image, ctx: Any, reuse_grounding: GroundingResult | None = None
-) -> SkillResult:
-    """Stand-in for pipelines.run_skill until the real pipelines land."""
-    grounding = reuse_grounding or await ctx.grounder.ground(
-        image,
-        skill.grounding,
-        [SemanticRequest(o.name, o.type, o.description) for o in skill.outputs],
-        skill.mode,
-    )
-    detections = []
-    for target in grounding.targets:
-        mask = None
-        if skill.segments and target.box is not None:
-            mask = await asyncio.to_thread(ctx.segmenter.segment_box, image, target.box)
-        point = target.points[0] if target.points else None
-        detections.append(
-            Detection(target.label, target.confidence or 1.0, target.kind, target.box, mask, point)
-        )
-    outputs = {
-        o.name: grounding.outputs[o.name] for o in skill.outputs if o.name in grounding.outputs
-    }
-    return SkillResult(detections, outputs, grounding)
-
-
-class _MiniGate:
-    """Stand-in for pipelines.watch.FrameDiffGate until it lands."""
-
-    def __init__(self, threshold: float) -> None:
-        self.threshold = threshold
-        self._ref: Image | None = None
-
-    def passes(self, image: Image) -> bool:
-        if self._ref is not None and self._ref.shape == image.shape:
-            diff = float(np.mean(np.abs(image.astype(np.int16) - self._ref.astype(np.int16)))) / 255
-            if diff < self.threshold:
-                return False
-        self._ref = image
-        return True
-
-    def reset(self) -> None:
-        self._ref = None
-
-
-try:  # the real pipelines and watch gate (the models/pipelines work) when present
-    from robot_mcp_perception.pipelines import run_skill as RUNNER
-except ImportError:  # pragma: no cover - only until the pipelines land
-    RUNNER = _mini_run_skill
-try:
-    from robot_mcp_perception.pipelines.watch import FrameDiffGate as GATE
-except ImportError:  # pragma: no cover
-    GATE = _MiniGate
+RUNNER = run_skill
+"""The real router: a broken ``pipelines`` import fails every node test at collection."""
+GATE = FrameDiffGate
 
 
 class ManualFrameSource(FrameSource):

@@ -8,7 +8,8 @@ until ``deleted_skills_kept`` later deletions: a planner typically reads a ``mas
 stops the skill right after, and the reference must still resolve for whoever acts on it.
 
 Routes (all GET, bound to 127.0.0.1):
-- ``/healthz`` — node up, latest frame age, skills;
+- ``/healthz`` — the node's real state (frame age, models, skills); HTTP 503 unless
+  ``status`` is ``ok``;
 - ``/skills/{skill}/masks`` — the kept mask refs of a skill;
 - ``/masks/{skill}/{stamp_ns}/{index}.png`` — one mask (mono8 PNG);
 - ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``.
@@ -17,6 +18,7 @@ Routes (all GET, bound to 127.0.0.1):
 from __future__ import annotations
 
 import io
+import socket
 import threading
 import time
 from collections import OrderedDict, deque
@@ -37,6 +39,7 @@ from starlette.routing import Route
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import Image
 from robot_mcp_perception.pipelines.common import SkillResult
+from robot_mcp_perception.settings import StartupError
 
 logger = structlog.get_logger("robot_mcp_perception.artifacts")
 
@@ -163,7 +166,8 @@ class ArtifactStore:
 
 def build_app(store: ArtifactStore, health: HealthProvider) -> Starlette:
     async def healthz(request: Request) -> JSONResponse:
-        return JSONResponse(health())
+        payload = health()
+        return JSONResponse(payload, status_code=200 if payload.get("status") == "ok" else 503)
 
     async def list_masks(request: Request) -> JSONResponse:
         skill = request.path_params["skill"]
@@ -204,10 +208,27 @@ class ArtifactServer:
     def __init__(self, app: Starlette, host: str, port: int) -> None:
         config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False)
         self._server = uvicorn.Server(config)
-        self._thread = threading.Thread(target=self._server.run, name="artifacts", daemon=True)
+        self._socket: socket.socket | None = None
+        self._thread = threading.Thread(target=self._serve, name="artifacts", daemon=True)
         self.host, self.port = host, port
 
+    def _serve(self) -> None:
+        self._server.run(sockets=[self._socket] if self._socket is not None else None)
+
     def start(self, timeout_s: float = 5.0) -> None:
+        """Bind here (a busy port is a :class:`StartupError` naming it), then serve."""
+        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+        sock = socket.socket(family, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            sock.bind((self.host, self.port))
+        except OSError as error:
+            sock.close()
+            raise StartupError(
+                f"the artifacts port {self.host}:{self.port} is not free ({error.strerror}): "
+                "stop what uses it or set artifacts.port (PERCEPTION_CONFIG_OVERRIDES)"
+            ) from error
+        self._socket = sock
         self._thread.start()
         deadline = time.monotonic() + timeout_s
         while not self._server.started:
@@ -220,4 +241,7 @@ class ArtifactServer:
 
     def stop(self, timeout_s: float = 5.0) -> None:
         self._server.should_exit = True
-        self._thread.join(timeout=timeout_s)
+        if self._thread.is_alive():
+            self._thread.join(timeout=timeout_s)
+        if self._socket is not None:
+            self._socket.close()

@@ -29,7 +29,7 @@ from robot_mcp_perception.logging_setup import configure_logging
 from robot_mcp_perception.models.base import Grounder, Segmenter
 from robot_mcp_perception.pipelines.common import PipelineSettings
 from robot_mcp_perception.runtime import Runtime
-from robot_mcp_perception.settings import PerceptionSettings
+from robot_mcp_perception.settings import PerceptionSettings, StartupError
 
 OVERRIDES_ENV = "PERCEPTION_CONFIG_OVERRIDES"
 DEPLOYMENT_ENV = "PERCEPTION_DEPLOYMENT"
@@ -39,7 +39,7 @@ _SECRET_KEY = re.compile(r"(api_key|token|secret|password)", re.IGNORECASE)
 _ENV_INTERPOLATION = re.compile(r"^\$\{oc\.env:([A-Za-z_][A-Za-z0-9_]*)(,[^}]*)?\}$")
 
 
-class ConfigError(RuntimeError):
+class ConfigError(StartupError):
     """The composed configuration cannot start the node; the message says how to fix it."""
 
 
@@ -104,6 +104,19 @@ def check_secrets(cfg: DictConfig) -> None:
                 )
 
 
+def check_job_timeout(settings: PerceptionSettings, grounder: Grounder) -> None:
+    """A run must be allowed to outlast the grounder's own retries, or the node cancels a
+    call the grounder would still have retried (and meters requests whose answer it drops)."""
+    worst = grounder.worst_case_s
+    limit = settings.node.model_timeout_s
+    if worst is not None and limit <= worst:
+        raise ConfigError(
+            f"node.model_timeout_s ({limit:g} s) must exceed the grounder's worst case "
+            f"({worst:g} s = timeout_s x attempts + backoff): raise node.model_timeout_s or "
+            "lower grounder.timeout_s / grounder.retries"
+        )
+
+
 def instantiate_adapter(block: DictConfig, port: Any) -> Any:
     """Build one adapter; ``cost_class`` from its YAML is set on the instance, not passed in."""
     params = OmegaConf.to_container(block, resolve=True)
@@ -131,6 +144,7 @@ def build_runtime(overrides: Sequence[str] = (), config_dir: Path | None = None)
         except FrameSourceError as error:
             raise ConfigError(str(error)) from error
     grounder: Grounder = instantiate_adapter(cfg.grounder, Grounder)
+    check_job_timeout(settings, grounder)
     segmenter: Segmenter = instantiate_adapter(cfg.segmenter, Segmenter)
     pipeline = settings.pipeline.model_dump()
     return Runtime(

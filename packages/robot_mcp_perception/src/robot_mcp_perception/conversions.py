@@ -119,8 +119,10 @@ def detections_to_msg(
     *,
     with_masks: bool,
     extras: list[dict[str, Any]],
+    result_extra: dict[str, Any] | None = None,
 ) -> VisionDetectionArray:
-    """``extras[i]`` is merged into detection i's ``extra`` JSON (stale flag, mask_ref)."""
+    """``extras[i]`` is merged into detection i's ``extra`` JSON (stale flag, mask_ref);
+    ``result_extra`` is the array's own ``extra`` JSON (the result's stale / reuse markers)."""
     return VisionDetectionArray(
         header=header,
         skill=skill,
@@ -128,6 +130,7 @@ def detections_to_msg(
             detection_to_msg(det, header, with_mask=with_masks, extra=extra)
             for det, extra in zip(detections, extras, strict=True)
         ],
+        extra=json.dumps(result_extra, default=str) if result_extra is not None else "",
     )
 
 

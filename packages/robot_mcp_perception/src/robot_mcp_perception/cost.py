@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import structlog
 
 from robot_mcp_perception.models.base import GroundingResult, Image
-from robot_mcp_perception.registry import Gate
+from robot_mcp_perception.registry import Gate, GroundingSource
 from robot_mcp_perception.settings import CostSettings
 from robot_mcp_perception.skills import Skill
 
@@ -41,10 +41,12 @@ SKIP_BUDGET = "max_cloud_calls_per_min"
 class CloudDecision:
     allowed: bool
     reason: str = ""
+    meter: RunMeter | None = None
+    """The run's reservation (allowed decisions only); charge each request to it."""
 
 
 class CloudBudget:
-    """Sliding 60 s window of cloud calls across all skills (thread-safe)."""
+    """Sliding 60 s window of cloud requests across all skills (thread-safe)."""
 
     def __init__(self, max_per_min: int, clock: Clock = time.monotonic) -> None:
         self.max_per_min = max_per_min
@@ -62,25 +64,81 @@ class CloudBudget:
             self._trim(self._clock())
             return len(self._calls)
 
-    def has_headroom(self) -> bool:
-        return self.used() < self.max_per_min
+    def has_headroom(self, requests: int = 1) -> bool:
+        return self.used() + requests <= self.max_per_min
 
-    def record(self) -> None:
+    def take(self, requests: int, enforce: bool = True) -> float | None:
+        """Count ``requests`` now; None (nothing counted) when enforced and they do not fit."""
         with self._lock:
             now = self._clock()
             self._trim(now)
-            self._calls.append(now)
-            self.total += 1
+            if enforce and len(self._calls) + requests > self.max_per_min:
+                return None
+            self._calls.extend([now] * requests)
+            self.total += requests
+            return now
+
+    def release(self, at: float, requests: int) -> None:
+        """Un-count ``requests`` taken at ``at`` that were never sent."""
+        with self._lock:
+            for _ in range(requests):
+                if at not in self._calls:
+                    return  # already out of the window
+                self._calls.remove(at)
+                self.total -= 1
+
+    def record(self) -> None:
+        self.take(1, enforce=False)
+
+
+class RunMeter:
+    """One run's cloud requests: ``reserved`` were counted up front, charges beyond them are
+    counted as they come (retries) and, when ``enforce``, refused once the budget is spent."""
+
+    def __init__(
+        self, policy: CostPolicy, skill: str, reserved: int, enforce: bool, at: float | None
+    ) -> None:
+        self._policy = policy
+        self.skill = skill
+        self.reserved = reserved
+        self.enforce = enforce
+        self._at = at
+        self.charged = 0
+        self._closed = False
+        self._lock = threading.Lock()
+
+    def charge(self) -> bool:
+        with self._lock:
+            if self.charged < self.reserved and not self._closed:
+                self.charged += 1
+                return True
+        if not self._policy.charge_extra(self.skill, self.enforce):
+            return False
+        with self._lock:
+            self.charged += 1
+        return True
+
+    def close(self) -> None:
+        """The run ended: give back the reserved requests it did not send."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            unused = max(0, self.reserved - self.charged)
+        if unused and self._at is not None:
+            self._policy.release(self.skill, self._at, unused)
 
 
 class CostPolicy:
-    """Decides whether a skill may fire its cloud stage this tick (§8 rules)."""
+    """Decides whether a skill may send its cloud requests this tick (§8 rules), per request:
+    the global budget counts every request, and a skill's ``max_cloud_rate_hz`` spaces its
+    requests (a run of n requests pushes the skill's next run n / rate seconds away)."""
 
     def __init__(self, settings: CostSettings, clock: Clock = time.monotonic) -> None:
         self.settings = settings
         self.budget = CloudBudget(settings.max_cloud_calls_per_min, clock)
         self._clock = clock
-        self._last_call: dict[str, float] = {}
+        self._free_at: dict[str, float] = {}
         self._lock = threading.Lock()
 
     def needs_gate(self, skill: Skill, always_gated: bool = False) -> bool:
@@ -89,28 +147,41 @@ class CostPolicy:
             return False
         return always_gated or self.settings.cloud_requires_gate
 
-    def check(self, skill: Skill) -> CloudDecision:
-        """Rate and budget rules (no side effects); the gate is checked by the caller after."""
-        if skill.once or skill.prewarm:
-            return CloudDecision(True)
-        now = self._clock()
+    def reserve(self, skill: Skill, requests: int) -> CloudDecision:
+        """Reserve a run's ``requests`` (all or nothing). ``once`` / prewarm skills always may
+        (their requests are still counted); others are refused by rate or budget."""
+        enforce = not (skill.once or skill.prewarm)
+        period = 1.0 / self.settings.max_cloud_rate_hz
         with self._lock:
-            last = self._last_call.get(skill.name)
-        if last is not None and now - last < 1.0 / self.settings.max_cloud_rate_hz - 1e-3:
-            return CloudDecision(False, SKIP_RATE)
-        if not self.budget.has_headroom():
-            return CloudDecision(False, SKIP_BUDGET)
-        return CloudDecision(True)
+            now = self._clock()
+            free_at = self._free_at.get(skill.name)
+            if enforce and free_at is not None and now < free_at - 1e-3:
+                return CloudDecision(False, SKIP_RATE)
+            at = self.budget.take(requests, enforce)
+            if at is None:
+                return CloudDecision(False, SKIP_BUDGET)
+            self._free_at[skill.name] = max(free_at or now, now) + requests * period
+        return CloudDecision(True, meter=RunMeter(self, skill.name, requests, enforce, at))
 
-    def record(self, skill: Skill) -> None:
-        """Count a cloud call that is about to be made."""
+    def charge_extra(self, skill: str, enforce: bool) -> bool:
+        """One request beyond a run's reservation (a retry)."""
+        if self.budget.take(1, enforce) is None:
+            return False
+        period = 1.0 / self.settings.max_cloud_rate_hz
         with self._lock:
-            self._last_call[skill.name] = self._clock()
-        self.budget.record()
+            now = self._clock()
+            self._free_at[skill] = max(self._free_at.get(skill, now), now) + period
+        return True
+
+    def release(self, skill: str, at: float, requests: int) -> None:
+        self.budget.release(at, requests)
+        with self._lock:
+            if skill in self._free_at:
+                self._free_at[skill] -= requests / self.settings.max_cloud_rate_hz
 
     def forget(self, skill_name: str) -> None:
         with self._lock:
-            self._last_call.pop(skill_name, None)
+            self._free_at.pop(skill_name, None)
 
 
 def grounding_key(skill: Skill) -> tuple[object, ...]:
@@ -134,15 +205,24 @@ class PrewarmCache:
         self.hits = 0
         self.scene_changed = 0
 
-    def put(self, skill: Skill, grounding: GroundingResult, scene: Gate | None = None) -> None:
+    def put(
+        self, skill: Skill, grounding: GroundingSource | GroundingResult, scene: Gate | None = None
+    ) -> None:
+        source = (
+            grounding if isinstance(grounding, GroundingSource) else GroundingSource(grounding, 0)
+        )
         with self._lock:
             self._expire()
             if len(self._entries) >= self._max_entries:
                 oldest = min(self._entries, key=lambda k: self._entries[k].at)
                 del self._entries[oldest]
-            self._entries[grounding_key(skill)] = _Entry(self._clock(), grounding, scene)
+            self._entries[grounding_key(skill)] = _Entry(self._clock(), source, scene)
 
     def get(self, skill: Skill, image: Image | None = None) -> GroundingResult | None:
+        found = self.lookup(skill, image)
+        return found.grounding if found is not None else None
+
+    def lookup(self, skill: Skill, image: Image | None = None) -> GroundingSource | None:
         """The cached grounding for ``skill``'s question, if fresh and made on this scene
         (``image``); an entry whose scene differs from ``image`` is dropped."""
         with self._lock:
@@ -157,7 +237,7 @@ class PrewarmCache:
                 logger.info("prewarm_dropped", skill=skill.name, reason="scene_changed")
                 return None
             self.hits += 1
-            return entry.grounding
+            return entry.source
 
     def __len__(self) -> int:
         with self._lock:
@@ -173,6 +253,6 @@ class PrewarmCache:
 @dataclass(frozen=True)
 class _Entry:
     at: float
-    grounding: GroundingResult
+    source: GroundingSource
     scene: Gate | None
     """A frame-difference gate seeded with the frame the grounding was made on."""

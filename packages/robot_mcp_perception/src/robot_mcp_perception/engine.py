@@ -6,9 +6,13 @@ work goes through the :class:`~robot_mcp_perception.scheduler.Scheduler`. Rules:
 - per-skill ``rate_hz`` (default: the node's processing_frequency), newest frame only; a
   new skill runs at once, later runs are phase-spread over the period; skills run on frame
   arrival (``dispatch``), the timer (``tick``) only when frames stop or a skill waited long;
-- §8 cost policy for cloud stages (once / gate / per-skill cloud rate / global budget); a
-  skipped cloud grounding is replaced by "segment locally with the last grounding" when the
-  skill segments with a local segmenter, else the last result is republished stale;
+- §8 cost policy for cloud stages (once / gate / per-skill cloud rate / global budget),
+  metered per request: a run reserves all the cloud requests it will send (segment_all: one
+  per tile + one for its outputs) or is skipped whole before the first one;
+- the scene unchanged behind the gate: a skill segmenting with a local segmenter segments the
+  new frame with its last grounding (marked ``grounding_reused``), others republish their
+  last result stale; a run skipped for rate or budget (the scene may have changed) always
+  republishes the last result stale with its original stamp — never old boxes on a new frame;
 - the frame-difference gate for watch skills and ambient_scene;
 - ``once`` publishes once then disables; ``prewarm`` grounds once into the prewarm cache;
 - a failed or timed-out run leaves the skill running and republishes its last result stale.
@@ -29,11 +33,13 @@ from typing import Literal, Protocol
 
 import structlog
 
-from robot_mcp_perception.cost import SKIP_GATE, CostPolicy, PrewarmCache
+from robot_mcp_perception.cost import SKIP_BUDGET, SKIP_GATE, CostPolicy, PrewarmCache, RunMeter
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import GroundingResult, Image
+from robot_mcp_perception.models.metering import CloudBudgetExhaustedError, metered
 from robot_mcp_perception.pipelines.common import PipelineContext, SkillResult
-from robot_mcp_perception.registry import Gate, SkillRegistry, SkillState
+from robot_mcp_perception.provenance import FRESH, Provenance
+from robot_mcp_perception.registry import Gate, GroundingSource, SkillRegistry, SkillState
 from robot_mcp_perception.scheduler import JobTimeoutError, Scheduler
 from robot_mcp_perception.skills import Skill
 
@@ -47,18 +53,23 @@ SkillRunner = Callable[
 ]
 
 
+CloudRequests = Callable[[Skill], int]
+"""How many grounder requests one run of a skill sends (``pipelines.grounder_requests``)."""
+
+
 class ResultSink(Protocol):
     def publish(
-        self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None
+        self, state: SkillState, frame: Frame, result: SkillResult, provenance: Provenance
     ) -> None: ...
 
 
 @dataclass(frozen=True)
 class TickPlan:
     action: Literal["run", "stale"]
-    reuse: GroundingResult | None = None
+    reuse: GroundingSource | None = None
     reason: str = ""
     cloud_skipped: bool = False
+    meter: RunMeter | None = None
 
 
 class SkillEngine:
@@ -75,6 +86,7 @@ class SkillEngine:
         default_rate_hz: float,
         scene_reference: Callable[[], Gate] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        grounder_requests: CloudRequests = lambda skill: 1,
     ) -> None:
         self.registry = registry
         self.scheduler = scheduler
@@ -87,6 +99,7 @@ class SkillEngine:
         self.scene_reference = scene_reference
         """Builds an unseeded frame-difference gate: the prewarm cache's scene check."""
         self._clock = clock
+        self.grounder_requests = grounder_requests
         self.lock = threading.RLock()
         self.grounder_cloud = context.grounder.cost_class == "cloud"
         self.segmenter_cloud = context.segmenter.cost_class == "cloud"
@@ -108,6 +121,14 @@ class SkillEngine:
     def needs_cloud(self, skill: Skill, reuse: GroundingResult | None = None) -> bool:
         grounder = self.grounder_cloud and reuse is None
         return grounder or (self.segmenter_cloud and skill.segments)
+
+    def cloud_requests(self, skill: Skill) -> int:
+        """Cloud requests one fresh run sends (a cloud segmenter's count is only known after
+        grounding: one is reserved, the rest are charged as they are sent)."""
+        requests = self.grounder_requests(skill) if self.grounder_cloud else 0
+        if self.segmenter_cloud and skill.segments:
+            requests += 1
+        return requests
 
     def dispatch(self, frame: Frame | None) -> None:
         """A new frame arrived: run every enabled skill that is due on it."""
@@ -158,19 +179,20 @@ class SkillEngine:
         else:  # keep the phase (the rate stays exact despite frame jitter)
             state.next_due += period
         plan = self.plan(state, frame)
-        if plan.cloud_skipped:
+        if plan.reason:
             state.skips[plan.reason] += 1
+        if plan.cloud_skipped:
             logger.warning("cloud_call_skipped", skill=state.skill.name, reason=plan.reason)
         if plan.action == "run":
-            self._submit(state, frame, plan.reuse)
+            self._submit(state, frame, plan)
         else:
-            self._republish_stale(state, plan.reason)
+            self._republish_stale(state, plan.reason, frame)
 
     def plan(self, state: SkillState, frame: Frame) -> TickPlan:
-        """The §8 decision for this tick (side effects: gate reference, cloud-call count)."""
+        """The §8 decision for this tick (side effects: gate reference, cloud reservation)."""
         skill = state.skill
         if state.runs == 0 and state.grounding is None and not skill.prewarm:
-            cached = self.prewarm.get(skill, frame.image)
+            cached = self.prewarm.lookup(skill, frame.image)
             if cached is not None:
                 state.grounding = cached
                 if state.gate is not None:
@@ -178,8 +200,9 @@ class SkillEngine:
                 logger.info("prewarm_hit", skill=skill.name)
                 return TickPlan("run", reuse=cached)
         cloud = self.needs_cloud(skill)
+        gate = state.gate
         gated = (
-            state.gate is not None
+            gate is not None
             and (
                 skill.watch is not None
                 or state.always_gated
@@ -187,20 +210,20 @@ class SkillEngine:
             )
             and not (skill.once or skill.prewarm)
         )
-        if cloud:
-            decision = self.policy.check(skill)
-            if not decision.allowed:
-                return self._skipped(state, decision.reason, cloud)
-        if gated and state.gate is not None and not state.gate.passes(frame.image):
-            return self._skipped(state, SKIP_GATE, cloud)
-        if cloud:
-            self.policy.record(skill)
-        return TickPlan("run")
-
-    def _skipped(self, state: SkillState, reason: str, cloud: bool) -> TickPlan:
+        if gated and gate is not None and not gate.passes(frame.image):
+            return self._scene_unchanged(state, cloud)
         if not cloud:
-            state.skips[reason] += 1
-            return TickPlan("stale", reason=reason)
+            return TickPlan("run")
+        decision = self.policy.reserve(skill, self.cloud_requests(skill))
+        if not decision.allowed:
+            if gated and gate is not None:
+                gate.reset()  # the change the gate saw still has to be grounded
+            return TickPlan("stale", reason=decision.reason, cloud_skipped=True)
+        return TickPlan("run", meter=decision.meter)
+
+    def _scene_unchanged(self, state: SkillState, cloud: bool) -> TickPlan:
+        """Behind the gate the scene is the one last grounded: a local segmenter may segment
+        this frame with that grounding; anything else republishes the last result stale."""
         reusable = (
             state.grounding is not None
             and state.skill.segments
@@ -208,34 +231,40 @@ class SkillEngine:
             and not self.segmenter_cloud
         )
         if reusable:
-            return TickPlan("run", reuse=state.grounding, reason=reason, cloud_skipped=True)
-        return TickPlan("stale", reason=reason, cloud_skipped=True)
+            return TickPlan("run", reuse=state.grounding, reason=SKIP_GATE, cloud_skipped=cloud)
+        return TickPlan("stale", reason=SKIP_GATE, cloud_skipped=cloud)
 
-    def _submit(self, state: SkillState, frame: Frame, reuse: GroundingResult | None) -> None:
+    def _submit(self, state: SkillState, frame: Frame, plan: TickPlan) -> None:
         skill = state.skill
         to_run = dataclasses.replace(skill, segment=False) if skill.prewarm else skill
         state.last_seq = frame.seq
         state.once_pending = skill.once or skill.prewarm
-        context, runner = self.context, self.runner
+        context, runner, meter = self.context, self.runner, plan.meter
+        reuse = plan.reuse.grounding if plan.reuse is not None else None
 
-        def job() -> Awaitable[SkillResult]:
-            return runner(to_run, frame.image, context, reuse)
+        async def run() -> SkillResult:
+            with metered(meter):
+                return await runner(to_run, frame.image, context, reuse)
 
-        future = self.scheduler.submit(skill.name, job)
+        future = self.scheduler.submit(skill.name, run)
         if future is None:
             state.once_pending = False
             state.skips["overloaded"] += 1
+            if meter is not None:
+                meter.close()
             return
         state.in_flight += 1
-        future.add_done_callback(partial(self._on_done, state, frame, reuse))
+        future.add_done_callback(partial(self._on_done, state, frame, plan))
 
     def _on_done(
         self,
         state: SkillState,
         frame: Frame,
-        reuse: GroundingResult | None,
+        plan: TickPlan,
         future: concurrent.futures.Future[SkillResult],
     ) -> None:
+        if plan.meter is not None:
+            plan.meter.close()
         with self.lock:
             state.in_flight -= 1
             if future.cancelled():
@@ -246,16 +275,23 @@ class SkillEngine:
                 return  # deleted while running
             error = future.exception()
             if error is not None:
-                self._on_failure(state, error)
+                self._on_failure(state, error, frame)
                 return
-            self._on_result(state, frame, reuse, future.result())
+            self._on_result(state, frame, plan.reuse, future.result())
 
-    def _on_failure(self, state: SkillState, error: BaseException) -> None:
+    def _on_failure(self, state: SkillState, error: BaseException, frame: Frame) -> None:
         state.failures += 1
+        state.consecutive_failures += 1
+        state.last_error = str(error) or type(error).__name__
         state.once_pending = False
         if state.gate is not None:
             state.gate.reset()
-        reason = "model_timeout" if isinstance(error, JobTimeoutError) else "model_error"
+        if isinstance(error, JobTimeoutError):
+            reason = "model_timeout"
+        elif isinstance(error, CloudBudgetExhaustedError):
+            reason = SKIP_BUDGET
+        else:
+            reason = "model_error"
         logger.warning(
             "skill_run_failed",
             skill=state.skill.name,
@@ -263,18 +299,20 @@ class SkillEngine:
             error=str(error) or type(error).__name__,
             error_type=type(error).__name__,
         )
-        self._republish_stale(state, reason)
+        self._republish_stale(state, reason, frame)
 
     def _on_result(
-        self, state: SkillState, frame: Frame, reuse: GroundingResult | None, result: SkillResult
+        self, state: SkillState, frame: Frame, reuse: GroundingSource | None, result: SkillResult
     ) -> None:
         skill = state.skill
         state.runs += 1
+        state.consecutive_failures = 0
         if result.grounding is not None and reuse is None:
-            state.grounding = result.grounding
+            state.grounding = GroundingSource(result.grounding, frame.stamp_ns, frame.frame_id)
         if skill.prewarm:
             if result.grounding is not None:
-                self.prewarm.put(skill, result.grounding, self._scene_of(frame))
+                source = GroundingSource(result.grounding, frame.stamp_ns, frame.frame_id)
+                self.prewarm.put(skill, source, self._scene_of(frame))
             state.enabled = False
             state.once_pending = False
             logger.info("prewarm_cached", skill=skill.name, ttl_s=self.prewarm.ttl_s)
@@ -282,8 +320,13 @@ class SkillEngine:
         if frame.stamp_ns < state.last_published_stamp_ns:
             self.out_of_order_dropped += 1
             return
-        state.last_result, state.last_frame = result, frame
-        self.sink.publish(state, frame, result, None)
+        provenance = (
+            FRESH
+            if reuse is None
+            else Provenance(grounding_stamp_ns=reuse.stamp_ns, grounding_frame_id=reuse.frame_id)
+        )
+        state.last_result, state.last_frame, state.last_provenance = result, frame, provenance
+        self.sink.publish(state, frame, result, provenance)
         if skill.once:
             state.enabled = False
             state.once_pending = False
@@ -296,7 +339,10 @@ class SkillEngine:
         scene.passes(frame.image)  # the first frame seeds the reference
         return scene
 
-    def _republish_stale(self, state: SkillState, reason: str) -> None:
+    def _republish_stale(self, state: SkillState, reason: str, checked: Frame) -> None:
+        """The last result again, with its original stamp, marked stale (``checked``: the
+        frame whose run was skipped or failed)."""
         if state.last_result is None or state.last_frame is None:
             return
-        self.sink.publish(state, state.last_frame, state.last_result, reason)
+        provenance = state.last_provenance.stale_copy(reason, checked.stamp_ns)
+        self.sink.publish(state, state.last_frame, state.last_result, provenance)

@@ -56,6 +56,7 @@ class FrameSource(ABC):
     def __init__(self, frame_id: str = "camera") -> None:
         self.frame_id = frame_id
         self._latest: Frame | None = None
+        self._latest_at: float | None = None
         self._lock = threading.Lock()
         self._seq = itertools.count(1)
         self._listener: FrameListener | None = None
@@ -72,6 +73,12 @@ class FrameSource(ABC):
         with self._lock:
             return self._latest
 
+    def latest_age_s(self) -> float | None:
+        """Seconds since the newest frame arrived (monotonic clock; None before the first)."""
+        with self._lock:
+            at = self._latest_at
+        return None if at is None else time.monotonic() - at
+
     def _emit(
         self, image: Image, stamp_ns: int | None = None, frame_id: str | None = None
     ) -> Frame:
@@ -83,6 +90,7 @@ class FrameSource(ABC):
         )
         with self._lock:
             self._latest = frame
+            self._latest_at = time.monotonic()
         if self._listener is not None:
             self._listener(frame)
         return frame

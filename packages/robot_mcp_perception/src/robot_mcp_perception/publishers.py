@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from ros2_vision_interfaces.msg import StampedString, VisionDetectionArray
 from sensor_msgs.msg import Image as ImageMsg
+from std_msgs.msg import Header
 
 from robot_mcp_perception.conversions import (
     detections_to_msg,
@@ -64,25 +65,40 @@ class SkillPublishers:
         result: SkillResult,
         extras: list[dict[str, Any]],
         render_overlay: Callable[[], Image] | None,
+        result_extra: dict[str, Any] | None = None,
+        outputs_header: Header | None = None,
     ) -> bool:
-        """Publish one result; False if the publishers were already destroyed."""
+        """Publish one result; False if the publishers were already destroyed.
+
+        ``outputs_header`` stamps the semantic outputs when they come from another frame than
+        the detections (a re-used grounding); by default they share the frame's header."""
         header = frame_header(frame)
         with self._lock:
             if self._closed:
                 return False
             self.detections.publish(
                 detections_to_msg(
-                    self.skill_name, result.detections, header, with_masks=True, extras=extras
+                    self.skill_name,
+                    result.detections,
+                    header,
+                    with_masks=True,
+                    extras=extras,
+                    result_extra=result_extra,
                 )
             )
             self.detections_meta.publish(
                 detections_to_msg(
-                    self.skill_name, result.detections, header, with_masks=False, extras=extras
+                    self.skill_name,
+                    result.detections,
+                    header,
+                    with_masks=False,
+                    extras=extras,
+                    result_extra=result_extra,
                 )
             )
             for name, publisher in self.outputs.items():
                 if name in result.outputs:
-                    publisher.publish(output_to_msg(result.outputs[name], header))
+                    publisher.publish(output_to_msg(result.outputs[name], outputs_header or header))
             if render_overlay is not None and self.overlay.get_subscription_count() > 0:
                 self.overlay.publish(rgb_to_image_msg(render_overlay(), header))
         return True

@@ -10,6 +10,7 @@ from typing import Any, Protocol
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import GroundingResult, Image
 from robot_mcp_perception.pipelines.common import SkillResult
+from robot_mcp_perception.provenance import FRESH, Provenance
 from robot_mcp_perception.skills import Skill, SkillError
 
 
@@ -19,6 +20,15 @@ class Gate(Protocol):
     def passes(self, image: Image) -> bool: ...
 
     def reset(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class GroundingSource:
+    """A grounding and the frame it was made on (its boxes are pixels of that frame)."""
+
+    grounding: GroundingResult
+    stamp_ns: int
+    frame_id: str = ""
 
 
 @dataclass(frozen=True)
@@ -67,15 +77,19 @@ class SkillState:
     runs: int = 0
     published: int = 0
     failures: int = 0
+    consecutive_failures: int = 0
+    last_error: str | None = None
     skips: Counter[str] = field(default_factory=Counter)
     last_result: SkillResult | None = None
     last_frame: Frame | None = None
     last_extras: list[dict[str, Any]] = field(default_factory=list)
     """Per-detection ``extra`` additions of the last fresh publish (its mask_refs)."""
+    last_provenance: Provenance = FRESH
+    """Markers of the last fresh publish (a stale republish adds its reason to them)."""
     last_published_stamp_ns: int = -1
     last_publish_wall: float | None = None
-    grounding: GroundingResult | None = None
-    """Latest grounding, reused when a cloud grounding tick is skipped (segment at rate)."""
+    grounding: GroundingSource | None = None
+    """Latest grounding, reused while the gate says the scene is unchanged (segment at rate)."""
 
     def describe(self) -> dict[str, Any]:
         return {

@@ -76,6 +76,11 @@ class Scheduler:
             return self._running + len(self._queue)
 
     @property
+    def alive(self) -> bool:
+        """The model loop thread is up."""
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
     def running(self) -> int:
         with self._lock:
             return self._running

@@ -7,9 +7,26 @@ are checked by its constructor when Hydra instantiates it.
 
 from __future__ import annotations
 
+import json
+from collections.abc import Mapping
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from robot_mcp_perception.skills import Skill, SkillError
+
+ROS_PARAMETERS = (
+    "camera_topic",
+    "topic_namespace",
+    "processing_frequency",
+    "max_in_flight",
+    "default_skills",
+)
+"""Node settings that are also ROS parameters (spec 000 §7); a ROS value overrides Hydra's."""
+
+
+class StartupError(RuntimeError):
+    """The node cannot start as configured; the message names the problem (exit code 2)."""
 
 
 class _Strict(BaseModel):
@@ -31,11 +48,28 @@ class NodeSettings(_Strict):
     """Default rate_hz of a skill that gives none."""
     max_in_flight: int = Field(4, ge=1, le=64)
     workers: int = Field(2, ge=1, le=32)
-    model_timeout_s: float = Field(30.0, gt=0)
+    model_timeout_s: float = Field(60.0, gt=0)
+    """Time limit of one skill run (a hung model frees its worker)."""
     tick_hz: float = Field(50.0, gt=0, le=500)
     """How often due skills are checked when no new frame arrives."""
     default_skills: list[dict[str, Any]] = Field(default_factory=list)
     stats_period_s: float = Field(2.0, gt=0)
+    frame_stale_after_s: float = Field(5.0, gt=0)
+    """/healthz reports ``degraded`` (HTTP 503) when the newest frame arrived longer ago."""
+
+    @field_validator("default_skills")
+    @classmethod
+    def _default_skills_are_valid_skills(cls, value: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        names: set[str] = set()
+        for index, data in enumerate(value):
+            try:
+                skill = Skill.from_dict(data)
+            except SkillError as error:
+                raise ValueError(f"skill {index}: {error.code}: {error.detail}") from error
+            if skill.name in names:
+                raise ValueError(f"duplicate skill name {skill.name!r}")
+            names.add(skill.name)
+        return value
 
     @field_validator("topic_namespace")
     @classmethod
@@ -107,3 +141,30 @@ class PerceptionSettings(BaseModel):
     logging: LoggingSettings = Field(default_factory=LoggingSettings)
     pipeline: PipelineBlock = Field(default_factory=PipelineBlock)
     deployment: dict[str, Any] | None = None
+
+
+def node_settings_with(node: NodeSettings, parameters: Mapping[str, Any]) -> NodeSettings:
+    """``node`` with ROS parameter values applied, validated exactly like the Hydra config;
+    a bad value is a :class:`StartupError` naming the parameter (one line)."""
+    values = dict(parameters)
+    if isinstance(values.get("default_skills"), str):
+        values["default_skills"] = _decode_skills(values["default_skills"])
+    try:
+        return NodeSettings.model_validate({**node.model_dump(), **values})
+    except ValidationError as error:
+        problems = "; ".join(
+            f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()
+        )
+        raise StartupError(f"invalid ROS parameter: {problems}".replace("\n", " ")) from error
+
+
+def _decode_skills(raw: str) -> Any:
+    if not raw.strip():
+        return []
+    try:
+        decoded = json.loads(raw)
+    except ValueError as error:
+        raise StartupError(f"ROS parameter default_skills is not valid JSON: {error}") from error
+    if not isinstance(decoded, list):
+        raise StartupError("ROS parameter default_skills must be a JSON list of skill objects")
+    return decoded

@@ -12,10 +12,11 @@ import sys
 import time
 from collections import deque
 from functools import partial
-from typing import Any
+from typing import Any, NoReturn
 
 import rclpy
 import structlog
+from rcl_interfaces.msg import ParameterDescriptor  # type: ignore[import-untyped]
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -29,15 +30,32 @@ from robot_mcp_perception.conversions import frame_header, json_to_msg, ns_to_st
 from robot_mcp_perception.cost import CostPolicy, PrewarmCache
 from robot_mcp_perception.engine import SkillEngine
 from robot_mcp_perception.frames import Frame
+from robot_mcp_perception.frames_ros import RosFrameSource
+from robot_mcp_perception.health import HealthSources, health_report
+from robot_mcp_perception.pipelines import grounder_requests
 from robot_mcp_perception.pipelines.common import PipelineContext, PipelineSettings, SkillResult
+from robot_mcp_perception.provenance import Provenance
 from robot_mcp_perception.publishers import DIAGNOSTICS_QOS, SkillPublishers
 from robot_mcp_perception.registry import SkillRegistry, SkillState, topics_for
 from robot_mcp_perception.runtime import Runtime
 from robot_mcp_perception.scheduler import Scheduler
-from robot_mcp_perception.skills import Skill, SkillError
+from robot_mcp_perception.settings import (
+    ROS_PARAMETERS,
+    NodeSettings,
+    StartupError,
+    node_settings_with,
+)
+from robot_mcp_perception.skills import Skill, SkillOutput
 from robot_mcp_perception.task_service import Operation, TaskService, serve
 
 logger = structlog.get_logger("robot_mcp_perception.vision_node")
+
+AMBIENT_OUTPUTS = (
+    SkillOutput("scene_description", "text", "a detailed description of the scene"),
+    SkillOutput("scene_objects", "list", "the main objects, up to 10"),
+)
+"""What ambient_scene publishes: the output names the perception buffer reads for
+``what_do_you_see`` (its scene description and object list)."""
 
 
 class VisionNode(Node):
@@ -45,14 +63,14 @@ class VisionNode(Node):
         settings = runtime.settings
         super().__init__(settings.node.node_name, context=context)
         self.runtime = runtime
-        self._declare_parameters()
-        self.namespace: str = self.get_parameter("topic_namespace").value
-        default_rate: float = self.get_parameter("processing_frequency").value
+        self.node_settings = self._validated_parameters()
+        self.namespace: str = self.node_settings.topic_namespace
+        self._follow_camera_topic()
         self.registry = SkillRegistry()
         self.scheduler = Scheduler(
-            workers=settings.node.workers,
-            max_in_flight=int(self.get_parameter("max_in_flight").value),
-            timeout_s=settings.node.model_timeout_s,
+            workers=self.node_settings.workers,
+            max_in_flight=self.node_settings.max_in_flight,
+            timeout_s=self.node_settings.model_timeout_s,
         )
         self.policy = CostPolicy(settings.cost)
         self.prewarm = PrewarmCache(settings.prewarm.prewarm_ttl_s)
@@ -64,24 +82,22 @@ class VisionNode(Node):
             runtime.overlay_renderer,
             art.deleted_skills_kept,
         )
+        pipeline_settings = runtime.pipeline_settings or PipelineSettings()
         self.engine = SkillEngine(
             registry=self.registry,
             scheduler=self.scheduler,
             policy=self.policy,
             prewarm=self.prewarm,
-            context=PipelineContext(
-                runtime.grounder,
-                runtime.segmenter,
-                runtime.pipeline_settings or PipelineSettings(),
-            ),
+            context=PipelineContext(runtime.grounder, runtime.segmenter, pipeline_settings),
             runner=runtime.runner,
             sink=self,
-            default_rate_hz=default_rate,
+            default_rate_hz=self.node_settings.processing_frequency,
             scene_reference=(
                 partial(runtime.gate_factory, settings.watch.gate_threshold)
                 if runtime.gate_factory
                 else None
             ),
+            grounder_requests=partial(grounder_requests, settings=pipeline_settings),
         )
         self.tasks = TaskService(
             self.registry,
@@ -111,39 +127,51 @@ class VisionNode(Node):
         self.create_timer(1.0 / settings.node.tick_hz, self._tick, callback_group=timers)
         self.create_timer(settings.node.stats_period_s, self.publish_stats, callback_group=timers)
         self._server: ArtifactServer | None = None
-        self.scheduler.start()
-        self._create_default_skills()
-        if art.enabled and runtime.serve_artifacts:
+        if art.enabled and runtime.serve_artifacts:  # first: a busy port stops us before work
             self._server = ArtifactServer(
                 build_app(self.artifacts, self.health), art.host, art.port
             )
             self._server.start()
+        self.scheduler.start()
+        self._create_default_skills()
         runtime.frame_source.start(self, on_frame=self.engine.dispatch)
         logger.info("vision_node_started", namespace=self.namespace, skills=len(self.registry))
 
     # -- parameters and start-up skills -------------------------------------------------
-    def _declare_parameters(self) -> None:
+    def _validated_parameters(self) -> NodeSettings:
+        """The ROS parameters (spec 000 §7) over the Hydra node settings, through the same
+        Pydantic validation (StartupError on a bad value). Typing is dynamic so that
+        ``processing_frequency:=0`` reaches the validation instead of an rclpy type error."""
         node = self.runtime.settings.node
-        self.declare_parameter("camera_topic", node.camera_topic)
-        self.declare_parameter("topic_namespace", node.topic_namespace)
-        self.declare_parameter("processing_frequency", node.processing_frequency)
-        self.declare_parameter("max_in_flight", node.max_in_flight)
-        self.declare_parameter("default_skills", json.dumps(node.default_skills))
+        defaults = {**node.model_dump(), "default_skills": json.dumps(node.default_skills)}
+        dynamic = ParameterDescriptor(dynamic_typing=True)
+        for name in ROS_PARAMETERS:
+            self.declare_parameter(name, defaults[name], dynamic)
+        values = {name: self.get_parameter(name).value for name in ROS_PARAMETERS}
+        return node_settings_with(node, values)
+
+    def _follow_camera_topic(self) -> None:
+        """A camera_topic ROS parameter / launch argument moves the ROS frame source to it."""
+        source = self.runtime.frame_source
+        topic = self.node_settings.camera_topic
+        if isinstance(source, RosFrameSource) and topic != self.runtime.settings.node.camera_topic:
+            logger.info("camera_topic_selected", topic=topic, configured=source.topic)
+            source.topic = topic
 
     def _create_default_skills(self) -> None:
-        raw = self.get_parameter("default_skills").value
-        skills: list[Any] = json.loads(raw) if raw else []
+        """Validated at start-up (``NodeSettings.default_skills``): creating them cannot fail."""
         ambient = self.runtime.settings.cost.ambient_scene
-        for data in skills:
+        for data in self.node_settings.default_skills:
             ok, message = serve("create_vision_task", self.tasks.create, json.dumps(data))
-            if not ok:
-                logger.error("default_skill_rejected", skill=data, reply=message)
+            if not ok:  # pragma: no cover - only a duplicate of ambient_scene's name
+                raise StartupError(f"default skill {data.get('name')!r} refused: {message}")
         if ambient.enabled:
             skill = Skill(
                 name=ambient.name,
                 mode="describe",
                 description="ambient scene description (cost.ambient_scene)",
                 grounding=ambient.grounding,
+                outputs=AMBIENT_OUTPUTS,
                 rate_hz=ambient.rate_hz,
             )
             ok, message = serve("create_vision_task", self.tasks.create, skill.to_json())
@@ -184,28 +212,34 @@ class VisionNode(Node):
         self.engine.tick(self.runtime.frame_source.latest())
 
     def publish(
-        self, state: SkillState, frame: Frame, result: SkillResult, stale_reason: str | None
+        self, state: SkillState, frame: Frame, result: SkillResult, provenance: Provenance
     ) -> None:
         """ResultSink: called by the engine with its lock held."""
         publishers = state.publishers
         if not isinstance(publishers, SkillPublishers):
             return
-        if stale_reason is None:
+        render: Any = None
+        if not provenance.stale:
             refs = self.artifacts.add(state.skill.name, state.topics.detections, frame, result)
             state.last_extras = [{"mask_ref": ref} if ref else {} for ref in refs]
-            extras = state.last_extras
             renderer = self.runtime.overlay_renderer
             render = (lambda: renderer(frame.image, result)) if renderer else (lambda: frame.image)
-        else:
-            extras = [
-                {**extra, "stale": True, "reason": stale_reason} for extra in state.last_extras
-            ]
-            render = None
-        if not publishers.publish(frame, result, extras, render):
+        marks = provenance.detection_marks()
+        extras = [{**extra, **marks} for extra in state.last_extras]
+        outputs_header = None
+        if provenance.grounding_stamp_ns is not None:  # outputs come from the grounding frame
+            outputs_header = Header(
+                stamp=ns_to_stamp(provenance.grounding_stamp_ns),
+                frame_id=provenance.grounding_frame_id or frame.frame_id,
+            )
+        published = publishers.publish(
+            frame, result, extras, render, provenance.result_extra(), outputs_header
+        )
+        if not published:
             return
         state.published += 1
         state.last_publish_wall = time.monotonic()
-        if stale_reason is None:
+        if not provenance.stale:
             state.last_published_stamp_ns = frame.stamp_ns
             latency_ms = (time.time_ns() - frame.stamp_ns) / 1e6
             self.latencies_ms.append(latency_ms)
@@ -222,29 +256,19 @@ class VisionNode(Node):
 
     # -- diagnostics --------------------------------------------------------------------------
     def health(self) -> dict[str, Any]:
-        frame = self.runtime.frame_source.latest()
-        now = time.monotonic()
-        return {
-            "status": "ok",
-            "node": self.get_name(),
-            "uptime_s": round(now - self._started, 3),
-            "frame_age_s": round((time.time_ns() - frame.stamp_ns) / 1e9, 3) if frame else None,
-            "frame_seq": frame.seq if frame else None,
-            "in_flight": self.scheduler.in_flight,
-            "cloud_calls_last_min": self.policy.budget.used(),
-            "skills": [
-                {
-                    "name": s.skill.name,
-                    "mode": s.skill.mode,
-                    "enabled": s.enabled,
-                    "published": s.published,
-                    "last_publish_age_s": round(now - s.last_publish_wall, 3)
-                    if s.last_publish_wall is not None
-                    else None,
-                }
-                for s in self.registry.states()
-            ],
-        }
+        return health_report(
+            HealthSources(
+                node_name=self.get_name(),
+                started=self._started,
+                frame_stale_after_s=self.node_settings.frame_stale_after_s,
+                frame_source=self.runtime.frame_source,
+                grounder=self.runtime.grounder,
+                segmenter=self.runtime.segmenter,
+                scheduler=self.scheduler,
+                policy=self.policy,
+                registry=self.registry,
+            )
+        )
 
     def stats(self) -> dict[str, Any]:
         latencies = sorted(self.latencies_ms)
@@ -283,16 +307,24 @@ class VisionNode(Node):
             self._detach(state)
 
 
+def _refuse_to_start(error: StartupError) -> NoReturn:
+    """Exit code 2 and one line naming the problem (no traceback, no JSON log line)."""
+    line = " ".join(str(error).split())
+    print(f"vision_node: {line}", file=sys.stderr)  # noqa: T201 - the operator's fix-it line
+    sys.exit(2)
+
+
 def main(args: list[str] | None = None) -> None:
-    from robot_mcp_perception.composition import ConfigError, build_runtime_from_env
+    from robot_mcp_perception.composition import build_runtime_from_env
 
     try:
         runtime = build_runtime_from_env()
-    except ConfigError as error:
-        logger.error("config_invalid", detail=str(error))
-        print(f"vision_node: {error}", file=sys.stderr)  # noqa: T201 - the operator's fix-it line
-        sys.exit(2)
-    rclpy.init(args=args)
+    except StartupError as error:
+        _refuse_to_start(error)
+    try:
+        rclpy.init(args=args)
+    except Exception as error:  # start-up boundary: rcl refuses malformed --ros-args
+        _refuse_to_start(StartupError(f"cannot parse the ROS arguments: {error}"))
     node: VisionNode | None = None
     executor = MultiThreadedExecutor(num_threads=4)
     try:
@@ -301,9 +333,8 @@ def main(args: list[str] | None = None) -> None:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except SkillError as error:
-        logger.error("vision_node_start_failed", detail=error.detail)
-        sys.exit(2)
+    except StartupError as error:
+        _refuse_to_start(error)
     finally:
         if node is not None:
             node.shutdown()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import socket
 import sys
 import threading
 from collections.abc import Iterator
@@ -124,7 +125,9 @@ def test_a_separate_process_gets_usable_masks_meta_and_scene_outputs_then_delete
         "vision_node", [sys.executable, "-m", "robot_mcp_perception.vision_node"], env=node_env
     )
     wait_for_tcp_port(tcp_port, 30.0)
-    health = httpx.get(f"http://127.0.0.1:{tcp_port}/healthz", timeout=5.0).json()
+    healthz = f"http://127.0.0.1:{tcp_port}/healthz"
+    wait_until(lambda: httpx.get(healthz, timeout=5.0).status_code == 200, 30.0, "healthy")
+    health = httpx.get(healthz, timeout=5.0).json()
     assert health["status"] == "ok"
     assert health["skills"][0]["name"] == "scene"
     scene_text = consumer.subscribe("/vision/scene/scene_description", StampedString)
@@ -181,3 +184,45 @@ def test_node_process_refuses_to_start_without_the_frame_folder(
 
     assert process.popen.returncode == 2
     assert "sample_scenes" in process.log()
+
+
+def _refusal(process: Any) -> list[str]:
+    """The lines that say why the node refused (start-up info logs aside)."""
+    wait_until(lambda: not process.running(), 60.0, "the node to exit")
+    log = process.log()
+    assert process.popen.returncode == 2, log
+    assert "Traceback" not in log
+    assert '"level": "error"' not in log
+    return [line for line in log.splitlines() if line.startswith("vision_node")]
+
+
+@pytest.mark.parametrize(
+    ("ros_args", "named"),
+    [
+        (["-p", "processing_frequency:=0"], "processing_frequency"),
+        (["-p", "default_skills:='[{oops'"], "default_skills is not valid JSON"),
+        (["-p", "default_skills:=[{oops"], "cannot parse the ROS arguments"),
+    ],
+)
+def test_a_bad_ros_parameter_exits_2_with_one_line_naming_it(
+    launcher: ProcessLauncher, node_env: dict[str, str], ros_args: list[str], named: str
+) -> None:
+    argv = [sys.executable, "-m", "robot_mcp_perception.vision_node", "--ros-args", *ros_args]
+    lines = _refusal(launcher.start("vision_node", argv, env=node_env))
+
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("vision_node: ")
+    assert named in lines[0]
+
+
+def test_a_busy_artifacts_port_exits_2_with_one_line_naming_it(
+    launcher: ProcessLauncher, node_env: dict[str, str], tcp_port: int
+) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", tcp_port))
+        busy.listen()
+        argv = [sys.executable, "-m", "robot_mcp_perception.vision_node"]
+        lines = _refusal(launcher.start("vision_node", argv, env=node_env))
+
+    assert len(lines) == 1, lines
+    assert f"artifacts port 127.0.0.1:{tcp_port}" in lines[0]

@@ -158,3 +158,24 @@ def test_the_annotation_grounder_reads_the_folder_the_frames_come_from(
     assert grounder_directory("frame_source=ros") == "/frames/default"
     monkeypatch.setenv("PERCEPTION_ANNOTATIONS_DIR", "/annotations")
     assert grounder_directory("frame_source.directory=/frames/other") == "/annotations"
+
+
+def test_the_shipped_gemini_config_fits_in_the_node_job_timeout(
+    config_dir: Path, frames_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("GEMINI_API_KEY", "test-key")
+    overrides = ["grounder=gemini_er", *_overrides(frames_dir)[1:]]
+    runtime = build_runtime(overrides, config_dir)
+
+    worst = runtime.grounder.worst_case_s
+    assert worst is not None
+    assert runtime.settings.node.model_timeout_s > worst
+
+
+def test_a_job_timeout_shorter_than_the_grounders_retries_refuses_to_start(
+    config_dir: Path, frames_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("GEMINI_API_KEY", "test-key")
+    overrides = ["grounder=gemini_er", *_overrides(frames_dir)[1:], "grounder.timeout_s=30"]
+    with pytest.raises(ConfigError, match=r"node\.model_timeout_s .* grounder's worst case"):
+        build_runtime(overrides, config_dir)

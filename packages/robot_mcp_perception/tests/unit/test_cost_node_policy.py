@@ -159,18 +159,42 @@ def test_ambient_scene_keeps_the_buffer_warm_with_calls_only_on_frame_change(
     settings = settings_factory(
         cost={"ambient_scene": {"enabled": True, "rate_hz": 10.0}, "max_cloud_rate_hz": 30.0}
     )
-    harness = start_node(settings=settings)
+    described = GroundingResult(
+        answer="a red mug on a table",
+        outputs={"scene_description": "a red mug on a table", "scene_objects": ["red mug"]},
+    )
+    harness = start_node(settings=settings, grounder=FakeGrounder(described))
+    description = harness.probe.subscribe("/vision/ambient_scene/scene_description", StampedString)
+    objects = harness.probe.subscribe("/vision/ambient_scene/scene_objects", StampedString)
     meta = harness.probe.subscribe("/vision/ambient_scene/detections_meta", VisionDetectionArray)
 
-    harness.pump(lambda: meta, image=scene_factory(40), what="the ambient scene result")
-    _push_frames(harness, scene_factory(40), 10)
+    harness.pump(lambda: description and objects, image=scene_factory(40), what="the description")
+    harness.pump(
+        lambda: any(_result_extra(m).get("stale") for m in meta),
+        image=scene_factory(40),
+        what="an unchanged-scene republish",
+    )
     calls_still = harness.grounder.ground_calls
     harness.pump(
         lambda: harness.grounder.ground_calls == 2, image=scene_factory(220), what="change"
     )
 
+    assert json.loads(description[0].data) == "a red mug on a table"
+    assert json.loads(objects[0].data) == ["red mug"]
+    unchanged = next(m for m in meta if _result_extra(m).get("stale"))
+    assert _result_extra(unchanged)["stale_reason"] == "scene_unchanged"
+    assert unchanged.header.stamp == description[0].header.stamp  # "unchanged since" that
+    assert _result_extra(unchanged)["checked_stamp"] > _ns(unchanged.header.stamp)
     assert calls_still == 1
     assert harness.node.registry.get("ambient_scene").always_gated is True
+
+
+def _result_extra(msg: Any) -> dict[str, Any]:
+    return json.loads(msg.extra) if msg.extra else {}
+
+
+def _ns(stamp: Any) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
 def test_prewarm_grounds_once_and_a_later_skill_reuses_it_within_the_ttl(
@@ -265,3 +289,27 @@ def test_prewarm_entry_expires_after_the_ttl(
 
     harness.create({"name": "late", "mode": "describe", "grounding": "x", "once": True})
     harness.pump(lambda: harness.grounder.ground_calls == 2, what="a fresh grounding")
+
+
+def test_segment_all_tile_and_ground_requests_each_count_and_a_run_that_does_not_fit_is_skipped(
+    start_node: Any, settings_factory: Any, scene_factory: Any, log_events: list[dict[str, Any]]
+) -> None:
+    settings = settings_factory(
+        cost={"max_cloud_calls_per_min": 7, "max_cloud_rate_hz": 30.0, "cloud_requires_gate": False}
+    )
+    harness = start_node(settings=settings)
+    harness.create(
+        {
+            "name": "everything",
+            "mode": "segment_all",
+            "segment": True,
+            "rate_hz": 10,
+            "outputs": [{"name": "count", "type": "number"}],
+        }
+    )
+
+    harness.pump(lambda: _skipped(log_events, "max_cloud_calls_per_min"), what="a budget skip")
+    _push_frames(harness, scene_factory(40), 5)
+
+    assert (harness.grounder.point_calls, harness.grounder.ground_calls) == (4, 1)  # 2x2 tiles
+    assert harness.node.policy.budget.used() == 5

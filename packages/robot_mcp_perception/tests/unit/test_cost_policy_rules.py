@@ -46,21 +46,71 @@ def test_budget_window_slides_over_sixty_seconds() -> None:
 def test_per_skill_cloud_rate_is_capped() -> None:
     clock = Clock()
     policy = CostPolicy(CostSettings(max_cloud_rate_hz=1.0, max_cloud_calls_per_min=100), clock)
-    policy.record(CONTINUOUS)
+    assert policy.reserve(CONTINUOUS, 1).allowed
 
     clock.now += 0.5
-    assert policy.check(CONTINUOUS).reason == SKIP_RATE
+    assert policy.reserve(CONTINUOUS, 1).reason == SKIP_RATE
     clock.now += 0.5
-    assert policy.check(CONTINUOUS).allowed
+    assert policy.reserve(CONTINUOUS, 1).allowed
+
+
+def test_the_per_skill_rate_meters_every_request_of_a_run() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_rate_hz=2.0, max_cloud_calls_per_min=100), clock)
+    assert policy.reserve(CONTINUOUS, 4).allowed  # e.g. four tile requests at once
+
+    clock.now += 1.0
+    assert policy.reserve(CONTINUOUS, 1).reason == SKIP_RATE  # 4 requests at 2 Hz = 2 s
+    clock.now += 1.0
+    assert policy.reserve(CONTINUOUS, 1).allowed
+
+
+def test_a_run_reserves_all_its_requests_and_one_that_does_not_fit_is_skipped_whole() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_calls_per_min=7, max_cloud_rate_hz=100.0), clock)
+    assert policy.reserve(CONTINUOUS, 5).allowed
+    assert policy.budget.used() == 5
+
+    clock.now += 1.0
+    decision = policy.reserve(CONTINUOUS, 5)
+    assert (decision.allowed, decision.reason) == (False, SKIP_BUDGET)
+    assert policy.budget.used() == 5  # nothing taken for the refused run
+    assert policy.reserve(Skill(name="small", mode="describe"), 2).allowed
 
 
 def test_budget_exhaustion_skips_continuous_but_not_once_skills() -> None:
     clock = Clock()
     policy = CostPolicy(CostSettings(max_cloud_calls_per_min=1, max_cloud_rate_hz=10.0), clock)
-    policy.record(Skill(name="other", mode="describe"))
+    assert policy.reserve(Skill(name="other", mode="describe"), 1).allowed
 
-    assert policy.check(CONTINUOUS).reason == SKIP_BUDGET
-    assert policy.check(ONCE).allowed
+    assert policy.reserve(CONTINUOUS, 1).reason == SKIP_BUDGET
+    assert policy.reserve(ONCE, 1).allowed
+    assert policy.budget.used() == 2  # the once skill's request is counted too
+
+
+def test_retries_beyond_the_reservation_are_charged_and_refused_once_the_budget_is_spent() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_calls_per_min=3, max_cloud_rate_hz=100.0), clock)
+    meter = policy.reserve(CONTINUOUS, 1).meter
+    assert meter is not None
+
+    assert [meter.charge() for _ in range(4)] == [True, True, True, False]
+    assert meter.charged == 3
+    assert policy.budget.used() == 3
+
+
+def test_unused_reserved_requests_are_released_when_the_run_ends() -> None:
+    clock = Clock()
+    policy = CostPolicy(CostSettings(max_cloud_calls_per_min=10, max_cloud_rate_hz=1.0), clock)
+    meter = policy.reserve(CONTINUOUS, 5).meter
+    assert meter is not None
+    assert meter.charge()
+    meter.close()
+
+    assert policy.budget.used() == 1
+    assert policy.budget.total == 1
+    clock.now += 1.0
+    assert policy.reserve(CONTINUOUS, 1).allowed  # the rate follows the requests really sent
 
 
 def test_gate_applies_to_continuous_skills_only_when_configured() -> None:
@@ -76,10 +126,10 @@ def test_gate_applies_to_continuous_skills_only_when_configured() -> None:
 def test_forgetting_a_skill_clears_its_rate_history() -> None:
     clock = Clock()
     policy = CostPolicy(CostSettings(max_cloud_rate_hz=0.1), clock)
-    policy.record(CONTINUOUS)
+    assert policy.reserve(CONTINUOUS, 1).allowed
     policy.forget("scene")
 
-    assert policy.check(CONTINUOUS).allowed
+    assert policy.reserve(CONTINUOUS, 1).allowed
 
 
 def test_prewarm_cache_hits_within_ttl_and_expires_after() -> None:

@@ -2,102 +2,38 @@
 
 from __future__ import annotations
 
-import asyncio
 import base64
 import json
-import threading
 from collections.abc import AsyncIterator, Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import cv2
 import numpy as np
 import pytest
-import uvicorn
 from pydantic import SecretStr
 
+from robot_mcp_perception.fake_gemini import FakeGemini, serve_fake_gemini
 from robot_mcp_perception.models.base import ModelError, ModelUnavailableError, SemanticRequest
-from robot_mcp_perception.models.gemini_er import DEFAULT_MODEL, GeminiERGrounder
+from robot_mcp_perception.models.gemini_er import (
+    DEFAULT_MODEL,
+    DEFAULT_THINKING_BUDGET,
+    GeminiERGrounder,
+)
+from robot_mcp_perception.models.metering import CloudBudgetExhaustedError, metered
+from robot_mcp_perception.pipelines.common import call_grounder
 from robot_mcp_perception.prompt_builder import BadModelAnswerError
-from robot_stack_testing.ports import wait_for_tcp_port
 
 IMAGE = np.zeros((100, 200, 3), np.uint8)
 IMAGE[20:60, 40:120] = (200, 30, 30)
 
 
-@dataclass
-class FakeGemini:
-    """A tiny ASGI app speaking ``POST /v1beta/models/{model}:generateContent``."""
-
-    port: int
-    requests: list[dict[str, Any]] = field(default_factory=list)
-    replies: list[tuple[int, Any]] = field(default_factory=list)
-    """Scripted (status, body) pairs; the last one repeats. A str body is the model's text."""
-    hang: bool = False
-
-    @property
-    def base_url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
-
-    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
-        assert scope["type"] == "http"
-        body = b""
-        while True:
-            message = await receive()
-            body += message.get("body", b"")
-            if not message.get("more_body"):
-                break
-        headers = {k.decode(): v.decode() for k, v in scope["headers"]}
-        self.requests.append(
-            {
-                "method": scope["method"],
-                "path": scope["path"],
-                "headers": headers,
-                "json": json.loads(body or b"{}"),
-            }
-        )
-        if self.hang:
-            await asyncio.sleep(1)
-        status, reply = self.replies[min(len(self.requests) - 1, len(self.replies) - 1)]
-        if isinstance(reply, str):
-            reply = {
-                "candidates": [
-                    {
-                        "content": {"role": "model", "parts": [{"text": reply}]},
-                        "finishReason": "STOP",
-                    }
-                ]
-            }
-        payload = json.dumps(reply).encode()
-        await send(
-            {
-                "type": "http.response.start",
-                "status": status,
-                "headers": [(b"content-type", b"application/json")],
-            }
-        )
-        await send({"type": "http.response.body", "body": payload})
-
-
 @pytest.fixture
-def gemini(tcp_port: int) -> Iterator[FakeGemini]:
-    app = FakeGemini(tcp_port)
-    config = uvicorn.Config(
-        app,
-        host="127.0.0.1",
-        port=tcp_port,
-        lifespan="off",
-        ws="none",
-        log_level="warning",
-        timeout_graceful_shutdown=1,
-    )
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    wait_for_tcp_port(tcp_port, timeout_s=10)
-    yield app
-    server.should_exit = True
-    thread.join(timeout=10)
+def gemini() -> Iterator[FakeGemini]:
+    """The strict fake: a request the real API would refuse fails the test with a 400."""
+    app = FakeGemini(api_key="test-key")
+    with serve_fake_gemini(app):
+        yield app
+    assert app.rejected == [], app.rejected
 
 
 @pytest.fixture
@@ -275,10 +211,10 @@ async def test_client_errors_are_not_retried(
 
 
 async def test_a_hanging_server_times_out_as_a_model_error(gemini: FakeGemini) -> None:
-    gemini.hang = True
+    gemini.hang_s = 1.0
     gemini.replies = [(200, WELL_FORMED)]
     g = GeminiERGrounder(
-        "k", timeout_s=0.2, retries=1, retry_backoff_s=0.0, base_url=gemini.base_url
+        "test-key", timeout_s=0.2, retries=1, retry_backoff_s=0.0, base_url=gemini.base_url
     )
     with pytest.raises(ModelError, match="timed out"):
         await g.ground(IMAGE, "q")
@@ -355,3 +291,109 @@ def test_the_key_is_not_shown_in_the_grounder_repr() -> None:
     g = GeminiERGrounder(api_key="secret-value")
     assert "secret-value" not in repr(vars(g)["_api_key"])
     assert g.cost_class == "cloud"
+
+
+class CountingMeter:
+    """A run's meter that allows ``limit`` requests."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.charged = 0
+
+    def charge(self) -> bool:
+        if self.charged >= self.limit:
+            return False
+        self.charged += 1
+        return True
+
+
+async def test_every_request_sent_including_retries_is_charged_to_the_runs_meter(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    busy = {"error": {"code": 503, "message": "overloaded", "status": "UNAVAILABLE"}}
+    gemini.replies = [(503, busy), (503, busy), (200, WELL_FORMED)]
+    meter = CountingMeter(limit=10)
+    with metered(meter):
+        await call_grounder("ground", "s", grounder, {}, grounder.ground(IMAGE, "q"))
+    assert meter.charged == len(gemini.requests) == 3
+
+
+async def test_a_retry_the_budget_has_no_room_for_is_not_sent(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    busy = {"error": {"code": 503, "message": "overloaded", "status": "UNAVAILABLE"}}
+    gemini.replies = [(503, busy), (200, WELL_FORMED)]
+    meter = CountingMeter(limit=1)
+    with metered(meter), pytest.raises(CloudBudgetExhaustedError):
+        await call_grounder("ground", "s", grounder, {}, grounder.ground(IMAGE, "q"))
+    assert len(gemini.requests) == 1
+
+
+async def test_thinking_is_on_by_default_with_the_documented_budget(gemini: FakeGemini) -> None:
+    gemini.replies = [(200, "[]")]
+    g = GeminiERGrounder("test-key", base_url=gemini.base_url)
+    await g.point(IMAGE, "x")
+    await g.aclose()
+    thinking = gemini.requests[0]["json"]["generationConfig"]["thinkingConfig"]
+    assert thinking == {"thinking_budget": DEFAULT_THINKING_BUDGET}
+    assert DEFAULT_THINKING_BUDGET > 0
+
+
+async def test_a_thinking_level_is_sent_instead_of_a_budget(gemini: FakeGemini) -> None:
+    gemini.replies = [(200, "[]")]
+    g = GeminiERGrounder(
+        "test-key", thinking_level="low", thinking_budget=None, base_url=gemini.base_url
+    )
+    await g.point(IMAGE, "x")
+    await g.aclose()
+    thinking = gemini.requests[0]["json"]["generationConfig"]["thinkingConfig"]
+    assert thinking == {"thinking_level": "LOW"}
+
+
+def test_a_thinking_budget_and_level_together_are_refused_at_start_up() -> None:
+    with pytest.raises(ValueError, match="thinking_budget or thinking_level"):
+        GeminiERGrounder("k", thinking_budget=128, thinking_level="LOW")
+    with pytest.raises(ValueError, match="thinking_level"):
+        GeminiERGrounder("k", thinking_budget=None, thinking_level="enormous")
+
+
+async def test_a_position_answered_as_a_y_x_list_is_read_as_y_then_x(
+    gemini: FakeGemini, grounder: GeminiERGrounder
+) -> None:
+    answer = {
+        "results": [
+            {"name": "where", "value": [800, 250]},
+            {"name": "pose", "value": [500, 750, 90]},
+            {"name": "said", "value": "[200, 500]"},
+        ]
+    }
+    gemini.replies = [(200, json.dumps(answer))]
+    requests = [
+        SemanticRequest("where", "position"),
+        SemanticRequest("pose", "pose"),
+        SemanticRequest("said", "position"),
+    ]
+    result = await grounder.ground(IMAGE, "q", requests, mode="describe")
+    # IMAGE is 200 wide, 100 high: y 800 → 80 px, x 250 → 50 px
+    assert result.outputs["where"] == {"x": 50.0, "y": 80.0}
+    assert result.outputs["pose"] == {"x": 150.0, "y": 50.0, "z": 0.0, "yaw": 90.0}
+    assert result.outputs["said"] == {"x": 100.0, "y": 20.0}
+
+
+def test_the_worst_case_time_counts_every_attempt_and_the_backoff() -> None:
+    g = GeminiERGrounder("k", timeout_s=10.0, retries=2, retry_backoff_s=1.0)
+    assert g.worst_case_s == 10.0 * 3 + 1.0 + 2.0
+
+
+async def test_a_key_the_api_calls_invalid_makes_the_grounder_unavailable_until_a_success(
+    gemini: FakeGemini,
+) -> None:
+    g = GeminiERGrounder("wrong-key", retries=0, base_url=gemini.base_url)
+    assert g.readiness() is None
+    with pytest.raises(ModelUnavailableError, match="API key"):
+        await g.point(IMAGE, "x")
+    problem = g.readiness()
+    assert problem is not None
+    assert "API key" in problem
+    await g.aclose()
+    gemini.rejected.clear()  # the refusal was the point of this test

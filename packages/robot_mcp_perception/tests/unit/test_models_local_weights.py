@@ -45,9 +45,12 @@ class FakeSAM:
             m = np.zeros((h, w), np.float32)
             m[y0:y1, x0:x1] = 1.0
             masks.append(m)
-        for pts in kwargs.get("points") or []:
+        labels = kwargs.get("labels") or []
+        for k, pts in enumerate(kwargs.get("points") or []):
             m = np.zeros((h // 2, w // 2), np.float32)  # another resolution: must be resized
-            for x, y in pts:
+            for j, (x, y) in enumerate(pts):
+                if labels and labels[k][j] == -1:  # SAM's padding label: not a point
+                    continue
                 m[y // 2, x // 2] = 1.0
             masks.append(m)
         if kwargs.get("bboxes") == [[0, 0, 1, 1]]:
@@ -110,6 +113,32 @@ def test_sam_maps_box_and_point_prompts_to_full_image_masks(
     assert model.calls[1]["points"] == [[[40, 30]]]
     assert model.calls[1]["labels"] == [[1]]
     sam.close()
+
+
+def test_sam_segments_all_point_prompts_of_a_frame_in_one_call(
+    fake_ultralytics: Any, weights: str
+) -> None:
+    sam = SamSegmenter(weights)
+    masks = sam.segment_many(
+        IMAGE,
+        [
+            SegmentPrompt(points=[(10, 10)]),
+            SegmentPrompt(points=[(40, 30), (44, 34), (48, 38)]),
+            SegmentPrompt(points=[(70, 50), (60, 40)]),
+        ],
+    )
+    model = FakeSAM.instances[-1]
+
+    assert len(model.calls) == 1  # one predictor call: the image is encoded once
+    assert model.calls[0]["points"] == [
+        [[10, 10], [10, 10], [10, 10]],
+        [[40, 30], [44, 34], [48, 38]],
+        [[70, 50], [60, 40], [70, 50]],
+    ]
+    assert model.calls[0]["labels"] == [[1, -1, -1], [1, 1, 1], [1, 1, -1]]
+    assert [bool(m[10, 10]) for m in masks] == [True, False, False]
+    assert [bool(masks[1][30, 40]), bool(masks[1][38, 48])] == [True, True]
+    assert [bool(masks[2][50, 70]), bool(masks[2][40, 60])] == [True, True]
 
 
 def test_sam_segments_all_boxes_of_a_frame_in_one_call(fake_ultralytics: Any, weights: str) -> None:

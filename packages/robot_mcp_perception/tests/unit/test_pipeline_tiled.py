@@ -138,7 +138,7 @@ async def test_semantic_outputs_of_segment_all_cost_one_ground_call() -> None:
     skill = Skill("all", "segment_all", segment=True, outputs=(SkillOutput("count", "number"),))
     result = await run_skill(skill, coded_image(), ctx(grounder))
     assert grounder.ground_calls == 1
-    assert grounder.calls[-1].mode == "segment_all"
+    assert [c.mode for c in grounder.calls if c.method == "ground"] == ["segment_all"]
     assert result.outputs == {"count": 1}
 
 
@@ -164,9 +164,28 @@ async def test_a_rejected_batch_mask_is_retried_with_the_point_prompt() -> None:
     result = await run_skill(
         SEGMENT_ALL, coded_image(), ctx(FakeGrounder(WorldPointer([("cup", (5, 5, 30, 30))])), seg)
     )
-    assert [c.method for c in seg.calls] == ["many", "points"]
+    assert [c.method for c in seg.calls] == ["many", "many"]
     [det] = result.detections
     assert det.extra == {"prompt": "points", "mask_rejections": ["batch:empty"]}
+
+
+async def test_the_point_retries_of_one_frame_go_to_the_segmenter_in_one_call() -> None:
+    def masks(image: Any, prompt: SegmentPrompt) -> np.ndarray:
+        out = np.zeros(image.shape[:2], bool)
+        if prompt.box is None:
+            x, y = prompt.points[0]
+            out[y - 3 : y + 4, x - 3 : x + 4] = True
+        return out
+
+    seg = FakeSegmenter(masks)
+    world = [("cup", (5, 5, 30, 30)), ("pen", (120, 90, 150, 110)), ("box", (60, 10, 90, 40))]
+    result = await run_skill(
+        SEGMENT_ALL, coded_image(), ctx(FakeGrounder(WorldPointer(world)), seg)
+    )
+
+    assert [c.method for c in seg.calls] == ["many", "many"]
+    assert [p.box for p in seg.calls[1].prompt] == [None, None, None]
+    assert all(d.extra.get("prompt") == "points" for d in result.detections)
 
 
 async def test_segmenter_failures_in_segment_all_leave_detections_without_masks() -> None:

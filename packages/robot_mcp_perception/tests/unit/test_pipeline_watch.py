@@ -7,8 +7,9 @@ import pytest
 
 from robot_mcp_perception.models.base import GroundingResult, ModelError
 from robot_mcp_perception.models.fakes import FakeGrounder, FakeSegmenter
+from robot_mcp_perception.pipelines import run_skill
 from robot_mcp_perception.pipelines.common import PipelineContext, SkillModeError, SkillResult
-from robot_mcp_perception.pipelines.watch import FrameDiffGate, WatchPipeline, watched_value
+from robot_mcp_perception.pipelines.watch import FrameDiffGate, watched_value
 from robot_mcp_perception.skills import Skill, SkillOutput, WatchSpec
 
 
@@ -75,35 +76,23 @@ def test_bad_gate_settings_and_images_are_refused() -> None:
         FrameDiffGate().passes(np.zeros((4, 4), np.uint8))
 
 
-async def test_identical_frames_suppress_grounder_calls_and_a_change_escalates() -> None:
+async def test_the_router_publishes_a_watchers_output_as_a_boolean() -> None:
     grounder = FakeGrounder(GroundingResult(outputs={"present": "yes"}))
     ctx = PipelineContext(grounder, FakeSegmenter())
-    watch = WatchPipeline(WATCHER, FrameDiffGate(0.02))
-    first = await watch.run(frame(40), ctx)
-    assert first is not None
-    assert first.outputs == {"present": True}
-    assert await watch.run(frame(40), ctx) is None
-    assert await watch.run(frame(40), ctx) is None
-    assert grounder.ground_calls == 1
-    assert await watch.run(frame(40, square=True), ctx) is not None
-    assert grounder.ground_calls == 2
+
+    result = await run_skill(WATCHER, frame(40), ctx)
+
+    assert result.outputs == {"present": True}
 
 
-async def test_a_missing_watched_boolean_is_a_model_error() -> None:
+async def test_a_watcher_run_without_its_watched_boolean_is_a_model_error() -> None:
     ctx = PipelineContext(FakeGrounder(GroundingResult(outputs={})), FakeSegmenter())
     with pytest.raises(ModelError, match="missing"):
-        await WatchPipeline(WATCHER, FrameDiffGate()).run(frame(1), ctx)
+        await run_skill(WATCHER, frame(1), ctx)
     with pytest.raises(ModelError, match="not a boolean"):
         watched_value(WATCHER, SkillResult(outputs={"present": "perhaps"}))
 
 
-def test_a_watch_pipeline_needs_a_declared_boolean_output() -> None:
-    with pytest.raises(SkillModeError, match="no watch block"):
-        WatchPipeline(Skill("s", "describe"), FrameDiffGate())
+def test_watched_value_needs_a_watch_block() -> None:
     with pytest.raises(SkillModeError, match="no watch block"):
         watched_value(Skill("s", "describe"), SkillResult())
-    text_watch = Skill(
-        "s", "describe", outputs=(SkillOutput("present", "text"),), watch=WatchSpec("present")
-    )
-    with pytest.raises(SkillModeError, match="boolean"):
-        WatchPipeline(text_watch, FrameDiffGate())

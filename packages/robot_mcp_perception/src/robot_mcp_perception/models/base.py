@@ -66,9 +66,23 @@ class GroundingResult:
 
 
 class Grounder(ABC):
-    """Decides what/where. ``cost_class`` says whether a call costs money (metered, §8)."""
+    """Decides what/where. ``cost_class`` says whether a call costs money (metered, §8).
+
+    A cloud grounder's calls are charged to the node's budget by the pipelines, one request
+    per call; an adapter that retries charges every retry itself
+    (``models.metering.charge_cloud_request``) before sending it.
+    """
 
     cost_class: CostClass = "local"
+
+    @property
+    def worst_case_s(self) -> float | None:
+        """Longest one call can take with all its retries (None: no limit of its own)."""
+        return None
+
+    def readiness(self) -> str | None:
+        """Why the model cannot answer now (e.g. its key was refused); None when ready."""
+        return None
 
     @abstractmethod
     async def ground(
@@ -98,6 +112,10 @@ class Segmenter(ABC):
     in a worker thread."""
 
     cost_class: CostClass = "local"
+
+    def readiness(self) -> str | None:
+        """Why the model cannot segment now; None when ready."""
+        return None
 
     @abstractmethod
     def segment_box(self, image: Image, box: Box) -> Mask:

@@ -1,22 +1,28 @@
 """GeminiERGrounder: Gemini Robotics-ER through the google-genai SDK (cloud; metered, §8).
 
 One ``generateContent`` call per question: the frame as an inline JPEG + the prompt of
-:mod:`robot_mcp_perception.prompt_builder`, JSON response mode, thinking budget from config.
-Gemini ER answers points ``[y, x]`` and boxes ``box_2d [ymin, xmin, ymax, xmax]`` normalized
-to 0–1000; they are converted to pixels of the received image here (so are ``position`` /
-``pose`` outputs, which become pixel ``{"x", "y"}``).
+:mod:`robot_mcp_perception.prompt_builder`, JSON response mode, and thinking on (spec 000
+§4): ``thinking_budget`` tokens (default :data:`DEFAULT_THINKING_BUDGET`; 0 turns thinking
+off, -1 lets the model decide) or a ``thinking_level`` (LOW/HIGH… for models that take
+levels) — never both, the API refuses that. Gemini ER answers points ``[y, x]`` and boxes
+``box_2d [ymin, xmin, ymax, xmax]`` normalized to 0–1000; they are converted to pixels of
+the received image here (so are ``position`` / ``pose`` outputs, which become pixel
+``{"x", "y"}``; a position answered as a ``[y, x]`` list is read in that order).
 
 Failures: transient ones (HTTP 408/429/5xx, timeouts, connection errors) are retried
-``retries`` times with exponential backoff, then raised as :class:`ModelError`; other HTTP
-errors raise at once (401/403 as :class:`ModelUnavailableError`); an unusable answer raises
+``retries`` times with exponential backoff (each retry is charged to the cloud budget), then
+raised as :class:`ModelError`; other HTTP errors raise at once (401/403 and a 400
+``API_KEY_INVALID`` as :class:`ModelUnavailableError`, also reported by :meth:`readiness`
+until a call succeeds); an unusable answer raises
 :class:`~robot_mcp_perception.prompt_builder.BadModelAnswerError`. An empty API key is
-refused at construction (start-up).
+refused at construction (start-up). One call takes at most :attr:`worst_case_s`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import importlib
+import re
 import time
 from typing import Any
 
@@ -39,6 +45,7 @@ from robot_mcp_perception.models.base import (
     ModelUnavailableError,
     SemanticRequest,
 )
+from robot_mcp_perception.models.metering import charge_cloud_request
 from robot_mcp_perception.prompt_builder import (
     BadModelAnswerError,
     build_point_prompt,
@@ -50,6 +57,11 @@ from robot_mcp_perception.prompt_builder import (
 log = structlog.get_logger(__name__)
 
 DEFAULT_MODEL = "gemini-robotics-er-2-preview"
+DEFAULT_THINKING_BUDGET = 1024
+"""Thinking on (spec 000), bounded so a pointing answer stays within seconds."""
+THINKING_LEVELS = frozenset(level.value for level in types.ThinkingLevel) - {
+    "THINKING_LEVEL_UNSPECIFIED"
+}
 _RETRYABLE = {408, 429, 500, 502, 503, 504}
 
 
@@ -75,8 +87,9 @@ class GeminiERGrounder(Grounder):
         self,
         api_key: str | SecretStr,
         model: str = DEFAULT_MODEL,
-        thinking_budget: int = 0,
-        timeout_s: float = 30.0,
+        thinking_budget: int | None = DEFAULT_THINKING_BUDGET,
+        thinking_level: str | None = None,
+        timeout_s: float = 20.0,
         retries: int = 2,
         retry_backoff_s: float = 1.0,
         temperature: float = 0.5,
@@ -96,8 +109,18 @@ class GeminiERGrounder(Grounder):
             raise ValueError("timeout_s must be > 0, retries and retry_backoff_s >= 0")
         if not 1 <= jpeg_quality <= 100:
             raise ValueError(f"jpeg_quality must be in 1..100, got {jpeg_quality}")
+        if thinking_budget is not None and thinking_level is not None:
+            raise ValueError("set thinking_budget or thinking_level, not both (the API refuses)")
+        level = thinking_level.upper() if thinking_level is not None else None
+        if level is not None and level not in THINKING_LEVELS:
+            raise ValueError(
+                f"thinking_level must be one of {', '.join(sorted(THINKING_LEVELS))}, "
+                f"got {thinking_level!r}"
+            )
         self.model = model
         self.thinking_budget = thinking_budget
+        self.thinking_level = level
+        self._problem: str | None = None
         self.timeout_s = timeout_s
         self.retries = retries
         self.retry_backoff_s = retry_backoff_s
@@ -120,6 +143,15 @@ class GeminiERGrounder(Grounder):
             ),
         )
 
+    @property
+    def worst_case_s(self) -> float:
+        """Every attempt timing out, plus the backoff sleeps between them."""
+        backoff = sum(self.retry_backoff_s * 2**k for k in range(self.retries))
+        return float(self.timeout_s * (self.retries + 1) + backoff)
+
+    def readiness(self) -> str | None:
+        return self._problem
+
     async def aclose(self) -> None:
         await self._client.aio.aclose()
         await self._http.aclose()
@@ -141,7 +173,7 @@ class GeminiERGrounder(Grounder):
         targets = (
             [] if mode == "describe" else self._targets(payload.get("targets"), width, height, kind)
         )
-        semantic = parse_results(payload, requests)
+        semantic = parse_results(_yx_positions(payload, requests), requests)
         for r in requests:
             if r.type in ("position", "pose") and r.name in semantic:
                 semantic[r.name] = _to_pixels(semantic[r.name], width, height)
@@ -173,14 +205,21 @@ class GeminiERGrounder(Grounder):
             types.Part.from_bytes(data=jpeg.tobytes(), mime_type="image/jpeg"),
             prompt,
         ]
+        thinking = (
+            types.ThinkingConfig(thinking_level=types.ThinkingLevel(self.thinking_level))
+            if self.thinking_level is not None
+            else types.ThinkingConfig(thinking_budget=self.thinking_budget)
+        )
         config = types.GenerateContentConfig(
             temperature=self.temperature,
             response_mime_type="application/json",
-            thinking_config=types.ThinkingConfig(thinking_budget=self.thinking_budget),
+            thinking_config=thinking,
         )
         attempt = 0
         while True:
             attempt += 1
+            if attempt > 1:  # the first request is charged by the pipeline that called us
+                charge_cloud_request(f"Gemini retry {attempt - 1}")
             started = time.perf_counter()
             try:
                 response = await asyncio.wait_for(
@@ -190,6 +229,7 @@ class GeminiERGrounder(Grounder):
                     timeout=self.timeout_s,
                 )
                 text = response.text or ""
+                self._problem = None
                 log.debug(
                     "gemini_answer",
                     model=self.model,
@@ -200,10 +240,9 @@ class GeminiERGrounder(Grounder):
                 return text
             except genai_errors.APIError as exc:
                 code = int(getattr(exc, "code", 0) or 0)
-                if code in (401, 403):
-                    raise ModelUnavailableError(
-                        f"Gemini refused the API key (HTTP {code})"
-                    ) from exc
+                if code in (401, 403) or "API_KEY_INVALID" in str(exc):
+                    self._problem = f"Gemini refused the API key (HTTP {code})"
+                    raise ModelUnavailableError(self._problem) from exc
                 if code not in _RETRYABLE or attempt > self.retries:
                     raise ModelError(
                         f"Gemini call failed (HTTP {code}): {exc.message or exc}"
@@ -281,6 +320,27 @@ def _box_to_pixels(raw: Any, width: int, height: int) -> tuple[int, int, int, in
     if px1 <= px0 or py1 <= py0:
         raise ValueError(f"box_2d {raw!r} has no area")
     return px0, py0, px1, py1
+
+
+def _yx_positions(payload: Any, requests: list[SemanticRequest]) -> Any:
+    """Gemini ER writes image positions as ``[y, x]`` (pose ``[y, x, yaw]``): such a list (or
+    a string of one) becomes ``{"y", "x"(, "yaw")}`` before the generic coercion, which would
+    read a bare list as x first."""
+    if not isinstance(payload, dict) or not isinstance(payload.get("results"), list):
+        return payload
+    kinds = {r.name: r.type for r in requests if r.type in ("position", "pose")}
+    results = []
+    for entry in payload["results"]:
+        if isinstance(entry, dict) and entry.get("name") in kinds:
+            value = entry.get("value")
+            if isinstance(value, str):
+                found = re.findall(r"-?\d+(?:\.\d+)?", value)
+                value = [float(n) for n in found] if value.strip().startswith("[") else value
+            if isinstance(value, list) and len(value) in (2, 3):
+                named = dict(zip(("y", "x", "yaw"), value, strict=False))
+                entry = {**entry, "value": named}
+        results.append(entry)
+    return {**payload, "results": results}
 
 
 def _to_pixels(value: dict[str, float], width: int, height: int) -> dict[str, float]:

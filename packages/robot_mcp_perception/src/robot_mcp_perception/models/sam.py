@@ -4,7 +4,9 @@
 a :class:`ModelUnavailableError` at construction (start-up) that says how to fix it. All
 model calls run on one worker thread (``ThreadPoolExecutor(max_workers=1)``): GPU access is
 serialized, and callers on other threads simply wait their turn. ``segment_many`` sends all
-boxes of one frame in one predictor call (the image is embedded once).
+boxes of one frame in one predictor call and all point prompts of the frame in one more (an
+(objects × points) array; shorter point lists are padded with SAM's "not a point" label -1),
+so a frame is embedded once per prompt kind.
 """
 
 from __future__ import annotations
@@ -69,16 +71,24 @@ class SamSegmenter(Segmenter):
                 boxed, self._predict(bgr, (height, width), bboxes=boxes), strict=True
             ):
                 masks[i] = mask
-        for i, p in enumerate(prompts):
-            if p.box is None:
-                pts = [list(pt) for pt in check_points(p.points, width, height)]
-                masks[i] = self._predict(
-                    bgr, (height, width), points=[pts], labels=[[1] * len(pts)]
-                )[0]
+        pointed = [i for i, p in enumerate(prompts) if p.box is None]
+        if pointed:
+            lists = [
+                [list(pt) for pt in check_points(prompts[i].points, width, height)] for i in pointed
+            ]
+            most = max(len(pts) for pts in lists)
+            points = [pts + [pts[0]] * (most - len(pts)) for pts in lists]
+            labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in lists]
+            for i, mask in zip(
+                pointed,
+                self._predict(bgr, (height, width), points=points, labels=labels),
+                strict=True,
+            ):
+                masks[i] = mask
         return [m for m in masks if m is not None]
 
     def _predict(self, bgr: Any, shape: tuple[int, int], **prompt: Any) -> list[Mask]:
-        expected = len(prompt.get("bboxes", [])) or 1
+        expected = len(prompt.get("bboxes", [])) or len(prompt.get("points", [])) or 1
 
         def run() -> Any:
             return self._model(bgr, device=self.device, imgsz=self.imgsz, verbose=False, **prompt)

@@ -9,7 +9,10 @@ region              reason (region)     ``kind="region"`` detections (box, ancho
 segment_all         tiled               one detection per instance
 ==================  ==================  =============================================
 
-The watch pipeline (:mod:`.watch`) wraps any of these behind a frame-difference gate.
+A watcher skill (``watch`` block) runs its mode's pipeline; the router then makes its
+watched output a boolean (:func:`.watch.watched_value`) — a run whose answer lacks it fails
+like a bad model answer. The frame-difference gate (:class:`.watch.FrameDiffGate`) is applied
+by the node before a run.
 
 Errors: a grounder failure (error, timeout, unusable answer) propagates as
 :class:`~robot_mcp_perception.models.base.ModelError` — the node republishes the last
@@ -24,9 +27,15 @@ from __future__ import annotations
 from collections.abc import Awaitable, Callable
 
 from robot_mcp_perception.models.base import GroundingResult, Image
-from robot_mcp_perception.pipelines.common import PipelineContext, SkillModeError, SkillResult
+from robot_mcp_perception.pipelines.common import (
+    PipelineContext,
+    PipelineSettings,
+    SkillModeError,
+    SkillResult,
+)
 from robot_mcp_perception.pipelines.reason import describe, ground_and_segment, region
 from robot_mcp_perception.pipelines.tiled import segment_all
+from robot_mcp_perception.pipelines.watch import watched_value
 from robot_mcp_perception.skills import Skill
 
 Pipeline = Callable[[Skill, Image, PipelineContext, GroundingResult | None], Awaitable[SkillResult]]
@@ -56,7 +65,19 @@ async def run_skill(
         raise SkillModeError(f"skill {skill.name!r} has unknown mode {skill.mode!r}")
     if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] == 0 or image.shape[1] == 0:
         raise ValueError(f"image must be RGB (H, W, 3), got shape {image.shape}")
-    return await pipeline(skill, image, ctx, reuse_grounding)
+    result = await pipeline(skill, image, ctx, reuse_grounding)
+    if skill.watch is not None:
+        result.outputs[skill.watch.output] = watched_value(skill, result)
+    return result
 
 
-__all__ = ["PIPELINES", "run_skill"]
+def grounder_requests(skill: Skill, settings: PipelineSettings) -> int:
+    """Grounder calls one fresh run of ``skill`` makes (the cloud budget reserves them all):
+    segment_all points once per tile, plus one ``ground`` call for declared outputs."""
+    if skill.mode != "segment_all":
+        return 1
+    cols, rows = settings.tile_grid
+    return cols * rows + (1 if skill.outputs else 0)
+
+
+__all__ = ["PIPELINES", "grounder_requests", "run_skill"]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Awaitable, Callable, Iterator
+from collections.abc import Callable, Coroutine, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -26,6 +26,7 @@ from robot_mcp_perception.models.base import (
     Segmenter,
     TargetKind,
 )
+from robot_mcp_perception.models.metering import charge_cloud_request
 
 log = structlog.get_logger("robot_mcp_perception.pipelines")
 T = TypeVar("T")
@@ -113,13 +114,24 @@ def model_call(
 
 
 async def call_grounder(
-    stage: str, skill: str, grounder: Grounder, timings: dict[str, float], call: Awaitable[T]
+    stage: str,
+    skill: str,
+    grounder: Grounder,
+    timings: dict[str, float],
+    call: Coroutine[Any, Any, T],
 ) -> T:
     """Await a grounder call under :func:`model_call`.
 
     Grounder failures reach the node as :class:`ModelError` (it republishes the stale
-    result): ModelError passes through, a timeout becomes ModelError.
+    result): ModelError passes through, a timeout becomes ModelError. A cloud grounder's
+    request is charged to the run's meter first (refused: CloudBudgetExhaustedError).
     """
+    if grounder.cost_class == "cloud":
+        try:
+            charge_cloud_request(f"{stage} request of skill {skill!r}")
+        except ModelError:
+            call.close()  # never awaited
+            raise
     with model_call(stage, skill, grounder.cost_class, timings):
         try:
             return await call
@@ -135,6 +147,9 @@ async def call_segmenter(
     fn: Callable[..., T],
     *args: Any,
 ) -> T:
-    """Run a (synchronous, possibly slow) segmenter call in a worker thread, timed."""
+    """Run a (synchronous, possibly slow) segmenter call in a worker thread, timed (a cloud
+    segmenter's request is charged to the run's meter first)."""
+    if segmenter.cost_class == "cloud":
+        charge_cloud_request(f"{stage} request of skill {skill!r}")
     with model_call(stage, skill, segmenter.cost_class, timings):
         return await asyncio.to_thread(fn, *args)

@@ -6,13 +6,14 @@
    (:func:`~.tiling.merge_truncated`), points closer than ``dedupe_radius_px`` are
    de-duplicated, then confidence NMS on boxes (``nms_iou``).
 3. The segmenter runs once, on the full image, with one prompt per instance
-   (``Segmenter.segment_many``). A mask that fails the plausibility check gets one retry
-   with the instance's point prompt on the full image, else the detection has no mask
-   (``extra["mask_failed"]``).
+   (``Segmenter.segment_many``). Masks that fail the plausibility check get one retry with
+   their instances' point prompts, all in one more ``segment_many`` call on the full image;
+   still implausible → the detection has no mask (``extra["mask_failed"]``).
 
 One detection per instance. The merged targets are returned as the ``grounding`` (full-image
 pixels), so with ``reuse_grounding`` only step 3 runs on the new frame. Declared semantic
-outputs cost one extra ``ground`` call (mode ``segment_all``).
+outputs cost one extra ``ground`` call (mode ``segment_all``), sent together with the tile
+requests (one round trip, so a run takes one grounder time limit, not two).
 """
 
 from __future__ import annotations
@@ -90,8 +91,13 @@ async def segment_all(
     if reuse is not None:
         grounding = reuse
     else:
-        targets = await point_tiles(skill, image, ctx, timings)
-        outputs = (await ground(skill, image, ctx, timings)).outputs if skill.outputs else {}
+        if skill.outputs:
+            targets, answered = await asyncio.gather(
+                point_tiles(skill, image, ctx, timings), ground(skill, image, ctx, timings)
+            )
+            outputs = answered.outputs
+        else:
+            targets, outputs = await point_tiles(skill, image, ctx, timings), {}
         answer = f"{len(targets)} instance(s)"
         grounding = GroundingResult(answer, "tiled pointing", targets, outputs)
     shape = (image.shape[0], image.shape[1])
@@ -142,15 +148,25 @@ async def segment_instances(
         mask, reason = accept(raw, boxes[i], points[i], ctx.settings, (height, width))
         outcomes[i] = MaskOutcome(mask, "batch", [] if reason is None else [f"batch:{reason}"])
     retry = [i for i in usable if outcomes[i].mask is None and points[i] and boxes[i] is not None]
-    for i in retry:
-        try:
-            raw = await call_segmenter(
-                "segment", skill.name, seg, timings, seg.segment_points, image, points[i]
-            )
-        except (ModelError, ValueError) as exc:
-            log.warning("segment_attempt_failed", skill=skill.name, prompt="points", error=str(exc))
+    if not retry:
+        return outcomes
+    try:  # every retry of this frame in one call: the image is embedded once
+        retried: list[Any] = await call_segmenter(
+            "segment",
+            skill.name,
+            seg,
+            timings,
+            seg.segment_many,
+            image,
+            [SegmentPrompt(None, points[i]) for i in retry],
+        )
+    except (ModelError, ValueError) as exc:
+        log.warning("segment_attempt_failed", skill=skill.name, prompt="points", error=str(exc))
+        for i in retry:
             outcomes[i].rejections.append("points:error")
-            continue
+        return outcomes
+    retried = [*retried, *[None] * len(retry)][: len(retry)]
+    for i, raw in zip(retry, retried, strict=True):
         mask, reason = accept(raw, boxes[i], points[i], ctx.settings, (height, width))
         if mask is not None:
             outcomes[i].mask, outcomes[i].prompt = mask, "points"

@@ -1,10 +1,10 @@
 """The watch pipeline: a boolean output behind a cheap frame-difference gate (spec 000 §5, §8).
 
-:class:`FrameDiffGate` is what the node's cost policy consults (``watch.gate_threshold``,
-``cloud_requires_gate``): the expensive (cloud) stage runs only when the scene changed.
-:class:`WatchPipeline` packages gate + skill run for a watcher skill: unchanged frame → no
-model call, the previous result stands; changed frame → run the skill and make sure the
-watched output is a boolean.
+:class:`FrameDiffGate` is what the node's engine consults (``watch.gate_threshold``,
+``cloud_requires_gate``): the expensive (cloud) stage runs only when the scene changed — an
+unchanged frame costs no model call and the previous result is republished (stale, reason
+``scene_unchanged``). :func:`watched_value` is applied by the router to every run of a
+watcher skill, so its watched output is always published as a JSON boolean.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_mcp_perception.models.base import Image, ModelError
-from robot_mcp_perception.pipelines.common import PipelineContext, SkillModeError, SkillResult
+from robot_mcp_perception.pipelines.common import SkillModeError, SkillResult
 from robot_mcp_perception.prompt_builder import coerce_value
 from robot_mcp_perception.skills import Skill
 
@@ -85,29 +85,3 @@ def watched_value(skill: Skill, result: SkillResult) -> bool:
     except ValueError as exc:
         raise ModelError(f"watched output {name!r} is not a boolean: {exc}") from exc
     return bool(value)
-
-
-class WatchPipeline:
-    """Gate + run for one watcher skill. ``run`` returns None when the gate held the frame
-    (no model call; the node keeps publishing the previous value)."""
-
-    def __init__(self, skill: Skill, gate: FrameDiffGate) -> None:
-        if skill.watch is None:
-            raise SkillModeError(f"skill {skill.name!r} has no watch block")
-        declared = {o.name: o.type for o in skill.outputs}
-        if declared.get(skill.watch.output) != "boolean":
-            raise SkillModeError(
-                f"skill {skill.name!r} watches {skill.watch.output!r}, which must be a declared "
-                "boolean output"
-            )
-        self.skill = skill
-        self.gate = gate
-
-    async def run(self, image: Image, ctx: PipelineContext) -> SkillResult | None:
-        if not self.gate.passes(image):
-            return None
-        from robot_mcp_perception.pipelines import run_skill  # the router imports this module
-
-        result = await run_skill(self.skill, image, ctx)
-        result.outputs[self.skill.watch.output] = watched_value(self.skill, result)  # type: ignore[union-attr]
-        return result

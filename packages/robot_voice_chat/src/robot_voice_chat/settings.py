@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -90,6 +90,22 @@ class ChatConfig(BaseModel):
     turn_timeout_s: float = Field(60.0, gt=0)
 
 
+class AuthConfig(BaseModel):
+    """Operator login (ARCHITECTURE §6). Secrets come from the environment (``ADMIN_*``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    enabled: bool = False
+    session_ttl_s: int = Field(12 * 3600, gt=0)
+    cookie_name: str = "rvc_session"
+    # auto: Secure when the request arrived over https (directly or via a trusted proxy).
+    cookie_secure: Literal["auto", "always", "never"] = "auto"
+    login_max_failures: int = Field(5, ge=1)
+    login_window_s: float = Field(300, gt=0)
+    # Proxies whose X-Forwarded-For/-Proto are believed (uvicorn's forwarded_allow_ips).
+    trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
+
+
 class AppConfig(BaseModel):
     """The composed tree. Adapter groups stay dicts with ``_target_`` (built by Hydra)."""
 
@@ -104,6 +120,7 @@ class AppConfig(BaseModel):
     agent: AgentConfig = Field(default_factory=AgentConfig)
     api: ApiConfig = Field(default_factory=ApiConfig)
     chat: ChatConfig = Field(default_factory=ChatConfig)
+    auth: AuthConfig = Field(default_factory=AuthConfig)
 
     @field_validator("llm", "speech_output", "speech_input")
     @classmethod

@@ -9,6 +9,7 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
+from robot_voice_chat.api.auth import hash_password
 from robot_voice_chat.composition import bootstrap, compose_config
 from robot_voice_chat.main import main
 from robot_voice_chat.socket_events import json_schemas
@@ -48,11 +49,14 @@ async def test_robot_deployment_disables_missions_without_an_anthropic_key(
 ) -> None:
     monkeypatch.setenv("GROQ_API_KEY", "test")
     monkeypatch.setenv("OPENAI_API_KEY", "test")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", hash_password("robot operator"))
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "k" * 32)
     config = compose_config("robot", ["speech_output=socketio"])
     container = bootstrap(config)
     assert container.adapters.planner is None
     assert not container.executor.enabled
     assert container.adapters.llm.name == "openai_compat"
+    assert container.auth is not None  # the robot preset needs an operator login
     await container.stop()
 
 

@@ -79,7 +79,7 @@ def test_code_is_installed_under_opt_robot_stack(installed: Path) -> None:
     opt = installed / "opt/robot-stack"
     assert (opt / "pyproject.toml").is_file()
     assert (opt / "uv.lock").is_file()
-    assert (opt / "deploy/install.sh").is_file()
+    assert (opt / "deploy/smoke.sh").is_file()
     assert (opt / "packages/robot_voice_chat/src/robot_voice_chat/main.py").is_file()
     # the package-internal config links survive the copy
     assert (opt / "packages/robot_voice_chat/src/robot_voice_chat/config/config.yaml").is_file()

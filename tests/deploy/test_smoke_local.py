@@ -1,0 +1,97 @@
+"""deploy/smoke.sh (RUNBOOK step 5 + 6) against the whole local stack on free ports: every
+service a real OS process from deploy/local-stack.yaml, the brain on its dev preset.
+
+The recorded (replay) planner plays one mission per brain process, so the brain is restarted
+between the taught mission and the repeat; on a robot the steps run back to back. The memory
+and navigation servers keep running, so the taught process survives the restart."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from robot_stack_testing.mission_driver import RunningStack, mailroom_stack
+from robot_stack_testing.stack import free_port_overrides
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[2]
+STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
+SMOKE = ROOT / "deploy" / "smoke.sh"
+
+
+@pytest.fixture
+def stack(tmp_path: Path) -> Iterator[RunningStack]:
+    # a slow enough base that "stop" lands mid-drive
+    overrides = {**free_port_overrides(STACK_FILE), "nav_time_scale": "4"}
+    with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
+        yield running
+
+
+def smoke(stack: RunningStack, tmp_path: Path, steps: str) -> str:
+    ports = stack.placeholders
+    env = {
+        **os.environ,
+        "SMOKE_BRAIN_PORT": ports["brain_port"],
+        "SMOKE_NAVIGATION_PORT": ports["navigation_port"],
+        "SMOKE_MEMORY_PORT": ports["memory_port"],
+        "SMOKE_SKILL_CONTROL_PORT": ports["skill_control_port"],
+        "SMOKE_PERCEPTION_PORT": ports["perception_port"],
+        "SMOKE_VISION_PORT": ports["vision_port"],
+        "SMOKE_LOG_CMD": f"cat {tmp_path}/var/brain-*.log",
+        "SMOKE_PYTHON": sys.executable,
+        "SMOKE_STATE": str(tmp_path / "smoke-state"),
+        "SMOKE_TIMEOUT": "90",
+    }
+    result = subprocess.run(
+        ["bash", str(SMOKE), "--steps", steps],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    assert f"smoke: all passed ({steps})" in output
+    return output
+
+
+@pytest.mark.timeout(900)
+def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: Path) -> None:
+    first = smoke(stack, tmp_path, "http,mission")
+    assert "ok   navigation MCP server" in first
+    assert "ok   mission_finished: succeeded" in first
+    assert "ok   process saved: fetch-package-from-mailroom" in first
+
+    stack.services.restart("brain")
+    again = smoke(stack, tmp_path, "repeat")
+    assert "the taught process injected" in again
+    assert "ok   mission paused after 'stop'" in again
+    assert "ok   robot asks: continue or abort?" in again
+
+
+@pytest.mark.timeout(300)
+def test_smoke_script_fails_when_a_server_is_down(stack: RunningStack, tmp_path: Path) -> None:
+    stack.services.launcher.stop(stack.services["navigation"])
+    ports = stack.placeholders
+    result = subprocess.run(
+        ["bash", str(SMOKE), "--steps", "http"],
+        env={
+            **os.environ,
+            "SMOKE_BRAIN_PORT": ports["brain_port"],
+            "SMOKE_NAVIGATION_PORT": ports["navigation_port"],
+            "SMOKE_LOG_CMD": "true",
+        },
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 1
+    assert f"FAIL navigation MCP server: GET :{ports['navigation_port']}/sse" in result.stdout

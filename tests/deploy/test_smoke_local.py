@@ -8,6 +8,7 @@ and navigation servers keep running, so the taught process survives the restart.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -68,6 +69,13 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
     assert "ok   navigation MCP server" in first
     assert "ok   mission_finished: succeeded" in first
     assert "ok   process saved: fetch-package-from-mailroom" in first
+    mission_id = re.search(r"ok   mission (m-[0-9a-f]+) started", first)
+    assert mission_id, first
+    # one correlation id per mission: in the log of every process the mission went through
+    # (the brain and each MCP server; the vision node is reached over ROS, not MCP)
+    for process in ("brain", "memory", "navigation", "skill_control", "perception"):
+        logs = " ".join(p.read_text() for p in (tmp_path / "var").glob(f"{process}-*.log"))
+        assert f'"mission_id": "{mission_id[1]}"' in logs, process
 
     stack.services.restart("brain")
     again = smoke(stack, tmp_path, "repeat")

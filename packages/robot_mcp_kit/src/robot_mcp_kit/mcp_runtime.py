@@ -22,6 +22,8 @@ from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 
+from robot_mcp_kit.correlation import install_mission_correlation
+
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
 DEFAULT_HOST = "127.0.0.1"
@@ -125,6 +127,7 @@ async def serve_mcp(server: MCPServer, settings: TransportSettings) -> None:
     """Serve ``server`` on ``settings``' transport until it stops (for servers that need to
     run their own start-up and shutdown around the transport, inside one event loop)."""
     install_json_tool_errors(server)
+    install_mission_correlation(server)
     if settings.transport == "stdio":
         await server.run_stdio_async()
     elif settings.transport == "sse":

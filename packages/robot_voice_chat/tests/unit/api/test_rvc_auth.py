@@ -230,3 +230,18 @@ def test_hash_password_command_refuses_a_short_password(
     monkeypatch.setattr("sys.stdin", io.StringIO("short\n"))
     assert hash_password_command(["--stdin"]) == 2
     assert "at least 8" in capsys.readouterr().err
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_hash_password_command_asks_twice_on_a_terminal(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    answers = iter(["first password", "other password"])
+    monkeypatch.setattr("sys.stdin", _Terminal())
+    monkeypatch.setattr("getpass.getpass", lambda prompt="": next(answers))
+    assert hash_password_command([]) == 2
+    assert "differ" in capsys.readouterr().err

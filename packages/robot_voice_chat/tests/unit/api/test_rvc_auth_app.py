@@ -14,7 +14,7 @@ import uvicorn
 import websockets
 
 from robot_stack_testing import async_wait_until, free_tcp_port
-from robot_voice_chat.api.app import create_asgi_app
+from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.api.auth import hash_password
 from robot_voice_chat.composition import Container, bootstrap, compose_config
 
@@ -163,3 +163,21 @@ async def test_a_logged_in_socket_starts_a_mission_whose_trace_names_the_operato
         assert instruction["operator"] == "ada"
     finally:
         await ws.close()
+
+
+async def test_without_auth_the_api_is_open_and_login_is_not_offered(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
+    container = bootstrap(compose_config("dev"))
+    assert container.auth is None
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as http:
+        assert (await http.get("/api/agent/missions")).status_code == 200
+        assert (await http.get("/api/auth/me")).json() == {
+            "auth_enabled": False,
+            "operator": None,
+        }
+        refused = await http.post("/api/auth/login", json={"username": "a", "password": "b"})
+        assert refused.status_code == 404
+        assert (await http.post("/api/auth/logout")).status_code == 200

@@ -3,12 +3,16 @@ service a real OS process from deploy/local-stack.yaml, the brain on its dev pre
 
 The recorded (replay) planner plays one mission per brain process, so the brain is restarted
 between the taught mission and the repeat; on a robot the steps run back to back. The memory
-and navigation servers keep running, so the taught process survives the restart."""
+and navigation servers keep running, so the taught process survives the restart. The brain
+comes back with operator login on, so the second part also runs smoke.sh's login checks and
+its Socket.IO connect with a session cookie."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
+import secrets
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -18,12 +22,14 @@ import pytest
 
 from robot_stack_testing.mission_driver import RunningStack, mailroom_stack
 from robot_stack_testing.stack import free_port_overrides
+from robot_voice_chat.api.auth import hash_password
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 SMOKE = ROOT / "deploy" / "smoke.sh"
+PASSWORD = "smoke-test operator password"
 
 
 @pytest.fixture
@@ -34,7 +40,7 @@ def stack(tmp_path: Path) -> Iterator[RunningStack]:
         yield running
 
 
-def smoke(stack: RunningStack, tmp_path: Path, steps: str) -> str:
+def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
     ports = stack.placeholders
     env = {
         **os.environ,
@@ -48,6 +54,7 @@ def smoke(stack: RunningStack, tmp_path: Path, steps: str) -> str:
         "SMOKE_PYTHON": sys.executable,
         "SMOKE_STATE": str(tmp_path / "smoke-state"),
         "SMOKE_TIMEOUT": "90",
+        **extra,
     }
     result = subprocess.run(
         ["bash", str(SMOKE), "--steps", steps],
@@ -77,8 +84,22 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
         logs = " ".join(p.read_text() for p in (tmp_path / "var").glob(f"{process}-*.log"))
         assert f'"mission_id": "{mission_id[1]}"' in logs, process
 
+    # the repeat runs against the brain with operator login on, as on a robot
+    brain = stack.services.specs["brain"]
+    stack.services.specs["brain"] = dataclasses.replace(
+        brain,
+        argv=[*brain.argv, "auth.enabled=true"],
+        env={
+            **brain.env,
+            "ADMIN_PASSWORD_HASH": hash_password(PASSWORD),
+            "ADMIN_SECRET_KEY": secrets.token_urlsafe(32),
+        },
+    )
     stack.services.restart("brain")
-    again = smoke(stack, tmp_path, "repeat")
+    again = smoke(stack, tmp_path, "http,repeat", SMOKE_PASSWORD=PASSWORD)
+    assert "ok   auth: /api/agent/missions without a session → 401" in again
+    assert "ok   auth: login → session cookie → /api/auth/me" in again
+    assert "ok   logged in as operator" in again
     assert "the taught process injected" in again
     assert "ok   mission paused after 'stop'" in again
     assert "ok   robot asks: continue or abort?" in again

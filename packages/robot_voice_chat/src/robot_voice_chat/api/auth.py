@@ -64,6 +64,8 @@ class OperatorAuth:
     @classmethod
     def from_env(cls, config: AuthConfig, secrets_: AdminSecrets | None = None) -> OperatorAuth:
         env = secrets_ or AdminSecrets()
+        if not env.username.strip():
+            raise AuthSetupError("ADMIN_USERNAME is empty (leave it unset for 'operator')")
         if env.password_hash is None or not env.password_hash.get_secret_value().strip():
             raise AuthSetupError(
                 "auth is enabled but ADMIN_PASSWORD_HASH is empty "

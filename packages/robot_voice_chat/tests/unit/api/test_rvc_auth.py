@@ -99,6 +99,10 @@ def test_revoked_session_is_no_longer_accepted() -> None:
             AdminSecrets(password_hash=SecretStr("plain"), secret_key=SecretStr(KEY)),
             "not an argon2 hash",
         ),
+        (
+            AdminSecrets(username=" ", password_hash=SecretStr(HASH), secret_key=SecretStr(KEY)),
+            "ADMIN_USERNAME is empty",
+        ),
     ],
 )
 def test_enabled_auth_without_usable_secrets_refuses_to_build(

@@ -18,6 +18,7 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 
 from robot_stack_testing.mission_driver import RunningStack, mailroom_stack
@@ -83,6 +84,11 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
     for process in ("brain", "memory", "navigation", "skill_control", "perception"):
         logs = " ".join(p.read_text() for p in (tmp_path / "var").glob(f"{process}-*.log"))
         assert f'"mission_id": "{mission_id[1]}"' in logs, process
+    # ... and in the signed events the servers posted for it
+    snapshot = httpx.get(stack.url("brain", f"/api/agent/missions/{mission_id[1]}"), timeout=10)
+    events = [e for e in snapshot.json()["events"] if e["kind"] == "task_event"]
+    assert events
+    assert {e["payload"].get("mission_id") for e in events} == {mission_id[1]}
 
     # the repeat runs against the brain with operator login on, as on a robot
     brain = stack.services.specs["brain"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -9,12 +11,14 @@ import structlog
 from mcp import Client
 from mcp.server.mcpserver import MCPServer
 
+from robot_mcp_kit import EventPoster
 from robot_mcp_kit.correlation import (
     MISSION_META_KEY,
     install_mission_correlation,
     mission_id_from,
     mission_meta,
 )
+from robot_mcp_kit.models import TaskEvent
 
 tool_log = structlog.get_logger("test.tool")
 
@@ -69,3 +73,33 @@ def test_no_mission_means_no_meta() -> None:
     assert mission_meta(None) is None
     assert mission_meta("") is None
     assert mission_meta("m-1") == {MISSION_META_KEY: "m-1"}
+
+
+async def test_events_posted_for_a_mission_call_name_the_mission(tmp_path: Path) -> None:
+    events: list[TaskEvent] = []
+    server = install_mission_correlation(MCPServer("events-test"))
+    poster = EventPoster("http://127.0.0.1:1/e", "navigation", "s", tmp_path / "outbox.sqlite")
+    await poster.start()
+
+    @server.tool()
+    async def navigate_to(location: str) -> dict[str, str]:
+        """Starts a drive whose later event is posted from a task of its own."""
+
+        async def drive() -> None:
+            events.append(await poster.emit("nav-1", "navigate_to", "progress", {"pct": 10}))
+
+        await asyncio.create_task(drive())
+        return {"task_id": "nav-1"}
+
+    try:
+        async with Client(server) as client:
+            await client.call_tool(
+                "navigate_to", {"location": "mailroom"}, meta=mission_meta("m-77")
+            )
+            await client.call_tool("navigate_to", {"location": "kitchen"})
+        outside = await poster.emit("nav-2", "navigate_to", "progress", {})
+    finally:
+        await poster.close(flush_timeout_s=0.1)
+    assert events[0].payload == {"pct": 10, "mission_id": "m-77"}
+    assert events[1].payload == {"pct": 10}
+    assert "mission_id" not in outside.payload

@@ -106,8 +106,11 @@ copy_tree() {  # the checkout's tracked + untracked-but-not-ignored files → $O
     tar -C "$SOURCE" --exclude=./.venv --exclude=./build --exclude=./.git \
       --exclude=node_modules -cf - . | tar -xf - -C "$staging"
   fi
-  # keep the built venv and UI across updates (rebuilt below unless --skip-build)
-  [[ -d "$OPT/.venv" ]] && mv "$OPT/.venv" "$staging/.venv"
+  # keep the built venv and its interpreter across updates (re-synced below)
+  local kept
+  for kept in .venv .python; do
+    if [[ -d "$OPT/$kept" ]]; then mv "$OPT/$kept" "$staging/$kept"; fi
+  done
   rm -rf "$OPT"
   mv "$staging" "$OPT"
 }
@@ -118,8 +121,10 @@ build_tree() {
   [[ -n "$uv" ]] || uv="$HOME/.local/bin/uv"
   [[ -x "$uv" ]] || die "uv is not installed (python3 -m pip install uv), see RUNBOOK step 0"
   say "building the venv in $OPT/.venv (uv sync --frozen, no dev tools)"
-  (cd "$OPT" && UV_PROJECT_ENVIRONMENT="$OPT/.venv" "$uv" sync --frozen --all-packages \
-    --inexact --no-group dev --quiet)
+  # The interpreter uv may download (the host's python3 is not 3.11) lives under /opt too:
+  # the services cannot read root's home. Copies, not hardlinks into root's uv cache.
+  (cd "$OPT" && UV_PROJECT_ENVIRONMENT="$OPT/.venv" UV_PYTHON_INSTALL_DIR="$OPT/.python" \
+    UV_LINK_MODE=copy "$uv" sync --frozen --all-packages --inexact --no-group dev --quiet)
   VIRTUAL_ENV="$OPT/.venv" bash "$OPT/scripts/build-interfaces.sh"
   if [[ ! -f "$OPT/data/scenes/.complete" ]]; then
     "$OPT/.venv/bin/python" -m robot_mcp_perception.sample_scenes "$OPT/data/scenes"

@@ -144,13 +144,16 @@ write_env_files() {
   install -d -m 0750 "$ETC"
   system chown "root:$USER_NAME" "${ETC#"$DESTDIR"}"
   # One HMAC secret per event-posting server, shared with the brain; generated once.
-  local nav perc admin_key
+  local nav perc skill admin_key
   nav="$(env_value NAV_EVENT_SECRET "$ETC/brain.env")"
   nav="${nav:-$(env_value RVC_EVENT_SECRET "$ETC/navigation.env")}"
   nav="${nav:-$(new_secret)}"
   perc="$(env_value PERCEPTION_EVENT_SECRET "$ETC/brain.env")"
   perc="${perc:-$(env_value RVC_EVENT_SECRET "$ETC/perception-buffer.env")}"
   perc="${perc:-$(new_secret)}"
+  skill="$(env_value SKILL_CONTROL_EVENT_SECRET "$ETC/brain.env")"
+  skill="${skill:-$(env_value RVC_EVENT_SECRET "$ETC/skill-control.env")}"
+  skill="${skill:-$(new_secret)}"
   admin_key="$(env_value ADMIN_SECRET_KEY "$ETC/brain.env")"
   admin_key="${admin_key:-$(new_secret)}"
   # argon2 hashes contain '$': single quotes keep systemd's env-file parser from touching them
@@ -159,11 +162,12 @@ write_env_files() {
 
   env_file ros ROS_DOMAIN_ID=42 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
   env_file vision GEMINI_API_KEY= PERCEPTION_CONFIG_OVERRIDES=
-  env_file skill-control LOG_LEVEL=INFO
+  env_file skill-control "RVC_EVENT_SECRET=$skill" LOG_LEVEL=INFO
   env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
   env_file navigation "RVC_EVENT_SECRET=$nav" LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
+    "SKILL_CONTROL_EVENT_SECRET=$skill" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY=
   if [[ -z "$(env_value ADMIN_PASSWORD_HASH "$ETC/brain.env")" ]]; then

@@ -141,7 +141,12 @@ def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
     run_install(tmp_path, "--skip-build")
     after = env_file(brain)
     assert after["GROQ_API_KEY"] == "gsk-set-by-hand"
-    for key in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "ADMIN_SECRET_KEY"):
+    for key in (
+        "NAV_EVENT_SECRET",
+        "PERCEPTION_EVENT_SECRET",
+        "SKILL_CONTROL_EVENT_SECRET",
+        "ADMIN_SECRET_KEY",
+    ):
         assert after[key] == before[key]
     assert list(after) == list(before)  # nothing appended twice
 

@@ -44,6 +44,9 @@ for package in "${PACKAGES[@]}"; do
   run_package "$package"
 done
 run_suite interfaces interfaces -q
+# deploy: colcon build of the ROS packages, install.sh in a throwaway root, systemd-analyze
+# verify of the units, smoke.sh against a local stack on free ports.
+run_suite deploy tests/deploy -q
 if compgen -G "tests/e2e/test_*.py" >/dev/null; then
   run_suite e2e tests/e2e -q
 fi

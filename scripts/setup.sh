@@ -9,6 +9,10 @@ command -v cmake >/dev/null 2>&1 || need_apt+=(cmake)
 command -v g++ >/dev/null 2>&1 || need_apt+=(g++)
 command -v make >/dev/null 2>&1 || need_apt+=(make)
 command -v espeak-ng >/dev/null 2>&1 || need_apt+=(espeak-ng)  # the robot preset's speech output
+# deploy checks: `systemd-analyze verify` on the units (tests/deploy), curl + jq for smoke.sh
+command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
+command -v curl >/dev/null 2>&1 || need_apt+=(curl)
+command -v jq >/dev/null 2>&1 || need_apt+=(jq)
 if ((${#need_apt[@]})); then
   echo "setup: installing ${need_apt[*]} with apt-get"
   sudo_cmd=()

@@ -61,8 +61,9 @@ def stack(
         **free_port_overrides(STACK_FILE),
         "nav_time_scale": "10",
         "brain_deployment": "robot",
-        # the robot speaker (espeak-ng) becomes the browser's so the test hears what is said
-        "brain_config_overrides": "speech_output=socketio",
+        # the robot speaker (espeak-ng) becomes the browser's so the test hears what is said;
+        # the operator login (on in the robot preset) has its own tests (test_rvc_auth*.py)
+        "brain_config_overrides": "speech_output=socketio auth.enabled=false",
     }
     with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
         yield running

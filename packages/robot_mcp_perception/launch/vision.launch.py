@@ -3,6 +3,9 @@
 Hydra config is selected with environment variables, exactly as for ``uv run vision_node``:
 PERCEPTION_DEPLOYMENT (preset of config/deployment/) and PERCEPTION_CONFIG_OVERRIDES.
 The node parameters of spec 000 §7 can be overridden here as launch arguments.
+``camera_topic`` feeds the frame source through Hydra (``node.camera_topic``), the other
+arguments are ROS parameters the node reads at start-up (tests/deploy/test_ros_packaging.py
+checks both against the node).
 """
 
 from launch import LaunchDescription
@@ -27,7 +30,12 @@ def generate_launch_description() -> LaunchDescription:
         [
             *arguments,
             SetEnvironmentVariable(
-                "PERCEPTION_CONFIG_OVERRIDES", LaunchConfiguration("config_overrides")
+                "PERCEPTION_CONFIG_OVERRIDES",
+                [
+                    LaunchConfiguration("config_overrides"),
+                    " node.camera_topic=",
+                    LaunchConfiguration("camera_topic"),
+                ],
             ),
             Node(
                 package="robot_mcp_perception",

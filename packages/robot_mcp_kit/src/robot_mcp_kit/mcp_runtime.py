@@ -29,6 +29,8 @@ from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.stdio import stdio_server
 
+from robot_mcp_kit.correlation import install_mission_correlation
+
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
 DEFAULT_HOST = "127.0.0.1"
@@ -155,6 +157,7 @@ async def serve_mcp(
     run their own start-up and shutdown around the transport, inside one event loop).
     ``wire``: the stdout reserved by :func:`reserve_stdout` (stdio only)."""
     install_json_tool_errors(server)
+    install_mission_correlation(server)
     if settings.transport == "stdio" and wire is not None:
         await _serve_stdio(server, wire)
     elif settings.transport == "stdio":

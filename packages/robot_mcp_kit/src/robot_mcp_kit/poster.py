@@ -29,6 +29,7 @@ from typing import Any, Literal, TypeVar
 import httpx
 import structlog
 
+from robot_mcp_kit.correlation import current_mission_id
 from robot_mcp_kit.models import EventType, TaskEvent
 from robot_mcp_kit.outbox import Appended, DeadLetter, SqliteOutbox, StoredEvent
 from robot_mcp_kit.retry import backoff_delay, parse_retry_after
@@ -222,8 +223,12 @@ class EventPoster:
         poster is not running.
         """
         self._ensure_open()
+        payload = dict(payload or {})
+        mission_id = current_mission_id()  # the tool call that started this task, if any
+        if mission_id is not None:
+            payload.setdefault("mission_id", mission_id)
         draft = TaskEvent(
-            task_id=task_id, server=self._server, tool=tool, type=type, seq=0, payload=payload or {}
+            task_id=task_id, server=self._server, tool=tool, type=type, seq=0, payload=payload
         )
         draft.model_dump_json()  # an unserialisable payload fails here, before any disk work
         # Shielded: once the event is being stored, a cancelled caller must not leave it on

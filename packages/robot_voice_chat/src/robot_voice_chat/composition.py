@@ -26,6 +26,7 @@ from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
@@ -138,6 +139,7 @@ class Container:
     teaching: Teaching
     trace: TraceRecorder
     sio: Any = None
+    auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
 
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
@@ -197,4 +199,15 @@ def bootstrap(config: AppConfig) -> Container:
         async_mode="asgi", cors_allowed_origins=origin_policy(config.api.cors_origins)
     )
     emitter = SocketIOEventEmitter(sio)
-    return assemble(config, build_adapters(config, emitter), emitter, sio)
+    container = assemble(config, build_adapters(config, emitter), emitter, sio)
+    container.auth = build_auth(config)
+    return container
+
+
+def build_auth(config: AppConfig) -> OperatorAuth | None:
+    if not config.auth.enabled:
+        return None
+    try:
+        return OperatorAuth.from_env(config.auth)
+    except AuthSetupError as exc:
+        raise ConfigError(str(exc)) from exc

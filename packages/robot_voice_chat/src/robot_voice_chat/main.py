@@ -1,4 +1,7 @@
-"""Console entry point: ``robot-voice-chat --host 127.0.0.1 --port 8000``."""
+"""Console entry point: ``robot-voice-chat --host 127.0.0.1 --port 8000``.
+
+``robot-voice-chat hash-password`` prints the argon2 hash for ``ADMIN_PASSWORD_HASH``.
+"""
 
 from __future__ import annotations
 
@@ -10,12 +13,17 @@ import structlog
 import uvicorn
 
 from robot_voice_chat.api.app import create_asgi_app
+from robot_voice_chat.api.auth_cli import hash_password_command
+from robot_voice_chat.api.auth_guard import PublicBindRefusedError, ensure_bind_allowed
 from robot_voice_chat.composition import ConfigError, bootstrap, compose_config, one_line
 from robot_voice_chat.logging import configure_logging
 from robot_voice_chat.settings import EnvSettings
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["hash-password"]:
+        return hash_password_command(argv[1:])
     parser = argparse.ArgumentParser(prog="robot-voice-chat", description=__doc__)
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
@@ -28,11 +36,20 @@ def main(argv: list[str] | None = None) -> int:
     # node's overrides); command-line overrides come last and win.
     overrides = [*shlex.split(env.config_overrides), *args.overrides]
     try:
-        container = bootstrap(compose_config(env.deployment, overrides))
-    except (ConfigError, ValueError) as exc:
+        config = compose_config(env.deployment, overrides)
+        ensure_bind_allowed(args.host, config.auth.enabled)
+        container = bootstrap(config)
+    except (ConfigError, ValueError, PublicBindRefusedError) as exc:
         logger.error("startup_refused", deployment=env.deployment, error=one_line(str(exc)))
         return 2
-    uvicorn.run(create_asgi_app(container), host=args.host, port=args.port, log_config=None)
+    uvicorn.run(
+        create_asgi_app(container),
+        host=args.host,
+        port=args.port,
+        log_config=None,
+        proxy_headers=True,
+        forwarded_allow_ips=config.auth.trusted_proxies,
+    )
     return 0
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import platformdirs
 from limits import parse
@@ -144,6 +144,22 @@ class ChatConfig(BaseModel):
     )
 
 
+class AuthConfig(BaseModel):
+    """Operator login (ARCHITECTURE §6). Secrets come from the environment (``ADMIN_*``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    enabled: bool = False
+    session_ttl_s: int = Field(12 * 3600, gt=0)
+    cookie_name: str = "rvc_session"
+    # auto: Secure when the request arrived over https (directly or via a trusted proxy).
+    cookie_secure: Literal["auto", "always", "never"] = "auto"
+    login_max_failures: int = Field(5, ge=1)
+    login_window_s: float = Field(300, gt=0)
+    # Proxies whose X-Forwarded-For/-Proto are believed (uvicorn's forwarded_allow_ips).
+    trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
+
+
 class AppConfig(BaseModel):
     """The composed tree. Adapter groups stay dicts with ``_target_`` (built by Hydra)."""
 
@@ -158,6 +174,7 @@ class AppConfig(BaseModel):
     agent: AgentConfig = Field(default_factory=AgentConfig)
     api: ApiConfig = Field(default_factory=ApiConfig)
     chat: ChatConfig = Field(default_factory=ChatConfig)
+    auth: AuthConfig = Field(default_factory=AuthConfig)
 
     @field_validator("llm", "speech_output", "speech_input")
     @classmethod

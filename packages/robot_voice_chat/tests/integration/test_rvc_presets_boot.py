@@ -16,6 +16,7 @@ import pytest
 
 from robot_stack_testing import wait_until
 from robot_stack_testing.ports import free_tcp_port
+from robot_voice_chat.api.auth import hash_password
 
 KEYS = {
     "ANTHROPIC_API_KEY": "dummy-anthropic-key",
@@ -23,6 +24,8 @@ KEYS = {
     "OPENAI_API_KEY": "dummy-openai-key",
     "NAV_EVENT_SECRET": "dummy-navigation-event-secret-of-32-bytes",
     "PERCEPTION_EVENT_SECRET": "dummy-perception-event-secret-of-32-bytes",
+    "ADMIN_PASSWORD_HASH": hash_password("dummy operator password"),
+    "ADMIN_SECRET_KEY": "dummy-session-signing-key-of-32-bytes",
 }
 PLANNERS = {"dev": "rules", "robot": "chain[anthropic,rules]", "test": "replay"}
 

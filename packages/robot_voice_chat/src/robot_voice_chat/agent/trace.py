@@ -10,6 +10,8 @@ from typing import Any
 
 import structlog
 
+from robot_voice_chat.operator import operator_fields
+
 logger = structlog.get_logger(__name__)
 
 
@@ -22,7 +24,9 @@ class TraceRecorder:
         self._lock = asyncio.Lock()
 
     def record(self, mission_id: str, kind: str, **data: Any) -> None:
-        line = json.dumps({"ts": time.time(), "kind": kind, **data}, default=str)
+        line = json.dumps(
+            {"ts": time.time(), "kind": kind, **operator_fields(), **data}, default=str
+        )
         self._buffers.setdefault(mission_id, []).append(line)
 
     async def flush(self) -> None:

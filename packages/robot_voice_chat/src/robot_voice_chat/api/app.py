@@ -11,6 +11,8 @@ from fastapi import FastAPI
 from slowapi import Limiter, _rate_limit_exceeded_handler
 from slowapi.errors import RateLimitExceeded
 
+from robot_voice_chat.api import auth_routes
+from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.routes import agent, chat, health
 from robot_voice_chat.api.socket import register_handlers
@@ -38,7 +40,10 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     app.state.limiter = limiter
     app.state.container = container
     app.add_exception_handler(RateLimitExceeded, _rate_limit_exceeded_handler)  # type: ignore[arg-type]
+    if container.auth is not None:
+        app.add_middleware(OperatorAuthMiddleware, auth=container.auth)
     app.add_middleware(RequestContextMiddleware)
+    app.include_router(auth_routes.build_router(container.auth))
     app.include_router(health.router)
     app.include_router(chat.router)
     app.include_router(agent.build_router(container.config.api))
@@ -51,4 +56,6 @@ def create_asgi_app(container: Container) -> Any:
     if container.sio is None:
         return app
     register_handlers(container)
-    return socketio.ASGIApp(container.sio, other_asgi_app=app, socketio_path="socket.io")
+    served = socketio.ASGIApp(container.sio, other_asgi_app=app, socketio_path="socket.io")
+    # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
+    return served if container.auth is None else OperatorAuthMiddleware(served, container.auth)

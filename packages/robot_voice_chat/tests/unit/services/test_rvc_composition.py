@@ -9,6 +9,7 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
+from robot_voice_chat.api.auth import hash_password
 from robot_voice_chat.composition import ConfigError, bootstrap, compose_config
 from robot_voice_chat.main import main
 from robot_voice_chat.socket_events import json_schemas
@@ -52,6 +53,8 @@ def test_robot_deployment_refuses_a_configured_planner_without_its_key(
     monkeypatch.setenv("OPENAI_API_KEY", "test")
     for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", hash_password("robot operator"))
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "k" * 32)
     config = compose_config("robot", ["speech_output=socketio"])
     with pytest.raises(ConfigError, match="ANTHROPIC_API_KEY is empty"):
         bootstrap(config)

@@ -22,6 +22,7 @@ from mcp.client.sse import sse_client
 from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp.client.streamable_http import streamable_http_client
 
+from robot_mcp_kit.correlation import mission_meta
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
@@ -102,7 +103,14 @@ class McpToolBackend(ToolBackend):
         started = time.monotonic()
         try:
             result = await asyncio.wait_for(
-                session.call_tool(tool, dict(arguments), read_timeout_seconds=timeout), timeout
+                session.call_tool(
+                    tool,
+                    dict(arguments),
+                    read_timeout_seconds=timeout,
+                    # the mission's correlation id, bound by the executor for its whole run
+                    meta=mission_meta(structlog.contextvars.get_contextvars().get("mission_id")),
+                ),
+                timeout,
             )
         except TimeoutError:
             outcome = ToolOutcome(

@@ -1,0 +1,222 @@
+#!/usr/bin/env bash
+# Install the robot stack on an Ubuntu/Debian robot (deploy/RUNBOOK.md). Idempotent; run as root.
+#
+#   sudo deploy/install.sh [--start]            install or update, enable the units
+#   sudo deploy/install.sh --uninstall [--purge] remove units + code (--purge: also config,
+#                                                state and the robot user)
+#
+# Layout: code + one venv + built UI in /opt/robot-stack (root-owned, read-only to services),
+# settings and secrets in /etc/robot-stack/*.env (0640 root:robot, secrets generated once and
+# never overwritten), state in /var/lib/<unit> (systemd StateDirectory), units in
+# /etc/systemd/system, all started by robot-stack.target as the system user `robot`.
+#
+# DESTDIR=/some/dir installs into a throwaway root instead (used by tests/deploy): no root
+# needed, and user/ownership/systemctl commands are written to $DESTDIR/install-actions.log
+# instead of being run. --skip-build leaves out the venv and UI build (uv sync, cmake, npm).
+set -euo pipefail
+
+APP=robot-stack
+USER_NAME=robot
+UNITS=(robot-mcp-perception mcp-skill-control mcp-perception-buffer robot-mcp-memory
+       robot-mcp-navigation robot-voice-chat)
+SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+DESTDIR="${DESTDIR:-}"
+DESTDIR="${DESTDIR%/}"
+OPT="$DESTDIR/opt/$APP"
+ETC="$DESTDIR/etc/$APP"
+SYSTEMD="$DESTDIR/etc/systemd/system"
+
+mode=install purge=0 build=1 start=0
+for arg in "$@"; do
+  case "$arg" in
+    --uninstall) mode=uninstall ;;
+    --purge) purge=1 ;;
+    --skip-build) build=0 ;;
+    --start) start=1 ;;
+    -h|--help) sed -n '2,17p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    *) echo "install.sh: unknown argument $arg (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+say() { echo "install.sh: $*"; }
+die() { echo "install.sh: error: $*" >&2; exit 2; }
+
+# System changes (users, ownership, systemd): run for real, or recorded under DESTDIR.
+system() {
+  if [[ -n "$DESTDIR" ]]; then
+    echo "$*" >>"$DESTDIR/install-actions.log"
+  else
+    "$@"
+  fi
+}
+
+if [[ -z "$DESTDIR" ]]; then
+  [[ $(id -u) -eq 0 ]] || die "run as root (sudo), or set DESTDIR for a throwaway root"
+  command -v systemctl >/dev/null || die "systemd is required"
+else
+  mkdir -p "$DESTDIR"
+fi
+
+new_secret() { python3 -c 'import secrets; print(secrets.token_urlsafe(32))'; }
+
+# value of KEY in an env file ("" when absent)
+env_value() {
+  [[ -f "$2" ]] || return 0
+  sed -n "s/^$1=//p" "$2" | tail -n 1
+}
+
+# Append KEY=VALUE unless KEY is already there: re-runs keep operator edits and secrets.
+ensure_key() {
+  local file=$1 key=$2 value=$3
+  grep -q "^$key=" "$file" 2>/dev/null || printf '%s=%s\n' "$key" "$value" >>"$file"
+}
+
+env_file() {  # name, then KEY=VALUE pairs
+  local file="$ETC/$1.env" pair
+  shift
+  [[ -f "$file" ]] || { printf '# %s — read by the robot-stack units (deploy/RUNBOOK.md)\n' \
+    "$(basename "$file")" >"$file"; }
+  for pair in "$@"; do ensure_key "$file" "${pair%%=*}" "${pair#*=}"; done
+  chmod 0640 "$file"
+  system chown "root:$USER_NAME" "${file#"$DESTDIR"}"
+}
+
+install_user() {
+  if [[ -n "$DESTDIR" ]] || ! getent passwd "$USER_NAME" >/dev/null; then
+    system useradd --system --user-group --home-dir /var/lib/$APP --no-create-home \
+      --shell /usr/sbin/nologin "$USER_NAME"
+  fi
+  local group
+  for group in video audio; do  # cameras (vision node), speaker (espeak)
+    if [[ -n "$DESTDIR" ]] || getent group "$group" >/dev/null; then
+      system usermod --append --groups "$group" "$USER_NAME"
+    fi
+  done
+}
+
+copy_tree() {  # the checkout's tracked + untracked-but-not-ignored files → $OPT (fresh copy)
+  local staging="$OPT.new"
+  rm -rf "$staging"
+  mkdir -p "$staging"
+  if git -C "$SOURCE" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+    git -C "$SOURCE" ls-files -z --cached --others --exclude-standard \
+      | tar -C "$SOURCE" --null --no-recursion --ignore-failed-read -T - -cf - \
+      | tar -xf - -C "$staging"
+  else
+    tar -C "$SOURCE" --exclude=./.venv --exclude=./build --exclude=./.git \
+      --exclude=node_modules -cf - . | tar -xf - -C "$staging"
+  fi
+  # keep the built venv and its interpreter across updates (re-synced below)
+  local kept
+  for kept in .venv .python; do
+    if [[ -d "$OPT/$kept" ]]; then mv "$OPT/$kept" "$staging/$kept"; fi
+  done
+  rm -rf "$OPT"
+  mv "$staging" "$OPT"
+}
+
+build_tree() {
+  local uv
+  uv="$(command -v uv || true)"
+  [[ -n "$uv" ]] || uv="$HOME/.local/bin/uv"
+  [[ -x "$uv" ]] || die "uv is not installed (python3 -m pip install uv), see RUNBOOK step 0"
+  say "building the venv in $OPT/.venv (uv sync --frozen, no dev tools)"
+  # The interpreter uv may download (the host's python3 is not 3.11) lives under /opt too:
+  # the services cannot read root's home. Copies, not hardlinks into root's uv cache.
+  (cd "$OPT" && UV_PROJECT_ENVIRONMENT="$OPT/.venv" UV_PYTHON_INSTALL_DIR="$OPT/.python" \
+    UV_LINK_MODE=copy "$uv" sync --frozen --all-packages --inexact --no-group dev --quiet)
+  VIRTUAL_ENV="$OPT/.venv" bash "$OPT/scripts/build-interfaces.sh"
+  if [[ ! -f "$OPT/data/scenes/.complete" ]]; then
+    "$OPT/.venv/bin/python" -m robot_mcp_perception.sample_scenes "$OPT/data/scenes"
+    touch "$OPT/data/scenes/.complete"
+  fi
+  if [[ -f "$OPT/frontend/package.json" ]]; then
+    command -v npm >/dev/null || die "npm is needed to build the UI (apt-get install nodejs npm)"
+    say "building the UI (npm ci && npm run build)"
+    (cd "$OPT/frontend" && npm ci --no-audit --no-fund --silent && npm run build --silent)
+  else
+    say "no frontend/ in this checkout: the brain serves its API only"
+  fi
+  chown -R root:root "$OPT"
+}
+
+write_env_files() {
+  install -d -m 0750 "$ETC"
+  system chown "root:$USER_NAME" "${ETC#"$DESTDIR"}"
+  # One HMAC secret per event-posting server (navigation, perception buffer), shared with the
+  # brain; generated once. skill_control posts no events.
+  local nav perc admin_key
+  nav="$(env_value NAV_EVENT_SECRET "$ETC/brain.env")"
+  nav="${nav:-$(env_value RVC_EVENT_SECRET "$ETC/navigation.env")}"
+  nav="${nav:-$(new_secret)}"
+  perc="$(env_value PERCEPTION_EVENT_SECRET "$ETC/brain.env")"
+  perc="${perc:-$(env_value RVC_EVENT_SECRET "$ETC/perception-buffer.env")}"
+  perc="${perc:-$(new_secret)}"
+  admin_key="$(env_value ADMIN_SECRET_KEY "$ETC/brain.env")"
+  admin_key="${admin_key:-$(new_secret)}"
+  # argon2 hashes contain '$': single quotes keep systemd's env-file parser from touching them
+  local quoted_hash=""
+  [[ -n "${ADMIN_PASSWORD_HASH:-}" ]] && quoted_hash="'$ADMIN_PASSWORD_HASH'"
+
+  env_file ros ROS_DOMAIN_ID=42 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+  env_file vision GEMINI_API_KEY= PERCEPTION_CONFIG_OVERRIDES=
+  env_file skill-control LOG_LEVEL=INFO
+  env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
+  env_file navigation "RVC_EVENT_SECRET=$nav" LOG_LEVEL=INFO
+  env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
+  env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
+    ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
+    "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY=
+  if [[ -z "$(env_value ADMIN_PASSWORD_HASH "$ETC/brain.env")" ]]; then
+    say "set the operator password: /opt/$APP/.venv/bin/robot-voice-chat hash-password," \
+      "then put it in /etc/$APP/brain.env as ADMIN_PASSWORD_HASH='<hash>' (single quotes)"
+  fi
+}
+
+install_units() {
+  install -d -m 0755 "$SYSTEMD"
+  local unit
+  for unit in "${UNITS[@]}"; do
+    install -m 0644 "$OPT/deploy/$unit.service" "$SYSTEMD/$unit.service"
+  done
+  install -m 0644 "$OPT/deploy/$APP.target" "$SYSTEMD/$APP.target"
+  system systemctl daemon-reload
+  system systemctl enable "$APP.target" "${UNITS[@]/%/.service}"
+  if ((start)); then
+    system systemctl restart "$APP.target"
+  fi
+}
+
+uninstall() {
+  local unit
+  if [[ -z "$DESTDIR" ]]; then
+    systemctl disable --now "$APP.target" "${UNITS[@]/%/.service}" 2>/dev/null || true
+  else
+    system systemctl disable --now "$APP.target" "${UNITS[@]/%/.service}"
+  fi
+  for unit in "${UNITS[@]}"; do rm -f "$SYSTEMD/$unit.service"; done
+  rm -f "$SYSTEMD/$APP.target"
+  system systemctl daemon-reload
+  rm -rf "$OPT" "$OPT.new"
+  if ((purge)); then
+    rm -rf "$ETC"
+    for unit in "${UNITS[@]}"; do rm -rf "$DESTDIR/var/lib/$unit"; done
+    if [[ -n "$DESTDIR" ]] || getent passwd "$USER_NAME" >/dev/null; then
+      system userdel "$USER_NAME"
+    fi
+  fi
+  say "uninstalled$( ((purge)) && echo ' (config, state and user purged)' || echo \
+    "; kept /etc/$APP and /var/lib state (--purge removes them)")"
+}
+
+if [[ "$mode" == uninstall ]]; then
+  uninstall
+  exit 0
+fi
+install_user
+copy_tree
+if ((build)); then build_tree; else say "--skip-build: no venv/UI build"; fi
+write_env_files
+install_units
+say "installed into ${DESTDIR:-/} — next: RUNBOOK.md step 3 (keys, operator password), then" \
+  "systemctl start $APP.target && /opt/$APP/deploy/smoke.sh"

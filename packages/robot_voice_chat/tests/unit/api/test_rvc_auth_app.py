@@ -1,0 +1,183 @@
+"""The served app with operator login on: REST, Socket.IO and the login flow over real HTTP."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import uvicorn
+import websockets
+
+from robot_stack_testing import async_wait_until, free_tcp_port
+from robot_voice_chat.api.app import create_app, create_asgi_app
+from robot_voice_chat.api.auth import hash_password
+from robot_voice_chat.composition import Container, bootstrap, compose_config
+
+PASSWORD = "open sesame 42"
+HASH = hash_password(PASSWORD)
+
+
+@pytest.fixture
+async def served(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> AsyncIterator[tuple[str, Container]]:
+    port = free_tcp_port()
+    monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
+    for name in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
+        monkeypatch.setenv(f"RVC_{name}_URL", "http://127.0.0.1:9/sse")  # nothing there
+    monkeypatch.setenv("ADMIN_USERNAME", "ada")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "s" * 48)
+    config = compose_config("test", ["auth.enabled=true", "+auth.login_max_failures=3"])
+    container = bootstrap(config)
+    server = uvicorn.Server(
+        uvicorn.Config(create_asgi_app(container), host="127.0.0.1", port=port, log_level="warning")
+    )
+    serving = asyncio.create_task(server.serve())
+    await async_wait_until(lambda: server.started, 10, "app serving")
+    yield f"127.0.0.1:{port}", container
+    server.should_exit = True
+    await asyncio.wait_for(serving, 15)
+
+
+async def login(http: httpx.AsyncClient, password: str = PASSWORD) -> httpx.Response:
+    return await http.post("/api/auth/login", json={"username": "ada", "password": password})
+
+
+async def test_rest_without_a_session_gets_401_but_health_stays_public(
+    served: tuple[str, Container],
+) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        for path in ("/api/agent/missions", "/api/agent/teaching", "/openapi.json"):
+            response = await http.get(path)
+            assert response.status_code == 401, path
+            assert response.json() == {"detail": "login required"}
+        assert (await http.post("/api/agent/teaching", json={"enabled": True})).status_code == 401
+        assert (await http.get("/api/livez")).status_code == 200
+        assert (await http.get("/api/readyz")).status_code == 200
+        assert (await http.get("/api/auth/me")).status_code == 401
+        # the signed ingress keeps its own HMAC check (401 for its own reason, not the login)
+        ingress = await http.post("/api/agent/events", content=b"{}")
+        assert ingress.json()["reason"] == "malformed_header"
+
+
+async def test_login_sets_a_strict_httponly_expiring_cookie_and_the_api_works(
+    served: tuple[str, Container],
+) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        response = await login(http)
+        assert response.status_code == 200
+        assert response.json() == {"auth_enabled": True, "operator": "ada"}
+        cookie = response.headers["set-cookie"].lower()
+        assert "httponly" in cookie
+        assert "samesite=strict" in cookie
+        assert "max-age=43200" in cookie
+        assert "secure" not in cookie  # plain http on loopback; see the proxy test
+        assert (await http.get("/api/auth/me")).json()["operator"] == "ada"
+        teaching = await http.post("/api/agent/teaching", json={"enabled": True})
+        assert teaching.json() == {"enabled": True}
+        assert (await http.get("/api/agent/missions")).status_code == 200
+        await http.post("/api/auth/logout")
+        assert (await http.get("/api/agent/missions")).status_code == 401
+
+
+async def test_the_cookie_is_secure_behind_a_tls_proxy(served: tuple[str, Container]) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        response = await http.post(
+            "/api/auth/login",
+            json={"username": "ada", "password": PASSWORD},
+            headers={"X-Forwarded-Proto": "https", "X-Forwarded-For": "10.1.2.3"},
+        )
+        assert "secure" in response.headers["set-cookie"].lower()
+
+
+async def test_an_old_session_does_not_survive_logout(served: tuple[str, Container]) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        token = (await login(http)).cookies["rvc_session"]
+        await http.post("/api/auth/logout")
+    async with httpx.AsyncClient(
+        base_url=f"http://{address}", cookies={"rvc_session": token}
+    ) as replay:
+        assert (await replay.get("/api/agent/missions")).status_code == 401
+
+
+async def test_wrong_passwords_are_rate_limited_per_address_and_never_logged(
+    served: tuple[str, Container], capsys: pytest.CaptureFixture[str]
+) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        statuses = [(await login(http, "wrong-guess")).status_code for _ in range(3)]
+        assert statuses == [401, 401, 401]
+        throttled = await login(http)  # even the right password waits now
+        assert throttled.status_code == 429
+        assert int(throttled.headers["retry-after"]) > 0
+    assert "wrong-guess" not in capsys.readouterr().err
+
+
+async def test_socketio_connect_is_refused_without_a_session(
+    served: tuple[str, Container],
+) -> None:
+    address, _ = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        polling = await http.get("/socket.io/", params={"EIO": "4", "transport": "polling"})
+        assert polling.status_code == 401
+    with pytest.raises(websockets.InvalidStatus):
+        await websockets.connect(f"ws://{address}/socket.io/?EIO=4&transport=websocket")
+
+
+async def socket_connect(address: str, cookie: str) -> Any:
+    ws = await websockets.connect(
+        f"ws://{address}/socket.io/?EIO=4&transport=websocket",
+        additional_headers={"Cookie": f"rvc_session={cookie}"},
+    )
+    assert str(await ws.recv()).startswith("0")
+    await ws.send("40")
+    return ws
+
+
+async def test_a_logged_in_socket_starts_a_mission_whose_trace_names_the_operator(
+    served: tuple[str, Container],
+) -> None:
+    address, container = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        cookie = (await login(http)).cookies["rvc_session"]
+    ws = await socket_connect(address, cookie)
+    try:
+        await ws.send(
+            "42"
+            + json.dumps(["send_message", {"text": "Please fetch the package from the mailroom."}])
+        )
+        await async_wait_until(lambda: container.executor.store.recent(1), 10, "mission started")
+        mission = container.executor.store.recent(1)[0]
+        records = await container.trace.read(mission.id)
+        instruction = next(r for r in records if r["kind"] == "instruction")
+        assert instruction["operator"] == "ada"
+    finally:
+        await ws.close()
+
+
+async def test_without_auth_the_api_is_open_and_login_is_not_offered(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
+    container = bootstrap(compose_config("dev"))
+    assert container.auth is None
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as http:
+        assert (await http.get("/api/agent/missions")).status_code == 200
+        assert (await http.get("/api/auth/me")).json() == {
+            "auth_enabled": False,
+            "operator": None,
+        }
+        refused = await http.post("/api/auth/login", json={"username": "a", "password": "b"})
+        assert refused.status_code == 404
+        assert (await http.post("/api/auth/logout")).status_code == 200

@@ -1,0 +1,261 @@
+"""deploy/install.sh in a throwaway root (DESTDIR): files, permissions, secrets made once,
+consistent units that `systemd-analyze verify` passes cleanly, and --uninstall/--purge.
+
+Not run here: real useradd/chown/systemctl (recorded in install-actions.log instead) and the
+venv/UI build (--skip-build; it is `make setup`'s uv sync + build-interfaces + npm build)."""
+
+from __future__ import annotations
+
+import configparser
+import os
+import shutil
+import stat
+import subprocess
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+INSTALL = ROOT / "deploy/install.sh"
+UNITS = [
+    "robot-mcp-perception",
+    "mcp-skill-control",
+    "mcp-perception-buffer",
+    "robot-mcp-memory",
+    "robot-mcp-navigation",
+    "robot-voice-chat",
+]
+HARDENING = {
+    "NoNewPrivileges": "yes",
+    "ProtectSystem": "strict",
+    "PrivateTmp": "yes",
+    "ProtectHome": "yes",
+    "User": "robot",
+}
+
+
+def run_install(destdir: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
+    result = subprocess.run(
+        ["bash", str(INSTALL), *args],
+        env={**os.environ, "DESTDIR": str(destdir), **env},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result
+
+
+def env_file(path: Path) -> dict[str, str]:
+    lines = [ln for ln in path.read_text().splitlines() if ln and not ln.startswith("#")]
+    return dict(ln.split("=", 1) for ln in lines)
+
+
+def unit(path: Path) -> configparser.ConfigParser:
+    parser = configparser.ConfigParser(strict=False, interpolation=None)
+    parser.optionxform = str  # type: ignore[assignment,method-assign]
+    parser.read_string(path.read_text())
+    return parser
+
+
+def unit_values(path: Path, key: str) -> list[str]:
+    return [
+        line.split("=", 1)[1]
+        for line in path.read_text().splitlines()
+        if line.startswith(f"{key}=")
+    ]
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("root")
+    run_install(root, "--skip-build")
+    return root
+
+
+def test_code_is_installed_under_opt_robot_stack(installed: Path) -> None:
+    opt = installed / "opt/robot-stack"
+    assert (opt / "pyproject.toml").is_file()
+    assert (opt / "uv.lock").is_file()
+    assert (opt / "deploy/smoke.sh").is_file()
+    assert (opt / "packages/robot_voice_chat/src/robot_voice_chat/main.py").is_file()
+    # the package-internal config links survive the copy
+    assert (opt / "packages/robot_voice_chat/src/robot_voice_chat/config/config.yaml").is_file()
+    assert not (opt / ".git").exists()
+    assert not (opt / ".venv").exists()  # --skip-build
+
+
+def test_env_files_are_private_to_root_and_the_robot_group(installed: Path) -> None:
+    etc = installed / "etc/robot-stack"
+    assert stat.S_IMODE(etc.stat().st_mode) == 0o750
+    files = sorted(p.name for p in etc.glob("*.env"))
+    assert files == [
+        "brain.env",
+        "memory.env",
+        "navigation.env",
+        "perception-buffer.env",
+        "ros.env",
+        "skill-control.env",
+        "vision.env",
+    ]
+    actions = (installed / "install-actions.log").read_text().splitlines()
+    for name in files:
+        assert stat.S_IMODE((etc / name).stat().st_mode) == 0o640, name
+        assert f"chown root:robot /etc/robot-stack/{name}" in actions
+    assert "chown root:robot /etc/robot-stack" in actions
+
+
+def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) -> None:
+    etc = installed / "etc/robot-stack"
+    brain = env_file(etc / "brain.env")
+    assert brain["NAV_EVENT_SECRET"] == env_file(etc / "navigation.env")["RVC_EVENT_SECRET"]
+    assert (
+        brain["PERCEPTION_EVENT_SECRET"]
+        == env_file(etc / "perception-buffer.env")["RVC_EVENT_SECRET"]
+    )
+    secrets = [
+        brain["NAV_EVENT_SECRET"],
+        brain["PERCEPTION_EVENT_SECRET"],
+        brain["ADMIN_SECRET_KEY"],
+    ]
+    assert len(set(secrets)) == 3
+    assert all(len(s) >= 32 for s in secrets)
+    assert brain["ADMIN_PASSWORD_HASH"] == ""  # the operator sets it (RUNBOOK step 3)
+
+
+def test_user_and_units_are_created_and_enabled(installed: Path) -> None:
+    actions = (installed / "install-actions.log").read_text().splitlines()
+    assert actions[0].startswith("useradd --system --user-group")
+    assert actions[0].endswith(" robot")
+    enable = next(a for a in actions if a.startswith("systemctl enable "))
+    assert enable.split()[2:] == ["robot-stack.target", *[f"{u}.service" for u in UNITS]]
+
+
+def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
+    run_install(tmp_path, "--skip-build")
+    brain = tmp_path / "etc/robot-stack/brain.env"
+    before = env_file(brain)
+    brain.write_text(brain.read_text().replace("GROQ_API_KEY=", "GROQ_API_KEY=gsk-set-by-hand"))
+    run_install(tmp_path, "--skip-build")
+    after = env_file(brain)
+    assert after["GROQ_API_KEY"] == "gsk-set-by-hand"
+    for key in (
+        "NAV_EVENT_SECRET",
+        "PERCEPTION_EVENT_SECRET",
+        "ADMIN_SECRET_KEY",
+    ):
+        assert after[key] == before[key]
+    assert list(after) == list(before)  # nothing appended twice
+
+
+def test_a_given_password_hash_is_written_quoted_for_systemd(tmp_path: Path) -> None:
+    digest = "$argon2id$v=19$m=65536,t=3,p=4$c2FsdA$aGFzaA"
+    run_install(tmp_path, "--skip-build", ADMIN_PASSWORD_HASH=digest)
+    brain = env_file(tmp_path / "etc/robot-stack/brain.env")
+    assert brain["ADMIN_PASSWORD_HASH"] == f"'{digest}'"
+
+
+def test_units_agree_on_paths_user_and_hardening(installed: Path) -> None:
+    scripts: dict[str, str] = {}
+    for pyproject in ROOT.glob("packages/*/pyproject.toml"):
+        scripts.update(tomllib.loads(pyproject.read_text())["project"].get("scripts", {}))
+    for name in UNITS:
+        path = installed / "etc/systemd/system" / f"{name}.service"
+        service = unit(path)["Service"]
+        for key, value in HARDENING.items():
+            assert service[key] == value, f"{name}: {key}"
+        assert service["WorkingDirectory"] == "/opt/robot-stack"
+        executable = service["ExecStart"].split()[0]
+        assert executable.startswith("/opt/robot-stack/.venv/bin/")
+        assert Path(executable).name in scripts, f"{name}: no console script {executable}"
+        assert service["StateDirectory"] == name
+        assert f"/var/lib/{name}" in unit_values(path, "ReadWritePaths")
+        assert "AF_INET" in service["RestrictAddressFamilies"]
+        for env in unit_values(path, "EnvironmentFile"):
+            assert (installed / env.lstrip("/")).is_file(), f"{name}: {env} not installed"
+        assert unit(path)["Install"]["WantedBy"] == "robot-stack.target"
+
+
+def verify_root(installed: Path, tmp_path: Path) -> Path:
+    """A copy of the throwaway root with the host's targets and stand-in executables
+    (verify checks that ExecStart exists; --skip-build made no venv)."""
+    root = tmp_path / "verify-root"
+    shutil.copytree(installed, root, symlinks=True)
+    system = root / "usr/lib/systemd/system"
+    system.mkdir(parents=True)
+    for target in Path("/lib/systemd/system").glob("*.target"):
+        shutil.copy(target, system / target.name, follow_symlinks=True)
+    bin_dir = root / "opt/robot-stack/.venv/bin"
+    bin_dir.mkdir(parents=True)
+    for name in UNITS:
+        executable = unit(root / f"etc/systemd/system/{name}.service")["Service"]["ExecStart"]
+        shim = bin_dir / Path(executable.split()[0]).name
+        shim.write_text("#!/bin/sh\n")
+        shim.chmod(0o755)
+    return root
+
+
+def test_systemd_analyze_verify_is_clean_on_every_unit(installed: Path, tmp_path: Path) -> None:
+    analyze = shutil.which("systemd-analyze")
+    assert analyze, "systemd-analyze is missing: `make setup` installs the systemd package"
+    root = verify_root(installed, tmp_path)
+    units = [f"/etc/systemd/system/{u}.service" for u in UNITS]
+    result = subprocess.run(
+        [analyze, "verify", f"--root={root}", *units, "/etc/systemd/system/robot-stack.target"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    # clean = no error AND no warning (unknown keys only warn, with exit code 0)
+    assert (result.returncode, result.stdout + result.stderr) == (0, "")
+
+
+def test_verify_catches_a_broken_unit(installed: Path, tmp_path: Path) -> None:
+    """The check above can fail: a typo in a key is reported."""
+    root = verify_root(installed, tmp_path)
+    path = root / "etc/systemd/system/robot-voice-chat.service"
+    path.write_text(path.read_text().replace("ProtectClock=", "ProtectClok="))
+    result = subprocess.run(
+        [
+            "systemd-analyze",
+            "verify",
+            f"--root={root}",
+            "/etc/systemd/system/robot-voice-chat.service",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert "ProtectClok" in result.stderr
+
+
+def test_uninstall_removes_units_and_code_and_purge_removes_the_rest(tmp_path: Path) -> None:
+    run_install(tmp_path, "--skip-build")
+    (tmp_path / "var/lib/robot-mcp-memory").mkdir(parents=True)
+    run_install(tmp_path, "--uninstall")
+    assert not (tmp_path / "opt/robot-stack").exists()
+    assert not list((tmp_path / "etc/systemd/system").iterdir())
+    assert (tmp_path / "etc/robot-stack/brain.env").is_file()  # kept without --purge
+    actions = (tmp_path / "install-actions.log").read_text()
+    assert "systemctl disable --now robot-stack.target" in actions
+    run_install(tmp_path, "--uninstall", "--purge")
+    assert not (tmp_path / "etc/robot-stack").exists()
+    assert not (tmp_path / "var/lib/robot-mcp-memory").exists()
+    assert (tmp_path / "install-actions.log").read_text().splitlines()[-1] == "userdel robot"
+
+
+def test_unknown_arguments_are_refused(tmp_path: Path) -> None:
+    result = subprocess.run(
+        ["bash", str(INSTALL), "--frobnicate"],
+        env={**os.environ, "DESTDIR": str(tmp_path)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "unknown argument --frobnicate" in result.stderr

@@ -5,7 +5,7 @@ This is the only module that constructs adapters (``_target_`` per adapter YAML)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import socketio
@@ -21,7 +21,10 @@ from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.pipeline.chat import ChatPipeline
+from robot_voice_chat.services.camera.base import CameraFeed
+from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.emitter.history import ChatHistory, HistoryRecordingEmitter
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
 from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
@@ -52,6 +55,7 @@ class Adapters:
     tools: ToolBackend
     speech_output: SpeechOutput
     speech_input: SpeechInput
+    camera: CameraFeed | None = None
 
 
 def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
@@ -76,6 +80,7 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         tools=tools,
         speech_output=instantiate(config.speech_output, emitter=emitter),
         speech_input=instantiate(config.speech_input),
+        camera=HttpCameraFeed(config.ui.camera_url, config.ui.camera_timeout_s),
     )
 
 
@@ -103,6 +108,7 @@ class Container:
     teaching: Teaching
     trace: TraceRecorder
     sio: Any = None
+    history: ChatHistory = field(default_factory=ChatHistory)
 
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
@@ -120,6 +126,8 @@ class Container:
         await self.adapters.tools.aclose()
         await self.adapters.speech_output.aclose()
         await self.adapters.llm.aclose()
+        if self.adapters.camera is not None:
+            await self.adapters.camera.aclose()
         if self.adapters.planner is not None:
             await self.adapters.planner.aclose()
 
@@ -128,6 +136,8 @@ def assemble(
     config: AppConfig, adapters: Adapters, emitter: EventEmitter, sio: Any = None
 ) -> Container:
     """Wire the application layer on top of already-built adapters (tests pass fakes here)."""
+    history = ChatHistory(config.ui.chat_history_size)
+    emitter = HistoryRecordingEmitter(emitter, history)
     trace = TraceRecorder(resolve_path(config.agent.trace_dir))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
     teaching = Teaching(emitter, memory)
@@ -151,7 +161,7 @@ def assemble(
         speech=adapters.speech_output,
         config=config.chat,
     )
-    return Container(config, adapters, emitter, executor, pipeline, teaching, trace, sio)
+    return Container(config, adapters, emitter, executor, pipeline, teaching, trace, sio, history)
 
 
 def bootstrap(config: AppConfig) -> Container:

@@ -115,7 +115,9 @@ class VisionNode(Node):
         self._create_default_skills()
         if art.enabled and runtime.serve_artifacts:
             self._server = ArtifactServer(
-                build_app(self.artifacts, self.health), art.host, art.port
+                build_app(self.artifacts, self.health, runtime.frame_source.latest),
+                art.host,
+                art.port,
             )
             self._server.start()
         runtime.frame_source.start(self, on_frame=self.engine.dispatch)

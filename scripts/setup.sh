@@ -33,4 +33,14 @@ if uv run --frozen python -c "import robot_mcp_perception.sample_scenes" 2>/dev/
   uv run --frozen python -m robot_mcp_perception.sample_scenes data/scenes
   touch data/scenes/.complete
 fi
+# The operator UI (frontend/) and the browser its end-to-end tests drive (Debian's chromium;
+# Playwright launches it by path, never downloads one).
+bash scripts/build-frontend.sh
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1; then
+  echo "setup: installing chromium with apt-get (browser tests of the UI)"
+  sudo_cmd=()
+  [[ $(id -u) -ne 0 ]] && sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq chromium
+fi
 echo "setup: done"

@@ -50,6 +50,11 @@ export function useRecorder(onRecording: (blob: Blob) => Promise<void>, onError:
       const blob = new Blob(chunks, { type: rec.mimeType || 'audio/webm' });
       recorder.current = null;
       release();
+      if (blob.size === 0) {
+        setState('idle');
+        onError('Nothing was recorded: hold the button (or Space) while you speak.');
+        return;
+      }
       setState('sending');
       onRecording(blob)
         .catch((err: unknown) => onError(`Voice turn failed: ${err instanceof Error ? err.message : String(err)}`))
@@ -61,7 +66,7 @@ export function useRecorder(onRecording: (blob: Blob) => Promise<void>, onError:
       void context.close();
     };
     recorder.current = rec;
-    rec.start();
+    rec.start(250); // timeslices: Chromium delivers only a header when stopped without them
     setState('recording');
     if (!wanted.current) rec.stop(); // released before the microphone opened
   }, [onRecording, onError]);

@@ -63,11 +63,13 @@ export function PushToTalk() {
         title={available ? 'Hold (or hold Space) and speak' : reason}
         onPointerDown={(e) => {
           e.preventDefault();
+          // Capture: the release counts wherever the pointer is (the label changes size).
+          e.currentTarget.setPointerCapture?.(e.pointerId);
           begin();
         }}
         onPointerUp={stop}
-        onPointerLeave={() => recording && stop()}
-        className={`inline-flex items-center gap-1.5 rounded-full border px-3 py-2 text-sm font-medium focus-visible:outline-2 focus-visible:outline-accent
+        onPointerCancel={stop}
+        className={`inline-flex min-w-28 items-center justify-center gap-1.5 rounded-full border px-3 py-2 text-sm font-medium focus-visible:outline-2 focus-visible:outline-accent
           disabled:cursor-not-allowed disabled:opacity-50 ${
             recording ? 'border-status-failed bg-status-failed text-danger-fg' : 'border-line bg-raised text-fg'
           }`}

@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -129,7 +130,10 @@ def stack(tmp_path: Path) -> Iterator[RunningStack]:
     overrides = {**free_port_overrides(STACK_FILE), "nav_time_scale": "4"}
     with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
         wait_servers_connected(running)
-        asyncio.run(seed_memory(running))  # as the recorded run had it (mailroom process)
+        # As the recorded run had it (the mailroom process). Playwright's sync API owns this
+        # thread's event loop, so the async MCP call runs on a thread of its own.
+        with ThreadPoolExecutor(1) as pool:
+            pool.submit(lambda: asyncio.run(seed_memory(running))).result(timeout=60)
         yield running
 
 

@@ -5,16 +5,18 @@ import { useChatStore } from '@/stores/chatStore';
 import { fetchLocations, fetchPose, type LocationList, type Pose } from '../api/map';
 
 const POSE_PERIOD_MS = 400; // 2.5 Hz
-const SIZE = 300;
-const PAD = 30;
+const WIDTH = 300;
+const PAD = 34;
 
-/** Map metres → SVG pixels (y up in the map, down on screen). */
+/** Map metres → SVG pixels (y up in the map, down on screen); the height follows the map. */
 function projection(list: LocationList, pose: Pose | null) {
   const xs = list.locations.map((l) => l.x).concat(pose ? [pose.x] : []);
   const ys = list.locations.map((l) => l.y).concat(pose ? [pose.y] : []);
   const [minX, maxX, minY, maxY] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
-  const scale = (SIZE - 2 * PAD) / Math.max(maxX - minX, maxY - minY, 1);
-  return (x: number, y: number) => [PAD + (x - minX) * scale, SIZE - PAD - (y - minY) * scale] as const;
+  const scale = (WIDTH - 2 * PAD) / Math.max(maxX - minX, maxY - minY, 1);
+  const height = Math.min(WIDTH, Math.max(140, 2 * PAD + (maxY - minY) * scale));
+  const project = (x: number, y: number) => [PAD + (x - minX) * scale, height - PAD - (y - minY) * scale] as const;
+  return { project, height };
 }
 
 export function MapView() {
@@ -35,7 +37,8 @@ export function MapView() {
   }, [list]);
   usePolling(tick, list ? POSE_PERIOD_MS : 3000);
 
-  const project = useMemo(() => (list ? projection(list, pose) : null), [list, pose]);
+  const view = useMemo(() => (list ? projection(list, pose) : null), [list, pose]);
+  const project = view?.project ?? null;
   const destination = pose?.destination ?? null;
 
   return (
@@ -43,9 +46,10 @@ export function MapView() {
       {!list || !project ? (
         <p className="p-3 text-sm text-muted">{error ? `Navigation unavailable: ${error}` : 'Loading the map…'}</p>
       ) : (
-        <svg viewBox={`0 0 ${SIZE} ${SIZE}`} className="block w-full bg-map-floor" role="group" aria-label="Floor map">
-          {list.locations.map((loc) => {
+        <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor" role="group" aria-label="Floor map">
+          {list.locations.map((loc, index) => {
             const [cx, cy] = project(loc.x, loc.y);
+            const below = index % 2 === 1; // neighbours' names alternate above/below their dots
             const isDestination = loc.name === destination;
             return (
               <g
@@ -64,6 +68,8 @@ export function MapView() {
                 }}
               >
                 <title>{loc.description || loc.name}</title>
+                {/* A generous, invisible tap target covering the dot and its name. */}
+                <rect x={cx - 34} y={cy - 26} width={68} height={38} fill="transparent" />
                 <circle
                   cx={cx}
                   cy={cy}
@@ -71,7 +77,7 @@ export function MapView() {
                   className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
                   strokeWidth={2}
                 />
-                <text x={cx} y={cy - 12} textAnchor="middle" className="fill-fg text-[10px]">
+                <text x={cx} y={below ? cy + 20 : cy - 12} textAnchor="middle" className="fill-fg text-[10px]">
                   {loc.name}
                 </text>
               </g>

@@ -19,6 +19,29 @@ function projection(list: LocationList, pose: Pose | null) {
   return { project, height };
 }
 
+type Box = { x0: number; y0: number; x1: number; y1: number };
+const overlaps = (a: Box, b: Box) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+
+/** Name positions (label baselines) that avoid each other: above, below, right, left. */
+export function placeLabels(points: { name: string; cx: number; cy: number }[]): Map<string, [number, number, 'middle' | 'start' | 'end']> {
+  const placed: Box[] = points.map((p) => ({ x0: p.cx - 7, y0: p.cy - 7, x1: p.cx + 7, y1: p.cy + 7 }));
+  const result = new Map<string, [number, number, 'middle' | 'start' | 'end']>();
+  for (const p of points) {
+    const w = p.name.length * 5.6;
+    const options: [number, number, 'middle' | 'start' | 'end', Box][] = [
+      [p.cx, p.cy - 12, 'middle', { x0: p.cx - w / 2, y0: p.cy - 22, x1: p.cx + w / 2, y1: p.cy - 10 }],
+      [p.cx, p.cy + 20, 'middle', { x0: p.cx - w / 2, y0: p.cy + 10, x1: p.cx + w / 2, y1: p.cy + 22 }],
+      [p.cx + 10, p.cy + 4, 'start', { x0: p.cx + 10, y0: p.cy - 6, x1: p.cx + 10 + w, y1: p.cy + 6 }],
+      [p.cx - 10, p.cy + 4, 'end', { x0: p.cx - 10 - w, y0: p.cy - 6, x1: p.cx - 10, y1: p.cy + 6 }],
+    ];
+    const free = options.find(([, , , box]) => !placed.some((b) => overlaps(b, box))) ?? options[0];
+    if (!free) continue;
+    placed.push(free[3]);
+    result.set(p.name, [free[0], free[1], free[2]]);
+  }
+  return result;
+}
+
 export function MapView() {
   const [list, setList] = useState<LocationList | null>(null);
   const [pose, setPose] = useState<Pose | null>(null);
@@ -39,6 +62,13 @@ export function MapView() {
 
   const view = useMemo(() => (list ? projection(list, pose) : null), [list, pose]);
   const project = view?.project ?? null;
+  const labels = useMemo(
+    () =>
+      list && view
+        ? placeLabels(list.locations.map((l) => ({ name: l.name, cx: view.project(l.x, l.y)[0], cy: view.project(l.x, l.y)[1] })))
+        : new Map<string, [number, number, 'middle' | 'start' | 'end']>(),
+    [list, view],
+  );
   const destination = pose?.destination ?? null;
 
   return (
@@ -47,9 +77,9 @@ export function MapView() {
         <p className="p-3 text-sm text-muted">{error ? `Navigation unavailable: ${error}` : 'Loading the map…'}</p>
       ) : (
         <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor" role="group" aria-label="Floor map">
-          {list.locations.map((loc, index) => {
+          {list.locations.map((loc) => {
             const [cx, cy] = project(loc.x, loc.y);
-            const below = index % 2 === 1; // neighbours' names alternate above/below their dots
+            const [lx, ly, anchor] = labels.get(loc.name) ?? [cx, cy - 12, 'middle'];
             const isDestination = loc.name === destination;
             return (
               <g
@@ -77,7 +107,7 @@ export function MapView() {
                   className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
                   strokeWidth={2}
                 />
-                <text x={cx} y={below ? cy + 20 : cy - 12} textAnchor="middle" className="fill-fg text-[10px]">
+                <text x={lx} y={ly} textAnchor={anchor} className="fill-fg text-[10px]">
                   {loc.name}
                 </text>
               </g>

@@ -5,6 +5,33 @@ import { useConnectionStore } from '@/stores/connectionStore';
 import { useMissionStore } from '@/stores/missionStore';
 import { useSettingsStore } from '@/stores/settingsStore';
 import { useToastStore } from '@/stores/toastStore';
+import type { MissionPlanPayload } from '@/types/events';
+
+/**
+ * mission_plan snapshots are full states, so only the newest one per animation frame needs
+ * rendering (a burst of hundreds per second costs one render per frame, never a lost final
+ * state). Every other mission event first flushes the pending snapshot to keep the order.
+ */
+function planCoalescer(apply: (snapshot: MissionPlanPayload) => void) {
+  let pending: MissionPlanPayload | null = null;
+  let scheduled = false;
+  const flush = () => {
+    scheduled = false;
+    if (pending) {
+      const latest = pending;
+      pending = null;
+      apply(latest);
+    }
+  };
+  const push = (snapshot: MissionPlanPayload) => {
+    pending = snapshot;
+    if (scheduled) return;
+    scheduled = true;
+    if (document.visibilityState === 'visible') requestAnimationFrame(flush);
+    else setTimeout(flush, 100);
+  };
+  return { push, flush };
+}
 
 /** Socket.IO events → stores (the only place server state enters the UI). */
 export function wireEvents(socket: RobotSocket, onReconnect: () => void): () => void {
@@ -26,10 +53,18 @@ export function wireEvents(socket: RobotSocket, onReconnect: () => void): () => 
   socket.on('chat_delta', (e) => chat().delta(e.turn_id, e.text));
   socket.on('chat_message', (e) => chat().message(e.turn_id, e.role, e.text));
   socket.on('chat_error', (e) => chat().error(e.turn_id, e.message));
-  socket.on('mission_started', (e) => missions().started(e));
-  socket.on('mission_plan', (e) => missions().applySnapshot(e));
-  socket.on('mission_event', (e) => missions().addEvent(e));
+  const plans = planCoalescer((e) => missions().applySnapshot(e));
+  socket.on('mission_started', (e) => {
+    plans.flush();
+    missions().started(e);
+  });
+  socket.on('mission_plan', (e) => plans.push(e));
+  socket.on('mission_event', (e) => {
+    plans.flush();
+    missions().addEvent(e);
+  });
   socket.on('mission_finished', (e) => {
+    plans.flush();
     const mission = missions().mission;
     missions().finished(e);
     chat().summary({

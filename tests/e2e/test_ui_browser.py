@@ -80,9 +80,15 @@ class ConsoleErrors(list[str]):
             self.append(f"{message.text} @ {message.location.get('url', '')}")
 
 
-def open_ui(browser: Browser, url: str, size: str = "1280x800") -> tuple[Page, ConsoleErrors]:
+def open_ui(
+    browser: Browser, url: str, size: str = "1280x800", theme: str = "light"
+) -> tuple[Page, ConsoleErrors]:
+    """A page at ``size``; the tablet runs the dark theme (the OS preference picks it)."""
     width, height = VIEWPORTS[size]
-    page = browser.new_page(viewport={"width": width, "height": height})
+    page = browser.new_page(
+        viewport={"width": width, "height": height},
+        color_scheme="dark" if theme == "dark" else "light",
+    )
     errors = ConsoleErrors()
     page.on("console", errors)
     page.on("pageerror", lambda exc: errors.append(f"page error: {exc}"))
@@ -141,7 +147,8 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     browser: Browser, stack: RunningStack
 ) -> None:
     page, errors = open_ui(browser, stack.brain_url)
-    tablet, tablet_errors = open_ui(browser, stack.brain_url, "768x1024")
+    tablet, tablet_errors = open_ui(browser, stack.brain_url, "768x1024", "dark")
+    assert tablet.evaluate("document.documentElement.dataset.theme") == "dark"
     expect(page.get_by_role("region", name="Status")).to_contain_text("navigation")
     expect(page.get_by_role("region", name="Status")).to_contain_text("replay")
     expect(page.get_by_role("img", name="Camera")).to_have_js_property("complete", True)

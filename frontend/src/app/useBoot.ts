@@ -12,13 +12,7 @@ import { wireEvents } from './wireEvents';
 /** After a (re)load or reconnect: the active mission as the brain holds it (spec §11.2). */
 export async function rehydrateMission(): Promise<void> {
   const detail = await fetchActiveMission();
-  const store = useMissionStore.getState();
-  if (!detail) return;
-  if (store.mission?.id === detail.mission_id && store.activity.length > 0) {
-    store.applySnapshot(detail);
-    return;
-  }
-  store.rehydrate(detail, detail.events.map(traceLine));
+  if (detail) useMissionStore.getState().rehydrate(detail, detail.events.map(traceLine));
 }
 
 export function useBoot(): void {

@@ -56,6 +56,17 @@ describe('missionStore', () => {
     expect(store().activity.map((l) => l.text)).toEqual(['nav-1 task_failed']);
   });
 
+  it('a late REST rehydrate keeps newer live steps and lines but adds the instruction', () => {
+    store().applySnapshot({ ...fiveStates, steps: fiveStates.steps!.slice(0, 2) });
+    store().addEvent({ mission_id: 'm-abc123', kind: 'say', text: 'live line', ts: 2 });
+    store().rehydrate({ ...fiveStates, steps: fiveStates.steps!.slice(0, 1), instruction: 'Fetch it' }, [
+      { kind: 'task_event', text: 'old trace line', ts: 1 },
+    ]);
+    expect(store().mission?.instruction).toBe('Fetch it');
+    expect(store().mission?.steps.map((s) => s.id)).toEqual(['s1', 's1b']);
+    expect(store().activity.map((l) => l.text)).toEqual(['live line']);
+  });
+
   it('mission_finished sets the outcome of the current mission only', () => {
     store().applySnapshot(fiveStates);
     store().finished({ mission_id: 'm-other', outcome: 'failed', summary: '' });

@@ -118,8 +118,25 @@ export const useMissionStore = create<MissionStore>()((set) => ({
       if (!state.mission || state.mission.id !== event.mission_id) return state;
       return { mission: { ...state.mission, state: event.outcome, endedAt: state.mission.endedAt ?? Date.now() / 1000 } };
     }),
+  // The REST snapshot may arrive after live events of the same mission: those are newer, so
+  // keep their steps and lines and take only what snapshots lack (instruction, teaching).
   rehydrate: (snapshot, lines) =>
     set((state) => {
+      const live = state.mission?.id === snapshot.mission_id ? state.mission : null;
+      if (live) {
+        const kept = state.activity.length > 0 ? state.activity : lines.slice(-ACTIVITY_LIMIT).map((l, i) => ({ ...l, key: state.nextKey + i }));
+        return {
+          mission: {
+            ...live,
+            instruction: snapshot.instruction,
+            teaching: snapshot.teaching ?? live.teaching,
+            steps: live.steps.length > 0 ? live.steps : stepsFrom(snapshot, null),
+            startedAt: live.startedAt ?? snapshot.started_at ?? null,
+          },
+          activity: kept,
+          nextKey: state.nextKey + kept.length,
+        };
+      }
       const mission: Mission = {
         ...emptyMission(snapshot.mission_id),
         instruction: snapshot.instruction,

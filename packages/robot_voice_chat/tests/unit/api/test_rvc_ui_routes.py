@@ -255,3 +255,4 @@ async def test_ui_config_tells_the_browser_what_it_may_do(
     assert "speech_input: none" in config["speech_input_reason"]
     assert config["speech_output_browser"] is False
     assert config["deployment"] == "dev"
+    assert config["auth"] is False

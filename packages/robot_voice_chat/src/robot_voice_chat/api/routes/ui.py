@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, FastAPI
+from fastapi import APIRouter, FastAPI, Request
 from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -21,8 +21,9 @@ NOT_BUILT = """<!doctype html><meta charset="utf-8"><title>UI not built</title>
 
 
 @router.get("/config", operation_id="ui_config")
-async def ui_config(container: ContainerDep) -> dict[str, Any]:
+async def ui_config(request: Request, container: ContainerDep) -> dict[str, Any]:
     adapters = container.adapters
+    auth = any(getattr(route, "path", None) == "/api/auth/me" for route in request.app.routes)
     speech_input = adapters.speech_input.configured
     return {
         "deployment": container.config.deployment,
@@ -34,6 +35,7 @@ async def ui_config(container: ContainerDep) -> dict[str, Any]:
         else "No speech input is configured on the robot (speech_input: none).",
         "speech_output_browser": adapters.speech_output.in_browser,
         "camera": adapters.camera is not None,
+        "auth": auth,  # operator login present: the UI asks /api/auth/me before it starts
     }
 
 

@@ -10,7 +10,7 @@ export function EmergencyStop() {
   const stop = useCallback(() => {
     silence();
     stopPipeline().then(
-      () => useToastStore.getState().push('info', 'Emergency stop sent: motion halted.'),
+      () => useToastStore.getState().push('info', 'Emergency stop sent: the brain cancels motion and stops vision skills.'),
       (err: unknown) => useToastStore.getState().push('error', `Emergency stop failed: ${String(err)}`),
     );
   }, []);

@@ -3,7 +3,7 @@ SHELL := /bin/bash
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export PATH := $(HOME)/.local/bin:$(PATH)
 
-.PHONY: setup demo test lint format typecheck audit bench clean help
+.PHONY: setup demo demo-mission test lint format typecheck audit bench clean help
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -11,7 +11,10 @@ help:  ## list the targets
 setup:  ## install uv, sync the locked workspace, build the ROS 2 interfaces, make sample frames
 	@bash scripts/setup.sh
 
-demo: setup  ## run the stack on the embedded defaults (no keys, no GPU) and show what it does
+demo: setup  ## the whole stack with the operator UI on http://127.0.0.1:8000 (Ctrl+C stops it)
+	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} uv run --frozen python scripts/ui_demo.py
+
+demo-mission: setup  ## one mailroom mission on the embedded defaults, narrated in the terminal
 	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} uv run --frozen python scripts/demo.py
 
 test: setup lint  ## lint + type-check + every test suite with per-package coverage gates

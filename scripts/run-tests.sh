@@ -47,6 +47,21 @@ run_suite interfaces interfaces -q
 # deploy: colcon build of the ROS packages, install.sh in a throwaway root, systemd-analyze
 # verify of the units, smoke.sh against a local stack on free ports.
 run_suite deploy tests/deploy -q
+
+# The operator UI: generated event types match the brain's models, typecheck, eslint, vitest,
+# and a production build into the brain's static directory (served by the e2e tests below).
+run_frontend() {
+  local started=$SECONDS rc=0
+  echo "=== frontend"
+  bash scripts/build-frontend.sh || rc=$?
+  if ((rc == 0)); then
+    (cd frontend && node scripts/gen-events.mjs --check && npm run --silent typecheck \
+      && npm run --silent lint && npx vitest run --reporter=dot && npm run --silent build) || rc=$?
+  fi
+  summary+=("frontend: rc=$rc $((SECONDS - started))s")
+  ((rc == 0)) || failed+=("frontend")
+}
+run_frontend
 if compgen -G "tests/e2e/test_*.py" >/dev/null; then
   run_suite e2e tests/e2e -q
 fi

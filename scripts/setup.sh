@@ -50,4 +50,14 @@ if [[ ! -f $inspector/node_modules/.package-lock.json \
     echo "setup: npm not found; the stdio tests need it (apt-get install npm)" >&2
   fi
 fi
+# The operator UI (frontend/) and the browser its end-to-end tests drive (Debian's chromium;
+# Playwright launches it by path, never downloads one).
+bash scripts/build-frontend.sh
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1; then
+  echo "setup: installing chromium with apt-get (browser tests of the UI)"
+  sudo_cmd=()
+  [[ $(id -u) -ne 0 ]] && sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq chromium
+fi
 echo "setup: done"

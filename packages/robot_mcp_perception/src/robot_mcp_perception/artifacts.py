@@ -12,7 +12,9 @@ Routes (all GET, bound to 127.0.0.1):
   ``status`` is ``ok``;
 - ``/skills/{skill}/masks`` — the kept mask refs of a skill;
 - ``/masks/{skill}/{stamp_ns}/{index}.png`` — one mask (mono8 PNG);
-- ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``.
+- ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``;
+- ``/frames/latest.jpg`` — the newest camera frame with the newest overlay of every kept
+  skill drawn on it (the operator UI's camera view, proxied by the brain).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ logger = structlog.get_logger("robot_mcp_perception.artifacts")
 
 OverlayRenderer = Callable[[Image, SkillResult], Image]
 HealthProvider = Callable[[], dict[str, Any]]
+LatestFrame = Callable[[], Frame | None]
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,12 @@ class _StoredMask:
         flat = np.unpackbits(self.bits, count=count).astype(bool)
         pixels = np.where(flat.reshape(self.shape), np.uint8(255), np.uint8(0))
         return _png(pixels.astype(np.uint8))
+
+
+def _jpeg(pixels: Image | npt.NDArray[np.uint8], quality: int = 80) -> bytes:
+    buffer = io.BytesIO()
+    PILImage.fromarray(pixels).convert("RGB").save(buffer, format="JPEG", quality=quality)
+    return buffer.getvalue()
 
 
 def _png(pixels: Image | npt.NDArray[np.uint8]) -> bytes:
@@ -159,12 +168,28 @@ class ArtifactStore:
                 return _png(np.asarray(image, dtype=np.uint8))
         return None
 
+    def live_view_jpeg(self, frame: Frame) -> bytes:
+        """``frame`` with the newest result of every kept (not retired) skill drawn on it."""
+        with self._lock:
+            latest = [
+                kept[-1][2]
+                for skill, kept in self._overlays.items()
+                if kept and skill not in self._retired
+            ]
+        image = frame.image
+        if self.renderer is not None:
+            for result in latest:
+                image = self.renderer(image, result)
+        return _jpeg(np.asarray(image, dtype=np.uint8))
+
     def approx_bytes(self) -> int:
         with self._lock:
             return sum(m.bits.nbytes for per in self._masks.values() for m in per.values())
 
 
-def build_app(store: ArtifactStore, health: HealthProvider) -> Starlette:
+def build_app(
+    store: ArtifactStore, health: HealthProvider, latest_frame: LatestFrame | None = None
+) -> Starlette:
     async def healthz(request: Request) -> JSONResponse:
         payload = health()
         return JSONResponse(payload, status_code=200 if payload.get("status") == "ok" else 503)
@@ -182,8 +207,22 @@ def build_app(store: ArtifactStore, health: HealthProvider) -> Starlette:
         params = request.path_params
         return _png_or_404(store.overlay_png(params["skill"], params.get("stamp_ns")), "overlay")
 
+    async def live_view(request: Request) -> Response:
+        frame = latest_frame() if latest_frame is not None else None
+        if frame is None:
+            return JSONResponse(
+                {"error": "no_frame", "detail": "the camera has not delivered a frame yet."},
+                status_code=503,
+            )
+        return Response(
+            store.live_view_jpeg(frame),
+            media_type="image/jpeg",
+            headers={"Cache-Control": "no-store"},
+        )
+
     return Starlette(
         routes=[
+            Route("/frames/latest.jpg", live_view),
             Route("/healthz", healthz),
             Route("/skills/{skill}/masks", list_masks),
             Route("/masks/{skill}/{stamp_ns:int}/{index:int}.png", mask),

@@ -129,7 +129,9 @@ class VisionNode(Node):
         self._server: ArtifactServer | None = None
         if art.enabled and runtime.serve_artifacts:  # first: a busy port stops us before work
             self._server = ArtifactServer(
-                build_app(self.artifacts, self.health), art.host, art.port
+                build_app(self.artifacts, self.health, runtime.frame_source.latest),
+                art.host,
+                art.port,
             )
             self._server.start()
         self.scheduler.start()

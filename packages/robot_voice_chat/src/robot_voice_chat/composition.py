@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import socketio
@@ -28,7 +28,10 @@ from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
 from robot_voice_chat.pipeline.chat import ChatPipeline
+from robot_voice_chat.services.camera.base import CameraFeed
+from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.emitter.history import ChatHistory, HistoryRecordingEmitter
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
 from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
@@ -97,6 +100,7 @@ class Adapters:
     tools: ToolBackend
     speech_output: SpeechOutput
     speech_input: SpeechInput
+    camera: CameraFeed | None = None
 
 
 def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
@@ -116,6 +120,7 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         tools=tools,
         speech_output=build_adapter("speech_output", config.speech_output, emitter=emitter),
         speech_input=build_adapter("speech_input", config.speech_input),
+        camera=HttpCameraFeed(config.ui.camera_url, config.ui.camera_timeout_s),
     )
 
 
@@ -140,6 +145,7 @@ class Container:
     trace: TraceRecorder
     sio: Any = None
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
+    history: ChatHistory = field(default_factory=ChatHistory)
 
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
@@ -157,6 +163,8 @@ class Container:
         await self.adapters.tools.aclose()
         await self.adapters.speech_output.aclose()
         await self.adapters.llm.aclose()
+        if self.adapters.camera is not None:
+            await self.adapters.camera.aclose()
         if self.adapters.planner is not None:
             await self.adapters.planner.aclose()
 
@@ -165,6 +173,8 @@ def assemble(
     config: AppConfig, adapters: Adapters, emitter: EventEmitter, sio: Any = None
 ) -> Container:
     """Wire the application layer on top of already-built adapters (tests pass fakes here)."""
+    history = ChatHistory(config.ui.chat_history_size)
+    emitter = HistoryRecordingEmitter(emitter, history)
     agent = config.agent
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
@@ -191,7 +201,9 @@ def assemble(
         speech=adapters.speech_output,
         config=config.chat,
     )
-    return Container(config, adapters, emitter, executor, pipeline, teaching, trace, sio)
+    return Container(
+        config, adapters, emitter, executor, pipeline, teaching, trace, sio, history=history
+    )
 
 
 def bootstrap(config: AppConfig) -> Container:

@@ -160,6 +160,18 @@ class AuthConfig(BaseModel):
     trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
 
 
+class UiConfig(BaseModel):
+    """The operator's web app: where its build lives and what the brain proxies for it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    static_dir: str = ""  # "" = the package's static/ (built by `make setup`)
+    camera_url: str = "http://127.0.0.1:9112"  # the vision node's artifacts server
+    camera_timeout_s: float = Field(2.0, gt=0)
+    chat_history_size: int = Field(50, ge=0)
+    tool_timeout_s: float = Field(3.0, gt=0)  # pose / locations / detections for the UI
+
+
 class AppConfig(BaseModel):
     """The composed tree. Adapter groups stay dicts with ``_target_`` (built by Hydra)."""
 
@@ -175,6 +187,7 @@ class AppConfig(BaseModel):
     api: ApiConfig = Field(default_factory=ApiConfig)
     chat: ChatConfig = Field(default_factory=ChatConfig)
     auth: AuthConfig = Field(default_factory=AuthConfig)
+    ui: UiConfig = Field(default_factory=UiConfig)
 
     @field_validator("llm", "speech_output", "speech_input")
     @classmethod

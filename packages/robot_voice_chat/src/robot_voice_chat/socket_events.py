@@ -33,6 +33,7 @@ class MissionStarted(SocketEvent):
     mission_id: str
     instruction: str
     teaching: bool = False
+    started_at: float | None = None  # epoch seconds (the UI's elapsed-time clock)
 
 
 class MissionPlan(SocketEvent):
@@ -42,6 +43,8 @@ class MissionPlan(SocketEvent):
     mission_id: str
     state: MissionState
     steps: list[StepView] = Field(default_factory=list)
+    started_at: float | None = None  # epoch seconds
+    ended_at: float | None = None
 
 
 class MissionEventLine(SocketEvent):

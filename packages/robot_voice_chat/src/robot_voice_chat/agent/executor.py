@@ -126,7 +126,10 @@ class MissionExecutor:
         )
         await self.emitter.emit(
             MissionStarted(
-                mission_id=mission.id, instruction=instruction, teaching=mission.teaching
+                mission_id=mission.id,
+                instruction=instruction,
+                teaching=mission.teaching,
+                started_at=mission.created_at.timestamp(),
             )
         )
         with structlog.contextvars.bound_contextvars(mission_id=mission.id):

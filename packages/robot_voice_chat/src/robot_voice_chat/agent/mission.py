@@ -87,6 +87,8 @@ class Mission:
                 )
                 for s in self.steps
             ],
+            started_at=self.created_at.timestamp(),
+            ended_at=self.ended_at.timestamp() if self.ended_at else None,
         )
 
     def summary_row(self) -> dict[str, Any]:

@@ -14,7 +14,7 @@ from slowapi.errors import RateLimitExceeded
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
-from robot_voice_chat.api.routes import agent, chat, health
+from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.composition import Container
 
@@ -47,6 +47,9 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     app.include_router(health.router)
     app.include_router(chat.router)
     app.include_router(agent.build_router(container.config.api))
+    for router in (chat_history.router, camera.router, robot_map.router, ui.router):
+        app.include_router(router)
+    ui.mount_ui(app, ui.static_dir(container.config.ui.static_dir))  # last: "/" catch-all
     return app
 
 

@@ -34,6 +34,9 @@ def split_sentences(text: str) -> list[str]:
 class SpeechOutput(abc.ABC):
     """Port: speak text sentence by sentence; ``interrupt`` drops everything queued."""
 
+    #: True when the browser does the talking (``speak`` events); the UI then speaks them.
+    in_browser: bool = False
+
     @abc.abstractmethod
     async def speak_sentence(self, sentence: str) -> None:
         """Queue one sentence (never blocks until it is spoken)."""
@@ -67,6 +70,9 @@ class TranscriptionError(RuntimeError):
 
 class SpeechInput(abc.ABC):
     """Port: audio bytes of one user utterance → text."""
+
+    #: False for the placeholder adapter: the UI disables its microphone and says why.
+    configured: bool = True
 
     @abc.abstractmethod
     async def transcribe(self, audio: bytes, mime_type: str) -> str: ...

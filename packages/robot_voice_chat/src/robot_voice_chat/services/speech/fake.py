@@ -30,6 +30,8 @@ class FakeSpeechInput(SpeechInput):
 class NoSpeechInput(SpeechInput):
     """Selected when no transcription provider is configured; says so clearly."""
 
+    configured = False
+
     async def transcribe(self, audio: bytes, mime_type: str) -> str:
         from robot_voice_chat.services.speech.base import TranscriptionError
 

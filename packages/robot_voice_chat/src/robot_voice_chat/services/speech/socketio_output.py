@@ -12,6 +12,8 @@ from robot_voice_chat.socket_events import Speak, SpeechInterrupted
 class SocketIOSpeechOutput(SpeechOutput):
     """The browser keeps the queue; ``interrupt`` tells it to drop it."""
 
+    in_browser = True
+
     def __init__(self, emitter: EventEmitter) -> None:
         self._emitter = emitter
 

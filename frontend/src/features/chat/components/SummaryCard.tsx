@@ -1,0 +1,27 @@
+import { StatusChip } from '@/components/ui/StatusChip';
+import { PlanList } from '@/features/mission/components/PlanStep';
+import type { FeedItem } from '@/stores/chatStore';
+import type { MissionState } from '@/stores/missionStore';
+
+type Summary = Extract<FeedItem, { kind: 'summary' }>;
+
+/** mission_finished: the panel collapses into this card in the conversation feed. */
+export function SummaryCard({ item }: { item: Summary }) {
+  return (
+    <article aria-label={`Mission summary ${item.missionId}`} className="rounded-lg border border-line bg-surface px-3 py-2">
+      <header className="flex items-center gap-2">
+        <h3 className="min-w-0 flex-1 truncate text-sm font-semibold">{item.instruction || `Mission ${item.missionId}`}</h3>
+        <StatusChip state={item.outcome as MissionState} />
+      </header>
+      {item.summary && <p className="mt-1 text-sm">{item.summary}</p>}
+      {item.steps.length > 0 && (
+        <details className="mt-1">
+          <summary className="cursor-pointer text-xs text-muted">{item.steps.length} steps</summary>
+          <div className="mt-1">
+            <PlanList steps={item.steps} label="Final plan" compact />
+          </div>
+        </details>
+      )}
+    </article>
+  );
+}

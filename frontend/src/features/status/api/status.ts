@@ -1,0 +1,15 @@
+import { apiGet } from '@/lib/api-client';
+import type { UiConfig } from '@/stores/settingsStore';
+
+export interface Readiness {
+  status: 'ready' | 'degraded';
+  data: {
+    mcp_servers: Record<string, 'connected' | 'connecting' | 'disconnected'>;
+    llm: string;
+    planner: string | null;
+    deployment: string;
+  };
+}
+
+export const fetchReadiness = () => apiGet<Readiness>('/api/readyz');
+export const fetchUiConfig = () => apiGet<UiConfig>('/api/ui/config');

@@ -1,0 +1,60 @@
+import { useCallback, useState } from 'react';
+import { usePolling } from '@/lib/usePolling';
+import { useConnectionStore } from '@/stores/connectionStore';
+import { fetchReadiness, type Readiness } from '../api/status';
+
+const SERVER_TONE = {
+  connected: 'bg-status-succeeded',
+  connecting: 'bg-status-skipped',
+  disconnected: 'bg-status-failed',
+} as const;
+
+export function StatusBar() {
+  const socket = useConnectionStore();
+  const [ready, setReady] = useState<Readiness | null>(null);
+  const [unreachable, setUnreachable] = useState(false);
+  const tick = useCallback(async () => {
+    try {
+      setReady(await fetchReadiness());
+      setUnreachable(false);
+    } catch {
+      setUnreachable(true);
+    }
+  }, []);
+  usePolling(tick, 5000);
+
+  const socketText =
+    socket.state === 'connected'
+      ? 'connected'
+      : socket.state === 'reconnecting'
+        ? `reconnecting (attempt ${socket.attempts})`
+        : socket.state;
+  return (
+    <footer className="border-t border-line bg-surface">
+      <section aria-label="Status" className="flex flex-wrap items-center gap-x-4 gap-y-1 px-3 py-1.5 text-xs">
+        <span className="flex items-center gap-1.5">
+          <span
+            aria-hidden="true"
+            className={`h-2 w-2 rounded-full ${socket.state === 'connected' ? 'bg-status-succeeded' : 'bg-status-failed'}`}
+          />
+          Socket: <strong data-socket-state={socket.state}>{socketText}</strong>
+        </span>
+        {unreachable && <span className="text-status-failed">Brain unreachable</span>}
+        {ready &&
+          Object.entries(ready.data.mcp_servers).map(([name, state]) => (
+            <span key={name} className="flex items-center gap-1" title={`${name}: ${state}`}>
+              <span aria-hidden="true" className={`h-2 w-2 rounded-full ${SERVER_TONE[state]}`} />
+              {name} <span className="text-muted">{state}</span>
+            </span>
+          ))}
+        {ready && (
+          <span className="ml-auto text-muted">
+            planner <strong className="text-fg">{ready.data.planner ?? 'off'}</strong> · chat{' '}
+            <strong className="text-fg">{ready.data.llm}</strong> · deployment{' '}
+            <strong className="text-fg">{ready.data.deployment}</strong>
+          </span>
+        )}
+      </section>
+    </footer>
+  );
+}

@@ -53,7 +53,9 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     try:
         ports = free_port_overrides(STACK_FILE) if args.free_ports else {}
-        overrides = {**ports, "nav_time_scale": args.nav_time_scale}
+        # The brain runs the dev preset as shipped (rules chat + rules planner), so a person
+        # can type any command it understands, not only the recorded mission's sentence.
+        overrides = {**ports, "nav_time_scale": args.nav_time_scale, "brain_config_overrides": ""}
         with mailroom_stack(ROOT, VAR_DIR, overrides, stack_file=STACK_FILE) as stack:
             for name, process in stack.services.items():
                 say(f"demo:   {name:<12} pid {process.pid}")
@@ -62,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
             say("")
             say(f"    Open {stack.brain_url}/ in a browser")
             say(f'    and type: "{MAILROOM_REQUEST}"')
+            say('    or "go to the kitchen", "find the scissors", "what do you see", "stop"')
             say("")
             say(f"demo: logs and mission traces in {VAR_DIR} — Ctrl+C stops everything")
             signal.pause()  # until Ctrl+C (SIGINT raises KeyboardInterrupt)

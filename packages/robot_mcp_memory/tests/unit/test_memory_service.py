@@ -111,7 +111,9 @@ async def test_unknown_ids_are_not_found_errors_with_a_hint(memory: ProcessMemor
     error = await error_of(memory.record_outcome("nope", True, ""))
 
     assert error.code == "not_found"
-    assert error.detail.startswith("no process 'nope' for robot 'robot-1'")
+    assert error.detail.startswith(
+        "no process 'nope' visible to robot 'robot-1' (robot visibility)"
+    )
     assert "list_processes" in error.detail
 
 
@@ -181,8 +183,11 @@ async def test_list_pages_through_processes(memory: ProcessMemory) -> None:
         "task_pattern",
         "tags",
         "current_version",
+        "saved_by",
         "successes",
         "failures",
+        "robot_successes",
+        "robot_failures",
         "updated_at",
     }
 

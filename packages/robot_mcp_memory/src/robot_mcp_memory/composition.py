@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from robot_mcp_memory.config import MemoryConfig
+from robot_mcp_memory.coverage import CoverageReranker
 from robot_mcp_memory.embeddings import Embedder, EmbeddingReranker, MiniLMEmbedder
 from robot_mcp_memory.service import ProcessMemory
 from robot_mcp_memory.store.base import ProcessStore
@@ -46,5 +47,6 @@ def build_memory(config: MemoryConfig, store: ProcessStore | None = None) -> Pro
         candidate_pool=config.candidate_pool,
         synonyms=config.synonyms,
         concept_weight=config.concept_weight,
+        coverage=CoverageReranker(config.coverage_weight),
         timeout_s=config.timeout_s,
     )

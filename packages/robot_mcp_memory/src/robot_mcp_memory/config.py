@@ -13,9 +13,11 @@
 - ``MEMORY_ROBOT_OUTCOME_FACTOR`` (``3``): how much more this robot's outcomes count in the
   ranking than another robot's (:mod:`.ranking`)
 - ``MEMORY_OUTCOME_WEIGHT`` (``0.5``): ``w`` of the outcome boost (:mod:`.ranking`)
-- ``MEMORY_CANDIDATES`` (``50``): BM25 candidates re-ordered by outcomes / embeddings
+- ``MEMORY_CANDIDATES`` (``100``): text-search candidates re-ranked by coverage / outcomes
 - ``MEMORY_SYNONYMS`` (``true``): search the synonym concepts of the query's words too
-- ``MEMORY_CONCEPT_WEIGHT`` (``0.5``): weight of concept matches against literal word matches
+- ``MEMORY_CONCEPT_WEIGHT`` (``1.0``): weight of concept matches against literal word matches
+- ``MEMORY_COVERAGE_WEIGHT`` (``0.5``): ``γ``, share of query coverage in the relevance
+  (:mod:`.coverage`)
 - ``MEMORY_RERANKER`` (``none``): ``none`` or ``minilm`` (needs the ``[embeddings]`` extra)
 - ``MEMORY_RERANK_WEIGHT`` (``0.5``): ``β``, share of embedding similarity in the relevance
 - ``MEMORY_TIMEOUT_S`` (``10``): deadline of one store call
@@ -60,6 +62,7 @@ _ENV_FIELDS = {
     "MEMORY_CANDIDATES": "candidate_pool",
     "MEMORY_SYNONYMS": "synonyms",
     "MEMORY_CONCEPT_WEIGHT": "concept_weight",
+    "MEMORY_COVERAGE_WEIGHT": "coverage_weight",
     "MEMORY_RERANKER": "reranker",
     "MEMORY_RERANK_WEIGHT": "rerank_weight",
     "MEMORY_TIMEOUT_S": "timeout_s",
@@ -82,9 +85,10 @@ class MemoryConfig(BaseModel):
     visibility_setting: Visibility | None = None
     robot_factor: float = Field(default=3.0, ge=1.0, le=100.0)
     outcome_weight: float = Field(default=0.5, ge=0.0, le=1.0)
-    candidate_pool: int = Field(default=50, ge=1, le=1000)
+    candidate_pool: int = Field(default=100, ge=1, le=1000)
     synonyms: bool = True
-    concept_weight: float = Field(default=0.5, ge=0.0, le=2.0)
+    concept_weight: float = Field(default=1.0, ge=0.0, le=2.0)
+    coverage_weight: float = Field(default=0.5, ge=0.0, le=1.0)
     reranker: Literal["none", "minilm"] = "none"
     rerank_weight: float = Field(default=0.5, ge=0.0, le=1.0)
     timeout_s: float = Field(default=10.0, gt=0.0, le=300.0)

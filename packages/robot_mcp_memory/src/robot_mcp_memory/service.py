@@ -14,6 +14,7 @@ from typing import Any, TypeVar
 
 import structlog
 
+from robot_mcp_memory.coverage import CoverageReranker
 from robot_mcp_memory.documents import DocumentError, parse_process
 from robot_mcp_memory.embeddings import EmbeddingReranker
 from robot_mcp_memory.query import build_query
@@ -49,15 +50,17 @@ class ProcessMemory:
         store: ProcessStore,
         *,
         reranker: EmbeddingReranker | None = None,
+        coverage: CoverageReranker | None = None,
         outcome_weight: float = DEFAULT_OUTCOME_WEIGHT,
         robot_factor: float = DEFAULT_ROBOT_FACTOR,
-        candidate_pool: int = 50,
+        candidate_pool: int = 100,
         synonyms: bool = True,
-        concept_weight: float = 0.5,
+        concept_weight: float = 1.0,
         timeout_s: float = 10.0,
     ) -> None:
         self.store = store
         self.reranker = reranker
+        self.coverage = CoverageReranker() if coverage is None else coverage
         self.outcome_weight = outcome_weight
         self.robot_factor = robot_factor
         self.candidate_pool = candidate_pool
@@ -91,7 +94,9 @@ class ProcessMemory:
         search = build_query(query, synonyms=self.synonyms, concept_weight=self.concept_weight)
         if search.empty:
             return []
-        candidates = self.store.search(search, max(self.candidate_pool, k))
+        candidates = self.coverage.rerank(
+            query, self.store.search(search, max(self.candidate_pool, k))
+        )
         relevances = self.reranker.relevances(query, candidates) if self.reranker else None
         return rank(
             candidates,

@@ -139,7 +139,7 @@ class SearchQuery:
 
     words: tuple[str, ...]
     concepts: tuple[str, ...] = ()
-    concept_weight: float = 0.5
+    concept_weight: float = 1.0
 
     @property
     def empty(self) -> bool:

@@ -26,6 +26,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 from robot_mcp_memory.query import QueryTerm, concepts, query_terms, stem, words
 from robot_mcp_memory.store.base import Candidate, StoredProcess
@@ -46,6 +47,7 @@ class _Field:
     weight: float
 
 
+@lru_cache(maxsize=65_536)
 def trigrams(word: str) -> frozenset[str]:
     padded = f"  {word} "
     return frozenset(padded[index : index + 3] for index in range(len(padded) - 2))
@@ -57,11 +59,11 @@ def trigram_similarity(left: str, right: str) -> float:
     return len(a & b) / len(a | b) if a or b else 0.0
 
 
-def _field(text: str, weight: float) -> _Field:
+def _field(text: str, weight: float, with_concepts: bool = True) -> _Field:
     tokens = words(text)
     return _Field(
         stems=frozenset(stem(token) for token in tokens),
-        concepts=frozenset(concepts(text)),
+        concepts=frozenset(concepts(text)) if with_concepts else frozenset(),
         words=frozenset(token for token in tokens if len(token) >= MIN_FUZZY_CHARS),
         weight=weight,
     )
@@ -71,24 +73,33 @@ def _analyse(process: StoredProcess) -> tuple[_Field, ...]:
     body = process.markdown.split("\n---", 1)[-1]  # the frontmatter repeats title and pattern
     return (
         _field(f"{process.title}\n{process.task_pattern}\n{' '.join(process.tags)}", 1.0),
-        _field(body, BODY_WEIGHT),
+        _field(body, BODY_WEIGHT, with_concepts=False),  # as the stores index it
     )
 
 
-def _match(term: QueryTerm, fields: tuple[_Field, ...]) -> float:
+def _exact(term: QueryTerm, fields: tuple[_Field, ...]) -> float:
+    """Best stem or synonym-concept match of ``term`` over the fields."""
     best = 0.0
     for field in fields:
         if term.stems and all(part in field.stems for part in term.stems):
             best = max(best, field.weight * STEM_MATCH)
         elif term.concept is not None and term.concept in field.concepts:
             best = max(best, field.weight * CONCEPT_MATCH)
-        elif len(term.text) >= MIN_FUZZY_CHARS and " " not in term.text:
-            similarity = max(
-                (trigram_similarity(term.text, word) for word in field.words), default=0.0
-            )
-            if similarity >= FUZZY_THRESHOLD:
-                best = max(best, field.weight * FUZZY_MATCH * similarity)
     return best
+
+
+def _fuzzy(term: QueryTerm, fields: tuple[_Field, ...]) -> float:
+    """Best trigram-similarity match of a single word ``term`` over the fields' words."""
+    best = 0.0
+    for field in fields:
+        similarity = max((trigram_similarity(term.text, word) for word in field.words), default=0.0)
+        if similarity >= FUZZY_THRESHOLD:
+            best = max(best, field.weight * FUZZY_MATCH * similarity)
+    return best
+
+
+def _fuzzy_candidate(term: QueryTerm) -> bool:
+    return len(term.text) >= MIN_FUZZY_CHARS and " " not in term.text
 
 
 class CoverageReranker:
@@ -108,7 +119,13 @@ class CoverageReranker:
         if not candidates or not terms or self.weight == 0.0:
             return list(candidates)
         analysed = [self._analysed(candidate.process) for candidate in candidates]
-        matches = [[_match(term, fields) for term in terms] for fields in analysed]
+        matches = [[_exact(term, fields) for term in terms] for fields in analysed]
+        # trigram fallback only for words no candidate has (typos, compounds): a word that
+        # some candidates contain is a real word, and near-misses of it are other words
+        for index, term in enumerate(terms):
+            if _fuzzy_candidate(term) and not any(row[index] for row in matches):
+                for row, fields in zip(matches, analysed, strict=True):
+                    row[index] = _fuzzy(term, fields)
         pool = len(candidates)
         idf = [
             math.log(1.0 + pool / (1.0 + sum(row[index] > 0 for row in matches)))

@@ -89,9 +89,18 @@ def _index(groups: tuple[tuple[str, ...], ...]) -> dict[str, str]:
 
 _CONCEPTS = _index(SYNONYM_GROUPS)
 _LONGEST_MEMBER = max(len(member.split()) for group in SYNONYM_GROUPS for member in group)
+# First words of multi-word members, as written and as stems: only these can start a phrase.
+_PHRASE_STARTS = frozenset(
+    form
+    for group in SYNONYM_GROUPS
+    for member in group
+    if " " in member
+    for form in (member.split()[0], stem(member.split()[0]))
+)
 
 # Changes whenever the synonym list does: stores re-derive indexed concepts when it differs.
-SYNONYMS_VERSION = hashlib.sha256(repr(SYNONYM_GROUPS).encode()).hexdigest()[:16]
+CONCEPT_FIELDS = "title task_pattern tags"  # what document_concepts reads (part of the version)
+SYNONYMS_VERSION = hashlib.sha256(repr((SYNONYM_GROUPS, CONCEPT_FIELDS)).encode()).hexdigest()[:16]
 
 
 def words(text: str) -> list[str]:
@@ -99,6 +108,7 @@ def words(text: str) -> list[str]:
     return [token[:MAX_WORD_CHARS] for token in _WORD_RE.findall(text.lower())]
 
 
+@lru_cache(maxsize=65_536)
 def _concept_of(word: str) -> str | None:
     for form in _lemmas(word):
         if form in _CONCEPTS:
@@ -116,13 +126,19 @@ def _phrase_concept(tokens: list[str]) -> str | None:
     return _CONCEPTS.get(_stems(" ".join(tokens)))
 
 
+@lru_cache(maxsize=65_536)
+def _can_start_phrase(token: str) -> bool:
+    return any(form in _PHRASE_STARTS for form in _lemmas(token)) or stem(token) in _PHRASE_STARTS
+
+
 def _terms(tokens: list[str]) -> list[tuple[str, str | None]]:
     """Tokens with multi-word synonym members ("post room", "pick up") joined into one term,
     each term with its concept token (None for words in no synonym group)."""
     terms: list[tuple[str, str | None]] = []
     index = 0
     while index < len(tokens):
-        for size in range(min(_LONGEST_MEMBER, len(tokens) - index), 1, -1):
+        starts_phrase = _can_start_phrase(tokens[index])
+        for size in range(min(_LONGEST_MEMBER, len(tokens) - index) if starts_phrase else 1, 1, -1):
             concept = _phrase_concept(tokens[index : index + size])
             if concept is not None:
                 terms.append((" ".join(tokens[index : index + size]), concept))
@@ -141,8 +157,12 @@ def concepts(text: str) -> list[str]:
 
 
 def document_concepts(title: str, task_pattern: str, tags: tuple[str, ...], body: str) -> str:
-    """The concept text a store indexes for a process document."""
-    return " ".join(concepts("\n".join([title, task_pattern, " ".join(tags), body])))
+    """The concept text a store indexes for a process document: the concepts of what the
+    document is about (title, task pattern, tags). The body is searched by its own words only:
+    its steps name generic actions ("take the elevator", "check the label") whose concepts
+    would make nearly every document match every request."""
+    del body  # part of the signature: adapters pass the whole document
+    return " ".join(concepts("\n".join([title, task_pattern, " ".join(tags)])))
 
 
 @dataclass(frozen=True)

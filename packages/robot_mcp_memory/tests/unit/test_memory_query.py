@@ -36,17 +36,10 @@ def test_a_written_out_multi_word_synonym_is_one_term() -> None:
     assert concepts("the mail room") == ["synmailroom"]
 
 
-def test_document_concepts_cover_every_field() -> None:
+def test_document_concepts_cover_title_pattern_and_tags_but_not_the_body() -> None:
     text = document_concepts("Fetch mail", "from the lobby", ("lift",), "wait at the door")
 
-    assert text.split() == [
-        "synfetch",
-        "synpackage",
-        "synreception",
-        "synelevator",
-        "synwait",
-        "syndoor",
-    ]
+    assert text.split() == ["synfetch", "synpackage", "synreception", "synelevator"]
 
 
 def test_synonyms_can_be_turned_off() -> None:

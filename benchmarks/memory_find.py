@@ -1,5 +1,6 @@
 """Benchmark of the memory server's find_processes: latency with 10,000 stored processes and
-recall@3 on a paraphrase set (benchmarks/_memory_paraphrases.py, 35 targets, 37 queries).
+recall@1/@3 on two paraphrase sets (benchmarks/_memory_paraphrases.py: 35 targets, 37 queries;
+benchmarks/_memory_paraphrases_v2.py: 70 more queries for the same targets, other wording).
 
     uv run python benchmarks/memory_find.py            # writes benchmarks/results/memory_find.json
     python benchmarks/memory_find.py --embeddings --no-mcp --output ...   # needs the extra

@@ -52,9 +52,7 @@ def test_a_database_from_a_newer_server_is_refused(postgres_dsn: str) -> None:
         PostgresProcessStore(postgres_dsn, "robot-1")
 
 
-def test_an_unreachable_server_or_a_malformed_dsn_is_a_store_error_without_the_password() -> (
-    None
-):
+def test_an_unreachable_server_or_a_malformed_dsn_is_a_store_error_without_the_password() -> None:
     port = free_tcp_port()
 
     with pytest.raises(StoreError, match="cannot open the PostgreSQL process store") as refused:

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
 from robot_mcp_memory.documents import render_process
+from robot_mcp_memory.store.base import ProcessStore, Visibility
+from robot_mcp_memory.store.postgres import PostgresProcessStore
+from robot_mcp_memory.store.sqlite_fts import SqliteFtsProcessStore
 
 MAILROOM = render_process(
     "fetch-package-from-mailroom",
@@ -67,3 +72,39 @@ class SampleDocuments:
 @pytest.fixture
 def docs() -> SampleDocuments:
     return SampleDocuments()
+
+
+StoreFactory = Callable[..., ProcessStore]
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def store_kind(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
+@pytest.fixture
+def open_store(
+    store_kind: str, request: pytest.FixtureRequest, tmp_path: Path
+) -> Iterator[StoreFactory]:
+    """Opens stores of one kind on one shared database (a SQLite file, or a fresh database on
+    the throwaway PostgreSQL): ``open_store(robot_id="robot-1", visibility=None)``; the kind's
+    default visibility is used when None. Every store it opened is closed at teardown."""
+    opened: list[ProcessStore] = []
+    dsn = request.getfixturevalue("postgres_dsn") if store_kind == "postgres" else ""
+
+    def factory(robot_id: str = "robot-1", visibility: Visibility | None = None) -> ProcessStore:
+        store: ProcessStore
+        if store_kind == "postgres":
+            store = PostgresProcessStore(dsn, robot_id, visibility=visibility or "fleet")
+        else:
+            store = SqliteFtsProcessStore(
+                tmp_path / "memory.sqlite3", robot_id, visibility=visibility or "robot"
+            )
+        opened.append(store)
+        return store
+
+    try:
+        yield factory
+    finally:
+        for store in opened:
+            store.close()

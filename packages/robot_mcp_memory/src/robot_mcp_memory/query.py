@@ -15,8 +15,13 @@ from __future__ import annotations
 
 import hashlib
 import re
+from dataclasses import dataclass
+from functools import lru_cache
+
+import snowballstemmer  # type: ignore[import-untyped]
 
 from robot_mcp_memory.store.base import SearchQuery
+from robot_mcp_memory.synonyms import SYNONYM_GROUPS
 
 MAX_QUERY_WORDS = 32
 MAX_WORD_CHARS = 40
@@ -30,45 +35,9 @@ i me my mine you your yours we us our he him his she her it its they them their 
 these those there here what which who whom whose when where why how all any some each
 please could would can will shall should may might must just also very really now again
 let lets ok okay hey hi thanks thank kindly go going get got
+s t d ll m re ve don doesn didn isn aren wasn weren won wouldn couldn shouldn
 """
 STOP_WORDS = frozenset(_STOP_WORDS_TEXT.split())
-
-# Groups of interchangeable words/phrases in a service robot's missions. A query word in a
-# group (or a simple inflection of one) is searched as any member of its group.
-SYNONYM_GROUPS: tuple[tuple[str, ...], ...] = (
-    ("fetch", "bring", "retrieve", "collect", "grab", "pick up", "obtain"),
-    ("deliver", "drop off", "hand over", "take", "carry", "transport", "distribute"),
-    ("package", "parcel", "box", "delivery", "shipment", "mail", "post", "letter", "envelope"),
-    ("mailroom", "mail room", "post room", "post office", "parcel room"),
-    ("navigate", "drive", "move", "travel", "head", "walk", "proceed"),
-    ("find", "search", "look for", "locate", "seek", "spot", "detect"),
-    ("check", "inspect", "verify", "examine", "monitor", "look at"),
-    ("tell", "notify", "inform", "report", "announce", "alert", "let know"),
-    ("person", "someone", "somebody", "visitor", "guest", "user", "people"),
-    ("reception", "front desk", "lobby", "entrance", "foyer"),
-    ("office", "desk", "workspace", "cubicle"),
-    ("meeting room", "conference room", "boardroom"),
-    ("elevator", "lift"),
-    ("door", "doorway", "gate"),
-    ("cup", "mug", "glass"),
-    ("drink", "beverage", "water", "coffee", "tea"),
-    ("trash", "garbage", "rubbish", "waste", "litter", "bin"),
-    ("clean", "tidy", "wipe", "vacuum", "sweep"),
-    ("patrol", "round", "tour", "inspection"),
-    ("escort", "guide", "accompany", "lead", "show the way"),
-    ("greet", "welcome", "receive"),
-    ("charge", "recharge", "dock", "charging station", "battery"),
-    ("medicine", "medication", "pills", "drugs", "prescription"),
-    ("food", "meal", "lunch", "dinner", "snack", "breakfast"),
-    ("printer", "printout", "print", "document", "paper"),
-    ("keys", "key", "keycard", "badge"),
-    ("closed", "locked", "shut", "blocked"),
-    ("arrive", "reach", "get to"),
-    ("wait", "pause", "hold"),
-    ("stop", "halt", "abort", "cancel"),
-    ("kitchen", "pantry", "break room", "canteen", "cafeteria"),
-    ("object", "item", "thing"),
-)
 
 
 def _lemmas(word: str) -> list[str]:
@@ -89,21 +58,49 @@ def _lemmas(word: str) -> list[str]:
     return forms
 
 
+_STEMMER = snowballstemmer.stemmer("english")
+
+
+@lru_cache(maxsize=65_536)
+def stem(word: str) -> str:
+    """The Snowball (Porter 2) stem of a lowercase word, as PostgreSQL's english config and
+    close to FTS5's porter tokenizer."""
+    return str(_STEMMER.stemWord(word))
+
+
+def _stems(phrase: str) -> str:
+    return " ".join(stem(word) for word in phrase.split())
+
+
 def _index(groups: tuple[tuple[str, ...], ...]) -> dict[str, str]:
-    """Member → concept token of its group ("syn" + the first member without spaces)."""
+    """Member (as written, and as stems) → concept token of its group ("syn" + the first
+    member without spaces). The first group to claim a form keeps it."""
     index: dict[str, str] = {}
     for group in groups:
         token = "syn" + group[0].replace(" ", "")
         for member in group:
             index.setdefault(member, token)
+    for group in groups:
+        token = "syn" + group[0].replace(" ", "")
+        for member in group:
+            index.setdefault(_stems(member), token)
     return index
 
 
 _CONCEPTS = _index(SYNONYM_GROUPS)
 _LONGEST_MEMBER = max(len(member.split()) for group in SYNONYM_GROUPS for member in group)
+# First words of multi-word members, as written and as stems: only these can start a phrase.
+_PHRASE_STARTS = frozenset(
+    form
+    for group in SYNONYM_GROUPS
+    for member in group
+    if " " in member
+    for form in (member.split()[0], stem(member.split()[0]))
+)
 
 # Changes whenever the synonym list does: stores re-derive indexed concepts when it differs.
-SYNONYMS_VERSION = hashlib.sha256(repr(SYNONYM_GROUPS).encode()).hexdigest()[:16]
+CONCEPT_FIELDS = "title task_pattern tags"  # what document_concepts reads (part of the version)
+SYNONYMS_VERSION = hashlib.sha256(repr((SYNONYM_GROUPS, CONCEPT_FIELDS)).encode()).hexdigest()[:16]
 
 
 def words(text: str) -> list[str]:
@@ -111,11 +108,27 @@ def words(text: str) -> list[str]:
     return [token[:MAX_WORD_CHARS] for token in _WORD_RE.findall(text.lower())]
 
 
+@lru_cache(maxsize=65_536)
 def _concept_of(word: str) -> str | None:
     for form in _lemmas(word):
         if form in _CONCEPTS:
             return _CONCEPTS[form]
-    return None
+    return _CONCEPTS.get(stem(word))
+
+
+def _phrase_concept(tokens: list[str]) -> str | None:
+    """The concept of a multi-word member written in ``tokens`` ("picking up", "post rooms")."""
+    rest = " ".join(tokens[1:])
+    for form in _lemmas(tokens[0]):
+        phrase = f"{form} {rest}"
+        if phrase in _CONCEPTS:
+            return _CONCEPTS[phrase]
+    return _CONCEPTS.get(_stems(" ".join(tokens)))
+
+
+@lru_cache(maxsize=65_536)
+def _can_start_phrase(token: str) -> bool:
+    return any(form in _PHRASE_STARTS for form in _lemmas(token)) or stem(token) in _PHRASE_STARTS
 
 
 def _terms(tokens: list[str]) -> list[tuple[str, str | None]]:
@@ -124,18 +137,11 @@ def _terms(tokens: list[str]) -> list[tuple[str, str | None]]:
     terms: list[tuple[str, str | None]] = []
     index = 0
     while index < len(tokens):
-        for size in range(min(_LONGEST_MEMBER, len(tokens) - index), 1, -1):
-            rest = tokens[index + 1 : index + size]
-            phrase = next(
-                (
-                    candidate
-                    for form in _lemmas(tokens[index])  # "picking up" → "pick up"
-                    if (candidate := " ".join([form, *rest])) in _CONCEPTS
-                ),
-                None,
-            )
-            if phrase is not None:
-                terms.append((" ".join(tokens[index : index + size]), _CONCEPTS[phrase]))
+        starts_phrase = _can_start_phrase(tokens[index])
+        for size in range(min(_LONGEST_MEMBER, len(tokens) - index) if starts_phrase else 1, 1, -1):
+            concept = _phrase_concept(tokens[index : index + size])
+            if concept is not None:
+                terms.append((" ".join(tokens[index : index + size]), concept))
                 index += size
                 break
         else:
@@ -151,25 +157,44 @@ def concepts(text: str) -> list[str]:
 
 
 def document_concepts(title: str, task_pattern: str, tags: tuple[str, ...], body: str) -> str:
-    """The concept text a store indexes for a process document."""
-    return " ".join(concepts("\n".join([title, task_pattern, " ".join(tags), body])))
+    """The concept text a store indexes for a process document: the concepts of what the
+    document is about (title, task pattern, tags). The body is searched by its own words only:
+    its steps name generic actions ("take the elevator", "check the label") whose concepts
+    would make nearly every document match every request."""
+    del body  # part of the signature: adapters pass the whole document
+    return " ".join(concepts("\n".join([title, task_pattern, " ".join(tags)])))
 
 
-def build_query(text: str, *, synonyms: bool = True, concept_weight: float = 0.5) -> SearchQuery:
+@dataclass(frozen=True)
+class QueryTerm:
+    """A content word or written-out synonym phrase of a request: its text, the stems of its
+    words and its synonym concept (None for words in no group)."""
+
+    text: str
+    stems: tuple[str, ...]
+    concept: str | None
+
+
+def query_terms(text: str) -> list[QueryTerm]:
+    """The request's distinct terms minus stop words (all of them if nothing else is left),
+    at most MAX_QUERY_WORDS."""
+    terms = _terms(words(text))
+    content = [term for term in terms if term[0] not in STOP_WORDS] or terms
+    unique = dict.fromkeys(content)
+    return [
+        QueryTerm(word, tuple(stem(part) for part in word.split()), concept)
+        for word, concept in list(unique)[:MAX_QUERY_WORDS]
+    ]
+
+
+def build_query(text: str, *, synonyms: bool = True, concept_weight: float = 1.0) -> SearchQuery:
     """The search query for free text ``text``; empty when it has no word characters.
 
     ``words``: the text's words and written-out multi-word synonyms ("post room"), minus stop
     words (all of them if nothing else is left). ``concepts`` (when ``synonyms``): the concept
     tokens of those words, matched against the concepts indexed for each document.
     """
-    terms = _terms(words(text))
-    content = [term for term in terms if term[0] not in STOP_WORDS] or terms
-    own: dict[str, None] = {}
-    found: dict[str, None] = {}
-    for word, concept in content:
-        if len(own) >= MAX_QUERY_WORDS:
-            break
-        own.setdefault(word, None)
-        if synonyms and concept is not None:
-            found.setdefault(concept, None)
+    terms = query_terms(text)
+    own = dict.fromkeys(term.text for term in terms)
+    found = dict.fromkeys(term.concept for term in terms if synonyms and term.concept)
     return SearchQuery(words=tuple(own), concepts=tuple(found), concept_weight=concept_weight)

@@ -25,14 +25,20 @@ def main() -> None:
     configure_logging(SERVER_NAME)
     try:
         config = MemoryConfig.from_env(os.environ)
-        memory = build_memory(config)
-    except (ConfigError, StoreError, ImportError) as exc:
+    except ConfigError as exc:
         log.error("memory_server_config_invalid", error=str(exc))
+        raise SystemExit(2) from exc
+    try:
+        memory = build_memory(config)
+    except (StoreError, ImportError) as exc:
+        log.error("memory_store_unavailable", store=config.store, error=str(exc))
         raise SystemExit(2) from exc
     log.info(
         "memory_server_starting",
         robot_id=config.robot_id,
-        db_path=str(config.db_path),
+        store=config.store,
+        visibility=config.visibility,
+        db_path=str(config.db_path) if config.store == "sqlite" else None,
         reranker=config.reranker,
         transport=os.environ.get("MCP_TRANSPORT", "stdio"),
     )

@@ -14,10 +14,11 @@ from typing import Any, TypeVar
 
 import structlog
 
+from robot_mcp_memory.coverage import CoverageReranker
 from robot_mcp_memory.documents import DocumentError, parse_process
 from robot_mcp_memory.embeddings import EmbeddingReranker
 from robot_mcp_memory.query import build_query
-from robot_mcp_memory.ranking import DEFAULT_OUTCOME_WEIGHT, Ranked, rank
+from robot_mcp_memory.ranking import DEFAULT_OUTCOME_WEIGHT, DEFAULT_ROBOT_FACTOR, Ranked, rank
 from robot_mcp_memory.store.base import (
     ProcessNotFoundError,
     ProcessStore,
@@ -49,15 +50,19 @@ class ProcessMemory:
         store: ProcessStore,
         *,
         reranker: EmbeddingReranker | None = None,
+        coverage: CoverageReranker | None = None,
         outcome_weight: float = DEFAULT_OUTCOME_WEIGHT,
-        candidate_pool: int = 50,
+        robot_factor: float = DEFAULT_ROBOT_FACTOR,
+        candidate_pool: int = 100,
         synonyms: bool = True,
-        concept_weight: float = 0.5,
+        concept_weight: float = 1.0,
         timeout_s: float = 10.0,
     ) -> None:
         self.store = store
         self.reranker = reranker
+        self.coverage = CoverageReranker() if coverage is None else coverage
         self.outcome_weight = outcome_weight
+        self.robot_factor = robot_factor
         self.candidate_pool = candidate_pool
         self.synonyms = synonyms
         self.concept_weight = concept_weight
@@ -89,9 +94,16 @@ class ProcessMemory:
         search = build_query(query, synonyms=self.synonyms, concept_weight=self.concept_weight)
         if search.empty:
             return []
-        candidates = self.store.search(search, max(self.candidate_pool, k))
+        candidates = self.coverage.rerank(
+            query, self.store.search(search, max(self.candidate_pool, k))
+        )
         relevances = self.reranker.relevances(query, candidates) if self.reranker else None
-        return rank(candidates, outcome_weight=self.outcome_weight, relevances=relevances)[:k]
+        return rank(
+            candidates,
+            outcome_weight=self.outcome_weight,
+            relevances=relevances,
+            robot_factor=self.robot_factor,
+        )[:k]
 
     async def save(self, markdown: str) -> dict[str, Any]:
         started = time.perf_counter()
@@ -136,7 +148,12 @@ class ProcessMemory:
             process = self.store.get(process_id, version)
             outcomes = self.store.recent_outcomes(process_id, process.version)
             return process, [
-                {"success": o.success, "note": o.note, "recorded_at": round(o.recorded_at, 3)}
+                {
+                    "success": o.success,
+                    "note": o.note,
+                    "robot_id": o.robot_id,
+                    "recorded_at": round(o.recorded_at, 3),
+                }
                 for o in outcomes
             ]
 
@@ -158,6 +175,7 @@ class ProcessMemory:
         page = summaries[offset : offset + limit]
         return {
             "robot_id": self.store.robot_id,
+            "visibility": self.store.visibility,
             "total": len(summaries),
             "offset": offset,
             "processes": [
@@ -167,8 +185,11 @@ class ProcessMemory:
                     "task_pattern": s.task_pattern,
                     "tags": list(s.tags),
                     "current_version": s.current_version,
+                    "saved_by": s.saved_by,
                     "successes": s.stats.successes,
                     "failures": s.stats.failures,
+                    "robot_successes": s.robot_stats.successes,
+                    "robot_failures": s.robot_stats.failures,
                     "updated_at": round(s.updated_at, 3),
                 }
                 for s in page
@@ -202,7 +223,8 @@ class ProcessMemory:
         except ProcessNotFoundError as exc:
             raise MemoryServiceError(
                 "not_found",
-                f"no {exc} for robot '{self.store.robot_id}'; call list_processes or "
+                f"no {exc} visible to robot '{self.store.robot_id}' "
+                f"({self.store.visibility} visibility); call list_processes or "
                 "find_processes to see which ids exist",
             ) from exc
         except TimeoutError as exc:
@@ -235,8 +257,11 @@ def _process_fields(process: StoredProcess) -> dict[str, Any]:
         "title": process.title,
         "task_pattern": process.task_pattern,
         "tags": list(process.tags),
+        "saved_by": process.saved_by,
         "successes": process.stats.successes,
         "failures": process.stats.failures,
+        "robot_successes": process.robot_stats.successes,
+        "robot_failures": process.robot_stats.failures,
     }
 
 

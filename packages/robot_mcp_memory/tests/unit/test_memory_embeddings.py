@@ -29,6 +29,7 @@ def candidate(process_id: str, title: str, relevance: float, version: int = 1) -
         tags=(),
         markdown="",
         created_at=0.0,
+        saved_by="robot-1",
     )
     return Candidate(process=process, relevance=relevance)
 

@@ -16,6 +16,7 @@ def candidate(
         tags=(),
         markdown="",
         created_at=0.0,
+        saved_by="robot-1",
         stats=OutcomeStats(successes=successes, failures=failures),
     )
     return Candidate(process=process, relevance=relevance)

@@ -1,5 +1,4 @@
 import sqlite3
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -8,8 +7,14 @@ import pytest
 
 from robot_mcp_memory.documents import parse_process
 from robot_mcp_memory.query import build_query
-from robot_mcp_memory.store.base import ProcessNotFoundError, SearchQuery, StoreError
-from robot_mcp_memory.store.sqlite_fts import SqliteFtsProcessStore, render_match, scope_token
+from robot_mcp_memory.store.base import StoreError
+from robot_mcp_memory.store.sqlite_fts import (
+    MIGRATIONS,
+    SCHEMA_VERSION,
+    SqliteFtsProcessStore,
+    render_match,
+    scope_token,
+)
 
 
 @pytest.fixture
@@ -37,180 +42,10 @@ def test_saving_a_new_id_stores_version_one_and_creates_the_directory(
     )
 
 
-def test_saving_the_same_id_again_keeps_the_old_version(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-    changed = docs.mailroom.replace("desk 4", "desk 7")
-
-    result = store.save(parse_process(changed))
-
-    assert result.created
-    assert result.process.version == 2
-    assert "desk 7" in store.get("fetch-package-from-mailroom").markdown
-    old = store.get("fetch-package-from-mailroom", version=1)
-    assert "desk 4" in old.markdown
-    assert old.current_version == 2
-    assert [s.current_version for s in store.list_processes()] == [2]
-
-
-def test_saving_identical_markdown_stores_nothing_new(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-
-    result = store.save(parse_process(docs.mailroom))
-
-    assert not result.created
-    assert result.process.version == 1
-
-
-def test_search_indexes_only_the_current_version(store: SqliteFtsProcessStore, docs: Any) -> None:
-    store.save(parse_process(docs.plants))
-    store.save(parse_process(docs.plants.replace("kitchen", "bathroom")))
-
-    assert search_ids(store, "bathroom") == ["water-office-plants"]
-    assert search_ids(store, "kitchen") == []
-
-
-def test_a_paraphrased_query_finds_the_mailroom_process_first(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    for markdown in docs.all():
-        store.save(parse_process(markdown))
-
-    assert search_ids(store, "go get my delivery from the mail room")[0] == (
-        "fetch-package-from-mailroom"
-    )
-    assert search_ids(store, "take the guest to the boardroom")[0] == (
-        "escort-visitor-to-meeting-room"
-    )
-
-
-def test_stemming_matches_other_forms_of_a_word(store: SqliteFtsProcessStore, docs: Any) -> None:
-    store.save(parse_process(docs.patrol))
-
-    assert search_ids(store, "patrolling corridor") == ["evening-security-patrol"]
-
-
-def test_queries_with_fts_syntax_characters_do_not_error(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-    nasty = ['"', "pack*", "-mailroom", "NEAR(mailroom package)", "(((", "AND OR NOT", "a:b ^c"]
-
-    results = {text: search_ids(store, text) for text in nasty}
-
-    assert results["-mailroom"] == ["fetch-package-from-mailroom"]
-    assert results["NEAR(mailroom package)"] == ["fetch-package-from-mailroom"]
-    assert results['"'] == []
-
-
 def test_render_match_quotes_every_term() -> None:
     assert render_match(("pick up", 'we"ird', "near", "near", " ")) == (
         '"pick up" OR "we""ird" OR "near"'
     )
-
-
-def test_processes_of_another_robot_are_invisible(tmp_path: Path, docs: Any) -> None:
-    path = tmp_path / "shared.sqlite3"
-    first = SqliteFtsProcessStore(path, "robot-1")
-    second = SqliteFtsProcessStore(path, "robot-2")
-    try:
-        first.save(parse_process(docs.mailroom))
-
-        assert search_ids(second, "mailroom package") == []
-        assert second.list_processes() == []
-        with pytest.raises(ProcessNotFoundError):
-            second.get("fetch-package-from-mailroom")
-        assert search_ids(first, "mailroom package") == ["fetch-package-from-mailroom"]
-    finally:
-        first.close()
-        second.close()
-
-
-def test_outcomes_count_against_the_current_version(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-    store.record_outcome("fetch-package-from-mailroom", False, "door closed")
-    after = store.record_outcome("fetch-package-from-mailroom", True, "worked")
-
-    assert (after.stats.successes, after.stats.failures) == (1, 1)
-    notes = [record.note for record in store.recent_outcomes("fetch-package-from-mailroom")]
-    assert notes == ["worked", "door closed"]
-
-    store.save(parse_process(docs.mailroom.replace("desk 4", "desk 5")))
-
-    assert store.get("fetch-package-from-mailroom").stats.total == 0
-    assert store.get("fetch-package-from-mailroom", 1).stats.failures == 1
-    assert store.recent_outcomes("fetch-package-from-mailroom") == []
-    (candidate,) = store.search(build_query("mailroom"), 5)
-    assert candidate.process.stats.total == 0
-
-
-def test_unknown_ids_and_versions_raise_not_found(store: SqliteFtsProcessStore, docs: Any) -> None:
-    store.save(parse_process(docs.mailroom))
-
-    with pytest.raises(ProcessNotFoundError, match="process 'missing'"):
-        store.get("missing")
-    with pytest.raises(ProcessNotFoundError, match="version 9"):
-        store.get("fetch-package-from-mailroom", 9)
-    with pytest.raises(ProcessNotFoundError):
-        store.record_outcome("missing", True, "")
-    with pytest.raises(ProcessNotFoundError):
-        store.recent_outcomes("missing")
-
-
-def test_data_survives_reopening_the_file(tmp_path: Path, docs: Any) -> None:
-    path = tmp_path / "memory.sqlite3"
-    first = SqliteFtsProcessStore(path, "robot-1")
-    first.save(parse_process(docs.mailroom))
-    first.record_outcome("fetch-package-from-mailroom", True, "")
-    first.close()
-
-    reopened = SqliteFtsProcessStore(path, "robot-1")
-    try:
-        assert reopened.get("fetch-package-from-mailroom").stats.successes == 1
-        assert search_ids(reopened, "mailroom") == ["fetch-package-from-mailroom"]
-    finally:
-        reopened.close()
-
-
-def test_a_tiny_store_still_ranks_by_distinctive_words(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-    store.save(parse_process(docs.reception))
-
-    (best, other) = store.search(build_query("package from the mailroom", synonyms=False), 5)
-
-    assert best.process.id == "fetch-package-from-mailroom"
-    assert best.relevance > other.relevance > 0
-
-
-def test_concurrent_saves_from_threads_all_land(store: SqliteFtsProcessStore) -> None:
-    from robot_mcp_memory.documents import render_process
-
-    def save(index: int) -> None:
-        store.save(parse_process(render_process(f"task-{index}", "T", "p", [], ["s"])))
-
-    threads = [threading.Thread(target=save, args=(index,)) for index in range(20)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join(timeout=10)
-
-    assert len(store.list_processes()) == 20
-
-
-def test_an_empty_query_or_zero_limit_returns_nothing(
-    store: SqliteFtsProcessStore, docs: Any
-) -> None:
-    store.save(parse_process(docs.mailroom))
-
-    assert store.search(SearchQuery(words=()), 5) == []
-    assert store.search(build_query("mailroom"), 0) == []
 
 
 def test_an_unreadable_database_path_is_a_store_error(tmp_path: Path) -> None:
@@ -228,7 +63,7 @@ def test_reads_on_a_closed_store_are_store_errors(tmp_path: Path) -> None:
         closed.list_processes()
 
 
-def test_robot_ids_become_single_tokens() -> None:
+def test_scopes_become_single_tokens() -> None:
     assert scope_token("robot-1") == "r726f626f742d31"
     with pytest.raises(ValueError, match="robot_id"):
         SqliteFtsProcessStore(":memory:", " ")
@@ -256,4 +91,56 @@ def test_the_schema_version_is_recorded(tmp_path: Path) -> None:
     SqliteFtsProcessStore(tmp_path / "m.sqlite3", "robot-1").close()
 
     with sqlite3.connect(tmp_path / "m.sqlite3") as conn:
-        assert conn.execute("PRAGMA user_version").fetchone() == (1,)
+        assert conn.execute("PRAGMA user_version").fetchone() == (SCHEMA_VERSION,)
+
+
+def test_a_version_1_file_is_migrated_with_its_processes_and_outcomes(
+    tmp_path: Path, docs: Any
+) -> None:
+    path = tmp_path / "old.sqlite3"
+    with sqlite3.connect(path) as conn:
+        MIGRATIONS[1](conn)
+        conn.execute("PRAGMA user_version = 1")
+        conn.execute(
+            "INSERT INTO processes (rowid, robot_id, process_id, current_version, created_at, "
+            "updated_at) VALUES (1, 'mailbot', 'fetch-package-from-mailroom', 1, 1.0, 1.0)"
+        )
+        conn.execute(
+            "INSERT INTO process_versions (robot_id, process_id, version, title, task_pattern, "
+            "tags_json, markdown, created_at) VALUES ('mailbot', 'fetch-package-from-mailroom', "
+            "1, 'Fetch a package', 'bring a package', '[]', ?, 1.0)",
+            (docs.mailroom,),
+        )
+        conn.execute(
+            "INSERT INTO outcomes (robot_id, process_id, version, success, note, recorded_at) "
+            "VALUES ('mailbot', 'fetch-package-from-mailroom', 1, 1, 'ok', 2.0)"
+        )
+        conn.execute(
+            "INSERT INTO process_fts (rowid, scope, title, task_pattern, tags, body, concepts) "
+            "VALUES (1, ?, 'Fetch a package', 'bring a package', '', 'mailroom', '')",
+            (scope_token("mailbot"),),
+        )
+
+    store = SqliteFtsProcessStore(path, "mailbot")
+    try:
+        migrated = store.get("fetch-package-from-mailroom")
+        found = search_ids(store, "mailroom")
+    finally:
+        store.close()
+
+    assert (migrated.saved_by, migrated.stats.successes, migrated.robot_stats.successes) == (
+        "mailbot",
+        1,
+        1,
+    )
+    assert found == ["fetch-package-from-mailroom"]
+    with sqlite3.connect(path) as conn:
+        assert conn.execute("PRAGMA user_version").fetchone() == (SCHEMA_VERSION,)
+
+
+def test_a_file_from_a_newer_server_is_refused(tmp_path: Path) -> None:
+    with sqlite3.connect(tmp_path / "new.sqlite3") as conn:
+        conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+
+    with pytest.raises(StoreError, match="newer than this server"):
+        SqliteFtsProcessStore(tmp_path / "new.sqlite3", "robot-1")

@@ -79,7 +79,8 @@ async def test_tool_errors_are_json_the_model_can_read(memory: ProcessMemory) ->
         True,
         {
             "error": "not_found",
-            "detail": "no process 'nope' version 2 for robot 'mailbot'; call list_processes or "
+            "detail": "no process 'nope' version 2 visible to robot 'mailbot' (robot visibility); "
+            "call list_processes or "
             "find_processes to see which ids exist",
         },
     )

@@ -2,6 +2,7 @@
 process fixtures and deadline-bound waits."""
 
 from robot_stack_testing.ports import free_tcp_port, wait_for_tcp_port
+from robot_stack_testing.postgres import PostgresServer
 from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher
 from robot_stack_testing.stdio import (
     StdioTranscript,
@@ -13,6 +14,7 @@ from robot_stack_testing.waiting import async_wait_until, wait_until
 
 __all__ = [
     "LaunchedProcess",
+    "PostgresServer",
     "ProcessLauncher",
     "StdioTranscript",
     "async_wait_until",

@@ -14,6 +14,7 @@ from collections.abc import Iterator
 import pytest
 
 from robot_stack_testing.ports import free_tcp_port
+from robot_stack_testing.postgres import PostgresServer
 from robot_stack_testing.processes import ProcessLauncher
 
 _DOMAIN_OVERRIDE = "ROBOT_TEST_ROS_DOMAIN_ID"
@@ -62,3 +63,20 @@ def launcher(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ProcessLaunch
 @pytest.fixture
 def tcp_port() -> int:
     return free_tcp_port()
+
+
+@pytest.fixture(scope="session")
+def postgres_server() -> Iterator[PostgresServer]:
+    """A throwaway PostgreSQL for the whole run (started on first use, stopped at the end,
+    also when tests failed). Fails, never skips, when the server cannot start."""
+    server = PostgresServer.start()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+@pytest.fixture
+def postgres_dsn(postgres_server: PostgresServer) -> str:
+    """The DSN of a fresh, empty database on the session's throwaway PostgreSQL."""
+    return postgres_server.create_database()

@@ -1,10 +1,15 @@
-"""The ProcessStore port: versioned process documents of one robot, text search, outcomes.
+"""The ProcessStore port: versioned process documents, text search, per-robot outcomes.
 
-The embedded adapter is :class:`~robot_mcp_memory.store.sqlite_fts.SqliteFtsProcessStore`; a
-fleet adapter (PostgreSQL full-text search, one database shared by many robots) implements the
-same port. Everything an adapter needs is in the types below, none of them is SQLite-specific:
+The embedded adapter is :class:`~robot_mcp_memory.store.sqlite_fts.SqliteFtsProcessStore`; the
+fleet adapter :class:`~robot_mcp_memory.store.postgres.PostgresProcessStore` (PostgreSQL full-text
+search, one database shared by many robots) implements the same port. Everything an adapter
+needs is in the types below, none of them is backend-specific:
 
-- the store is bound to one ``robot_id`` at construction and never returns another robot's data;
+- the store is bound to one ``robot_id`` and one :data:`Visibility` at construction. With
+  ``robot`` visibility it reads and writes only this robot's processes; with ``fleet`` it
+  shares one namespace of process ids with every robot of the fleet (:func:`scope_of`);
+- every version records the robot that saved it (``saved_by``); every outcome records the robot
+  that reported it, and each version carries its fleet-wide and this robot's outcome counts;
 - :meth:`ProcessStore.search` takes a :class:`SearchQuery` (words and synonym concepts, already
   built from free text), never a backend query string, so each adapter renders it in its own
   syntax with its own escaping (FTS5 ``MATCH``, ``to_tsquery`` parameters, ...); adapters index
@@ -17,8 +22,20 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
+from typing import Literal
 
 from robot_mcp_memory.documents import ProcessDocument
+
+Visibility = Literal["robot", "fleet"]
+FLEET_SCOPE = "fleet"
+
+
+def scope_of(robot_id: str, visibility: Visibility) -> str:
+    """The namespace a store reads and writes: ``robot:<id>`` or the fleet's ``fleet``
+    (robot scopes always contain a colon, so no robot id can name the fleet's)."""
+    if not robot_id.strip():
+        raise ValueError("robot_id must not be empty")
+    return FLEET_SCOPE if visibility == "fleet" else f"robot:{robot_id}"
 
 
 class StoreError(RuntimeError):
@@ -52,7 +69,8 @@ class OutcomeStats:
 
 @dataclass(frozen=True)
 class StoredProcess:
-    """One stored version of a process document."""
+    """One stored version of a process document. ``stats``: outcomes of this version reported
+    by any robot of the scope; ``robot_stats``: those reported by this store's robot."""
 
     id: str
     version: int
@@ -62,7 +80,9 @@ class StoredProcess:
     tags: tuple[str, ...]
     markdown: str
     created_at: float
+    saved_by: str
     stats: OutcomeStats = field(default_factory=OutcomeStats)
+    robot_stats: OutcomeStats = field(default_factory=OutcomeStats)
 
 
 @dataclass(frozen=True)
@@ -81,7 +101,23 @@ class ProcessSummary:
     tags: tuple[str, ...]
     current_version: int
     updated_at: float
+    saved_by: str
     stats: OutcomeStats
+    robot_stats: OutcomeStats
+
+    @classmethod
+    def of(cls, process: StoredProcess, updated_at: float) -> ProcessSummary:
+        return cls(
+            id=process.id,
+            title=process.title,
+            task_pattern=process.task_pattern,
+            tags=process.tags,
+            current_version=process.current_version,
+            updated_at=updated_at,
+            saved_by=process.saved_by,
+            stats=process.stats,
+            robot_stats=process.robot_stats,
+        )
 
 
 @dataclass(frozen=True)
@@ -90,6 +126,7 @@ class OutcomeRecord:
     success: bool
     note: str
     recorded_at: float
+    robot_id: str
 
 
 @dataclass(frozen=True)
@@ -102,7 +139,7 @@ class SearchQuery:
 
     words: tuple[str, ...]
     concepts: tuple[str, ...] = ()
-    concept_weight: float = 0.5
+    concept_weight: float = 1.0
 
     @property
     def empty(self) -> bool:
@@ -116,10 +153,14 @@ class Candidate:
 
 
 class ProcessStore(abc.ABC):
-    """Versioned process documents of one robot. Implementations are thread-safe; every call
-    is short and blocking (callers run them off the event loop)."""
+    """Versioned process documents of one scope (:func:`scope_of`). Implementations are
+    thread-safe and keep a consistent version history when several stores (threads, processes,
+    robots) save one id at once: each save gets the next version number, none is lost, and
+    ``current_version`` is the last one committed. Every call is short and blocking (callers
+    run them off the event loop)."""
 
     robot_id: str
+    visibility: Visibility
 
     @abc.abstractmethod
     def save(self, document: ProcessDocument) -> SaveResult:
@@ -133,7 +174,7 @@ class ProcessStore(abc.ABC):
 
     @abc.abstractmethod
     def list_processes(self) -> list[ProcessSummary]:
-        """Every process of this robot (current versions), most recently updated first."""
+        """Every process of the scope (current versions), most recently updated first."""
 
     @abc.abstractmethod
     def search(self, query: SearchQuery, limit: int) -> list[Candidate]:
@@ -141,8 +182,8 @@ class ProcessStore(abc.ABC):
 
     @abc.abstractmethod
     def record_outcome(self, process_id: str, success: bool, note: str) -> StoredProcess:
-        """Record an outcome against the current version; returns it with updated stats.
-        Raises ProcessNotFoundError."""
+        """Record this robot's outcome against the current version; returns it with updated
+        stats. Raises ProcessNotFoundError."""
 
     @abc.abstractmethod
     def recent_outcomes(

@@ -23,14 +23,20 @@ from robot_mcp_memory.store.base import (
     SearchQuery,
     StoredProcess,
     StoreError,
+    Visibility,
 )
 
 
+def _count(records: list[OutcomeRecord]) -> OutcomeStats:
+    wins = sum(record.success for record in records)
+    return OutcomeStats(successes=wins, failures=len(records) - wins)
+
+
 class FakeProcessStore(ProcessStore):
-    def __init__(self, robot_id: str = "robot-1") -> None:
+    def __init__(self, robot_id: str = "robot-1", visibility: Visibility = "robot") -> None:
         self.robot_id = robot_id
+        self.visibility = visibility
         self.versions: dict[str, list[tuple[ProcessDocument, float]]] = {}
-        self.stats: dict[tuple[str, int], OutcomeStats] = {}
         self.outcomes: dict[tuple[str, int], list[OutcomeRecord]] = {}
         self.searches: list[tuple[SearchQuery, int]] = []
         self.fail_with: Exception | None = None  # raised by every call when set
@@ -52,6 +58,7 @@ class FakeProcessStore(ProcessStore):
             raise ProcessNotFoundError(process_id, version)
         number = len(history) if version is None else version
         document, created_at = history[number - 1]
+        records = self.outcomes.get((process_id, number), [])
         return StoredProcess(
             id=document.id,
             version=number,
@@ -61,7 +68,9 @@ class FakeProcessStore(ProcessStore):
             tags=document.tags,
             markdown=document.markdown,
             created_at=created_at,
-            stats=self.stats.get((process_id, number), OutcomeStats()),
+            saved_by=self.robot_id,
+            stats=_count(records),
+            robot_stats=_count([r for r in records if r.robot_id == self.robot_id]),
         )
 
     def save(self, document: ProcessDocument) -> SaveResult:
@@ -90,7 +99,9 @@ class FakeProcessStore(ProcessStore):
                     tags=current.tags,
                     current_version=current.version,
                     updated_at=current.created_at,
+                    saved_by=current.saved_by,
                     stats=current.stats,
+                    robot_stats=current.robot_stats,
                 )
             )
         return sorted(summaries, key=lambda summary: -summary.updated_at)
@@ -118,11 +129,7 @@ class FakeProcessStore(ProcessStore):
         self._enter()
         current = self._stored(process_id, None)
         key = (process_id, current.version)
-        old = self.stats.get(key, OutcomeStats())
-        self.stats[key] = OutcomeStats(
-            successes=old.successes + int(success), failures=old.failures + int(not success)
-        )
-        record = OutcomeRecord(current.version, success, note, time.time())
+        record = OutcomeRecord(current.version, success, note, time.time(), self.robot_id)
         self.outcomes.setdefault(key, []).insert(0, record)
         return self._stored(process_id, None)
 

@@ -1,10 +1,16 @@
 """SqliteFtsProcessStore: the embedded ProcessStore — one SQLite file, FTS5 BM25 search.
 
-Tables: ``process_versions`` (every version ever saved, with its outcome counts),
-``processes`` (one row per id: the current version pointer), ``outcomes`` (the outcome log with
-notes) and ``process_fts`` (FTS5, ``porter unicode61`` tokenizer, one row per process holding
-its current version; rowid = ``processes.rowid``). Several robots may share a file: each FTS row
-carries a ``scope`` token derived from its robot id and every search is constrained to it.
+Tables: ``process_versions`` (every version ever saved, with the robot that saved it),
+``processes`` (one row per scope and id: the current version pointer), ``outcomes`` (the outcome
+log: robot, success, note; counts are aggregated from it) and ``process_fts`` (FTS5, ``porter
+unicode61`` tokenizer, one row per process holding its current version; rowid =
+``processes.rowid``). Several robots may share a file: each FTS row carries a token of its scope
+(:func:`~robot_mcp_memory.store.base.scope_of`) and every search is constrained to it. The schema
+is versioned (``PRAGMA user_version``, :data:`MIGRATIONS`), migrated at open inside one
+``BEGIN IMMEDIATE`` transaction, so servers opening one file together migrate it once.
+
+Writes run in ``BEGIN IMMEDIATE`` transactions: SQLite's single writer lock makes concurrent
+saves (threads or processes) serializable, so a version history never has gaps or duplicates.
 
 Ranking is FTS5's ``bm25()`` (column weights :data:`BM25_WEIGHTS`). Its idf,
 ``log((N − n + 0.5) / (n + 0.5))``, is ≤ 0 (clamped to 1e-6) for a word found in half the rows
@@ -43,9 +49,10 @@ from robot_mcp_memory.store.base import (
     SearchQuery,
     StoredProcess,
     StoreError,
+    Visibility,
+    scope_of,
 )
 
-SCHEMA_VERSION = 1
 SMOOTHING_ROWS = 8
 _FILLER = "zzsmoothing"
 # Tokens in title, task_pattern, tags, body, concepts: a typical document.
@@ -55,57 +62,116 @@ _FILLER_LENGTHS = (6, 12, 3, 100, 10)
 # concepts (matched only by the concept pass, whose total is weighted separately).
 BM25_WEIGHTS = (0.0, 4.0, 3.0, 2.0, 1.0, 1.0)
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS processes (
-    rowid INTEGER PRIMARY KEY,
-    robot_id TEXT NOT NULL,
-    process_id TEXT NOT NULL,
-    current_version INTEGER NOT NULL,
-    created_at REAL NOT NULL,
-    updated_at REAL NOT NULL,
-    UNIQUE (robot_id, process_id)
-);
-CREATE TABLE IF NOT EXISTS process_versions (
-    robot_id TEXT NOT NULL,
-    process_id TEXT NOT NULL,
-    version INTEGER NOT NULL,
-    title TEXT NOT NULL,
-    task_pattern TEXT NOT NULL,
-    tags_json TEXT NOT NULL,
-    markdown TEXT NOT NULL,
-    created_at REAL NOT NULL,
-    successes INTEGER NOT NULL DEFAULT 0,
-    failures INTEGER NOT NULL DEFAULT 0,
-    PRIMARY KEY (robot_id, process_id, version)
-);
-CREATE TABLE IF NOT EXISTS outcomes (
-    id INTEGER PRIMARY KEY,
-    robot_id TEXT NOT NULL,
-    process_id TEXT NOT NULL,
-    version INTEGER NOT NULL,
-    success INTEGER NOT NULL,
-    note TEXT NOT NULL,
-    recorded_at REAL NOT NULL
-);
-CREATE INDEX IF NOT EXISTS outcomes_by_process ON outcomes (robot_id, process_id, version, id);
-CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE VIRTUAL TABLE IF NOT EXISTS process_fts USING fts5(
-    scope, title, task_pattern, tags, body, concepts,
-    tokenize = 'porter unicode61 remove_diacritics 2'
-);
-"""
+_SCHEMA_V1 = (
+    """CREATE TABLE IF NOT EXISTS processes (
+        rowid INTEGER PRIMARY KEY,
+        robot_id TEXT NOT NULL,
+        process_id TEXT NOT NULL,
+        current_version INTEGER NOT NULL,
+        created_at REAL NOT NULL,
+        updated_at REAL NOT NULL,
+        UNIQUE (robot_id, process_id)
+    )""",
+    """CREATE TABLE IF NOT EXISTS process_versions (
+        robot_id TEXT NOT NULL,
+        process_id TEXT NOT NULL,
+        version INTEGER NOT NULL,
+        title TEXT NOT NULL,
+        task_pattern TEXT NOT NULL,
+        tags_json TEXT NOT NULL,
+        markdown TEXT NOT NULL,
+        created_at REAL NOT NULL,
+        successes INTEGER NOT NULL DEFAULT 0,
+        failures INTEGER NOT NULL DEFAULT 0,
+        PRIMARY KEY (robot_id, process_id, version)
+    )""",
+    """CREATE TABLE IF NOT EXISTS outcomes (
+        id INTEGER PRIMARY KEY,
+        robot_id TEXT NOT NULL,
+        process_id TEXT NOT NULL,
+        version INTEGER NOT NULL,
+        success INTEGER NOT NULL,
+        note TEXT NOT NULL,
+        recorded_at REAL NOT NULL
+    )""",
+    "CREATE INDEX IF NOT EXISTS outcomes_by_process "
+    "ON outcomes (robot_id, process_id, version, id)",
+    "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    """CREATE VIRTUAL TABLE IF NOT EXISTS process_fts USING fts5(
+        scope, title, task_pattern, tags, body, concepts,
+        tokenize = 'porter unicode61 remove_diacritics 2'
+    )""",
+)
 
+# Version 2: fleet scope. Processes live in a scope ("robot:<id>" or "fleet"), each version keeps
+# the robot that saved it, each outcome its robot; counts come from the outcome log.
+_SCHEMA_V2 = (
+    "ALTER TABLE processes RENAME COLUMN robot_id TO scope",
+    "ALTER TABLE process_versions RENAME COLUMN robot_id TO scope",
+    "ALTER TABLE process_versions ADD COLUMN saved_by TEXT NOT NULL DEFAULT ''",
+    "UPDATE process_versions SET saved_by = scope, scope = 'robot:' || scope",
+    "UPDATE processes SET scope = 'robot:' || scope",
+    "ALTER TABLE outcomes ADD COLUMN scope TEXT NOT NULL DEFAULT ''",
+    "UPDATE outcomes SET scope = 'robot:' || robot_id",
+    "DROP INDEX outcomes_by_process",
+    "CREATE INDEX outcomes_by_version ON outcomes (scope, process_id, version, id)",
+)
+
+
+def _rescope_fts(conn: sqlite3.Connection) -> None:
+    rows = conn.execute("SELECT rowid, scope FROM processes").fetchall()
+    for rowid, scope in rows:
+        conn.execute(
+            "UPDATE process_fts SET scope = ? WHERE rowid = ?", (scope_token(scope), rowid)
+        )
+
+
+def _statements(*sql: str) -> Callable[[sqlite3.Connection], None]:
+    def apply(conn: sqlite3.Connection) -> None:
+        for statement in sql:
+            conn.execute(statement)
+
+    return apply
+
+
+def _v2(conn: sqlite3.Connection) -> None:
+    _statements(*_SCHEMA_V2)(conn)
+    _rescope_fts(conn)
+
+
+# Schema version → migration from the version before it (applied in order at open).
+MIGRATIONS: dict[int, Callable[[sqlite3.Connection], None]] = {
+    1: _statements(*_SCHEMA_V1),
+    2: _v2,
+}
+SCHEMA_VERSION = max(MIGRATIONS)
+
+
+def _count(success: int, robot_only: bool) -> str:
+    robot = " AND o.robot_id = :robot" if robot_only else ""
+    return (
+        "(SELECT count(*) FROM outcomes o WHERE o.scope = v.scope AND o.process_id = "  # noqa: S608 - constant SQL
+        f"v.process_id AND o.version = v.version AND o.success = {success}{robot})"
+    )
+
+
+# Columns of a version row (:func:`_stored`), outcome counts aggregated from the log.
 _VERSION_COLUMNS = (
     "v.process_id, v.version, p.current_version, v.title, v.task_pattern, v.tags_json, "
-    "v.markdown, v.created_at, v.successes, v.failures"
+    "v.markdown, v.created_at, v.saved_by, "
+    + ", ".join(_count(success, robot) for robot in (False, True) for success in (1, 0))
+)
+_CURRENT = (
+    "FROM processes p JOIN process_versions v ON v.scope = p.scope "
+    "AND v.process_id = p.process_id AND v.version = p.current_version"
 )
 
 T = TypeVar("T")
 
 
-def scope_token(robot_id: str) -> str:
-    """One FTS token naming a robot: 'r' + hex of its UTF-8 id (no tokenizer can split it)."""
-    return "r" + robot_id.encode().hex()
+def scope_token(scope: str) -> str:
+    """One FTS token naming a scope: 'r' + hex of its UTF-8 name (no tokenizer can split it)."""
+    return "r" + scope.encode().hex()
 
 
 def render_match(terms: tuple[str, ...]) -> str:
@@ -118,12 +184,19 @@ def render_match(terms: tuple[str, ...]) -> str:
 class SqliteFtsProcessStore(ProcessStore):
     """Process store in one SQLite file (WAL mode); thread-safe through one locked connection."""
 
-    def __init__(self, path: str | Path, robot_id: str, *, busy_timeout_s: float = 5.0) -> None:
-        if not robot_id.strip():
-            raise ValueError("robot_id must not be empty")
+    def __init__(
+        self,
+        path: str | Path,
+        robot_id: str,
+        *,
+        visibility: Visibility = "robot",
+        busy_timeout_s: float = 5.0,
+    ) -> None:
+        self.scope = scope_of(robot_id, visibility)
         self.robot_id = robot_id
+        self.visibility = visibility
         self.path = Path(path)
-        self._scope = scope_token(robot_id)
+        self._token = scope_token(self.scope)
         self._lock = threading.Lock()
         if str(path) != ":memory:":
             self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -134,10 +207,9 @@ class SqliteFtsProcessStore(ProcessStore):
             self._conn.execute("PRAGMA journal_mode = WAL")
             self._conn.execute("PRAGMA synchronous = NORMAL")
             self._conn.execute("PRAGMA foreign_keys = ON")
-            self._conn.executescript(_SCHEMA)
+            self._migrate()
             self._add_smoothing_rows()
             self._refresh_concepts()
-            self._conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
         except sqlite3.Error as exc:
             if "fts5" in str(exc).lower():
                 raise StoreError(
@@ -165,6 +237,19 @@ class SqliteFtsProcessStore(ProcessStore):
             except sqlite3.Error as exc:
                 raise StoreError(f"process store read failed: {exc}") from exc
 
+    def _migrate(self) -> None:
+        """Apply the pending :data:`MIGRATIONS` under the write lock (once per file)."""
+        with self._transaction() as conn:
+            current = int(conn.execute("PRAGMA user_version").fetchone()[0])
+            if current > SCHEMA_VERSION:
+                raise StoreError(
+                    f"the process store at {self.path} has schema version {current}, newer than "
+                    f"this server's {SCHEMA_VERSION}; upgrade robot-mcp-memory"
+                )
+            for version in range(current + 1, SCHEMA_VERSION + 1):
+                MIGRATIONS[version](conn)
+                conn.execute(f"PRAGMA user_version = {version}")
+
     def _add_smoothing_rows(self) -> None:
         with self._transaction() as conn:
             present = conn.execute("SELECT count(*) FROM process_fts WHERE rowid < 0").fetchone()
@@ -185,9 +270,7 @@ class SqliteFtsProcessStore(ProcessStore):
             if row is not None and row[0] == SYNONYMS_VERSION:
                 return
             current = conn.execute(
-                "SELECT p.rowid, v.title, v.task_pattern, v.tags_json, f.body FROM processes p "
-                "JOIN process_versions v ON v.robot_id = p.robot_id "
-                "AND v.process_id = p.process_id AND v.version = p.current_version "
+                f"SELECT p.rowid, v.title, v.task_pattern, v.tags_json, f.body {_CURRENT} "
                 "JOIN process_fts f ON f.rowid = p.rowid"
             ).fetchall()
             for rowid, title, task_pattern, tags_json, body in current:
@@ -215,8 +298,8 @@ class SqliteFtsProcessStore(ProcessStore):
             with self._transaction() as conn:
                 row = conn.execute(
                     "SELECT rowid, current_version FROM processes "
-                    "WHERE robot_id = ? AND process_id = ?",
-                    (self.robot_id, document.id),
+                    "WHERE scope = ? AND process_id = ?",
+                    (self.scope, document.id),
                 ).fetchone()
                 if row is not None:
                     current = self._get(conn, document.id, None)
@@ -224,13 +307,14 @@ class SqliteFtsProcessStore(ProcessStore):
                         return SaveResult(process=current, created=False)
                 version = 1 if row is None else int(row[1]) + 1
                 conn.execute(
-                    "INSERT INTO process_versions (robot_id, process_id, version, title, "
+                    "INSERT INTO process_versions (scope, process_id, version, saved_by, title, "
                     "task_pattern, tags_json, markdown, created_at) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (
-                        self.robot_id,
+                        self.scope,
                         document.id,
                         version,
+                        self.robot_id,
                         document.title,
                         document.task_pattern,
                         json.dumps(list(document.tags)),
@@ -240,9 +324,9 @@ class SqliteFtsProcessStore(ProcessStore):
                 )
                 if row is None:
                     cursor = conn.execute(
-                        "INSERT INTO processes (robot_id, process_id, current_version, "
+                        "INSERT INTO processes (scope, process_id, current_version, "
                         "created_at, updated_at) VALUES (?, ?, ?, ?, ?)",
-                        (self.robot_id, document.id, version, now, now),
+                        (self.scope, document.id, version, now, now),
                     )
                     rowid = cursor.lastrowid
                 else:
@@ -257,7 +341,7 @@ class SqliteFtsProcessStore(ProcessStore):
                     "concepts) VALUES (?, ?, ?, ?, ?, ?, ?)",
                     (
                         rowid,
-                        self._scope,
+                        self._token,
                         document.title,
                         document.task_pattern,
                         " ".join(document.tags),
@@ -277,25 +361,11 @@ class SqliteFtsProcessStore(ProcessStore):
     def list_processes(self) -> list[ProcessSummary]:
         def work(conn: sqlite3.Connection) -> list[ProcessSummary]:
             rows = conn.execute(
-                "SELECT v.process_id, v.title, v.task_pattern, v.tags_json, p.current_version, "
-                "p.updated_at, v.successes, v.failures FROM processes p "
-                "JOIN process_versions v ON v.robot_id = p.robot_id "
-                "AND v.process_id = p.process_id AND v.version = p.current_version "
-                "WHERE p.robot_id = ? ORDER BY p.updated_at DESC, p.process_id",
-                (self.robot_id,),
+                f"SELECT {_VERSION_COLUMNS}, p.updated_at {_CURRENT} "
+                "WHERE p.scope = :scope ORDER BY p.updated_at DESC, p.process_id",
+                {"scope": self.scope, "robot": self.robot_id},
             ).fetchall()
-            return [
-                ProcessSummary(
-                    id=row[0],
-                    title=row[1],
-                    task_pattern=row[2],
-                    tags=tuple(json.loads(row[3])),
-                    current_version=int(row[4]),
-                    updated_at=float(row[5]),
-                    stats=OutcomeStats(successes=int(row[6]), failures=int(row[7])),
-                )
-                for row in rows
-            ]
+            return [ProcessSummary.of(_stored(row[:-1]), float(row[-1])) for row in rows]
 
         return self._read(work)
 
@@ -318,20 +388,22 @@ class SqliteFtsProcessStore(ProcessStore):
                 match = render_match(terms)
                 if not match or weight <= 0:
                     continue
-                expression = f'scope : "{self._scope}" AND {columns} : ({match})'
+                expression = f'scope : "{self._token}" AND {columns} : ({match})'
                 for rowid, score in conn.execute(sql, (expression, limit)):
                     scores[rowid] = scores.get(rowid, 0.0) + weight * max(float(score), 0.0)
             best = sorted(scores.items(), key=lambda item: (-item[1], item[0]))[:limit]
             if not best:
                 return []
-            marks = ", ".join("?" for _ in best)
+            marks = ", ".join(f":r{index}" for index in range(len(best)))
             rows = conn.execute(
-                f"SELECT p.rowid, {_VERSION_COLUMNS} FROM processes p "  # noqa: S608 - placeholders only
-                "JOIN process_versions v ON v.robot_id = p.robot_id "
-                "AND v.process_id = p.process_id AND v.version = p.current_version "
-                # "+" keeps the planner on the rowid lookup instead of scanning the robot's rows
-                f"WHERE +p.robot_id = ? AND p.rowid IN ({marks})",
-                (self.robot_id, *(rowid for rowid, _ in best)),
+                f"SELECT p.rowid, {_VERSION_COLUMNS} {_CURRENT} "
+                # "+" keeps the planner on the rowid lookup instead of scanning the scope's rows
+                f"WHERE +p.scope = :scope AND p.rowid IN ({marks})",
+                {
+                    "scope": self.scope,
+                    "robot": self.robot_id,
+                    **{f"r{index}": rowid for index, (rowid, _) in enumerate(best)},
+                },
             ).fetchall()
             by_rowid = {row[0]: _stored(row[1:]) for row in rows}
             return [
@@ -347,15 +419,17 @@ class SqliteFtsProcessStore(ProcessStore):
             with self._transaction() as conn:
                 current = self._get(conn, process_id, None)
                 conn.execute(
-                    "INSERT INTO outcomes (robot_id, process_id, version, success, note, "
-                    "recorded_at) VALUES (?, ?, ?, ?, ?, ?)",
-                    (self.robot_id, process_id, current.version, int(success), note, time.time()),
-                )
-                column = "successes" if success else "failures"
-                conn.execute(
-                    f"UPDATE process_versions SET {column} = {column} + 1 "  # noqa: S608 - fixed names
-                    "WHERE robot_id = ? AND process_id = ? AND version = ?",
-                    (self.robot_id, process_id, current.version),
+                    "INSERT INTO outcomes (scope, robot_id, process_id, version, success, note, "
+                    "recorded_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        self.scope,
+                        self.robot_id,
+                        process_id,
+                        current.version,
+                        int(success),
+                        note,
+                        time.time(),
+                    ),
                 )
                 return self._get(conn, process_id, None)
         except sqlite3.Error as exc:
@@ -367,13 +441,17 @@ class SqliteFtsProcessStore(ProcessStore):
         def work(conn: sqlite3.Connection) -> list[OutcomeRecord]:
             target = self._get(conn, process_id, version).version
             rows = conn.execute(
-                "SELECT version, success, note, recorded_at FROM outcomes "
-                "WHERE robot_id = ? AND process_id = ? AND version = ? ORDER BY id DESC LIMIT ?",
-                (self.robot_id, process_id, target, limit),
+                "SELECT version, success, note, recorded_at, robot_id FROM outcomes "
+                "WHERE scope = ? AND process_id = ? AND version = ? ORDER BY id DESC LIMIT ?",
+                (self.scope, process_id, target, limit),
             ).fetchall()
             return [
                 OutcomeRecord(
-                    version=int(row[0]), success=bool(row[1]), note=row[2], recorded_at=row[3]
+                    version=int(row[0]),
+                    success=bool(row[1]),
+                    note=row[2],
+                    recorded_at=row[3],
+                    robot_id=row[4],
                 )
                 for row in rows
             ]
@@ -385,14 +463,12 @@ class SqliteFtsProcessStore(ProcessStore):
     def _get(self, conn: sqlite3.Connection, process_id: str, version: int | None) -> StoredProcess:
         sql = (
             f"SELECT {_VERSION_COLUMNS} FROM processes p "  # noqa: S608 - constant columns
-            "JOIN process_versions v ON v.robot_id = p.robot_id AND v.process_id = p.process_id "
-            "WHERE p.robot_id = ? AND p.process_id = ? AND v.version = "
-            + ("p.current_version" if version is None else "?")
+            "JOIN process_versions v ON v.scope = p.scope AND v.process_id = p.process_id "
+            "WHERE p.scope = :scope AND p.process_id = :id AND v.version = "
+            + ("p.current_version" if version is None else ":version")
         )
-        params: tuple[object, ...] = (self.robot_id, process_id)
-        if version is not None:
-            params = (*params, version)
-        row = conn.execute(sql, params).fetchone()
+        params = {"scope": self.scope, "robot": self.robot_id, "id": process_id}
+        row = conn.execute(sql, {**params, "version": version}).fetchone()
         if row is None:
             raise ProcessNotFoundError(process_id, version)
         return _stored(row)
@@ -408,5 +484,7 @@ def _stored(row: Sequence[Any]) -> StoredProcess:
         tags=tuple(json.loads(str(row[5]))),
         markdown=str(row[6]),
         created_at=float(row[7]),
-        stats=OutcomeStats(successes=int(row[8]), failures=int(row[9])),
+        saved_by=str(row[8]),
+        stats=OutcomeStats(successes=int(row[9]), failures=int(row[10])),
+        robot_stats=OutcomeStats(successes=int(row[11]), failures=int(row[12])),
     )

@@ -28,6 +28,9 @@ export interface MissionFinishedPayload {
 mission_id: string
 outcome: ("planning" | "running" | "paused" | "succeeded" | "failed" | "cancelled")
 summary: string
+usage?: ({
+[k: string]: (number | null)
+} | null)
 }
 
 export interface MissionPlanPayload {

@@ -73,6 +73,7 @@ export function wireEvents(socket: RobotSocket, onReconnect: () => void): () => 
       outcome: e.outcome,
       summary: e.summary,
       steps: mission?.id === e.mission_id ? mission.steps : [],
+      usage: e.usage ?? undefined,
     });
   });
   socket.on('teaching_state', (e) => useSettingsStore.getState().setTeaching(e.armed));

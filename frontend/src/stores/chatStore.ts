@@ -12,7 +12,15 @@ export type FeedItem =
       outcome: string;
       summary: string;
       steps: Step[];
+      /** Planner tokens and cost of the mission (absent when the brain reported none). */
+      usage?: MissionUsage;
     };
+
+export interface MissionUsage {
+  input_tokens?: number | null;
+  output_tokens?: number | null;
+  cost_usd?: number | null;
+}
 
 /** The feed keeps this many items; older ones are still in the brain's history. */
 export const FEED_LIMIT = 200;

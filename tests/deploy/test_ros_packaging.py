@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import re
 import shlex
 import subprocess
 import sys
@@ -18,7 +17,7 @@ import pytest
 import yaml
 
 from robot_mcp_perception.composition import compose_config
-from robot_mcp_perception.settings import NodeSettings
+from robot_mcp_perception.settings import ROS_PARAMETERS, NodeSettings
 
 ROOT = Path(__file__).resolve().parents[2]
 PERCEPTION = ROOT / "packages/robot_mcp_perception"
@@ -93,10 +92,12 @@ def launch(actions: list[Recorded], given: dict[str, str]) -> tuple[dict[str, An
 
 
 def node_parameters() -> tuple[set[str], set[str]]:
+    """(declared, read): the node declares every name of ``ROS_PARAMETERS`` and reads them all
+    back into the same Pydantic validation as the Hydra config (vision_node.py)."""
     source = (PERCEPTION / "src/robot_mcp_perception/vision_node.py").read_text()
-    declared = set(re.findall(r'declare_parameter\("(\w+)"', source))
-    read = set(re.findall(r'get_parameter\("(\w+)"', source))
-    return declared, read
+    assert "self.declare_parameter(name" in source
+    assert "self.get_parameter(name)" in source
+    return set(ROS_PARAMETERS), set(ROS_PARAMETERS)
 
 
 def test_every_launch_argument_is_a_node_parameter_or_a_config_override(

@@ -265,6 +265,7 @@ def voice_brain(tmp_path: Path) -> Iterator[tuple[str, FakeTranscriptionServer]]
         env = {
             "RVC_DEPLOYMENT": "dev",
             "RVC_TRACE_DIR": str(tmp_path / "missions"),
+            "RVC_DATA_DIR": str(tmp_path / "brain"),
             "OPENAI_BASE_URL": fake.base_url,
             "OPENAI_API_KEY": key,
             "RVC_CAMERA_URL": dead,
@@ -317,7 +318,7 @@ def test_push_to_talk_sends_the_microphone_to_speech_input_and_esc_stops(
 
     log = page.get_by_role("log", name="Conversation")
     expect(log).to_contain_text("hello")
-    expect(log).to_contain_text("demo voice")  # the recorded fast-path reply to "hello"
+    expect(log).to_contain_text("offline voice")  # the rules chat's answer to "hello"
     assert len(fake.received) == 1
     upload = fake.received[0]
     assert upload.model == "whisper-1"

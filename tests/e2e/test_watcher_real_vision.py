@@ -152,6 +152,14 @@ async def test_a_watch_for_skill_on_the_real_vision_node_posts_one_signed_event_
             raise AssertionError(f"vision node did not come up:\n{vision.log()[-3000:]}") from None
 
         async with Client(skills_url) as skills, Client(perception_url) as perception:
+            # skill_control's own ROS node discovers the vision node on its own schedule (seconds
+            # on a loaded machine): wait until it reaches the node before creating a skill.
+            async def skill_control_sees_the_node() -> bool:
+                return "_error" not in await call(skills, "list_running_skills", {})
+
+            await async_wait_until(
+                skill_control_sees_the_node, 45.0, "skill_control reaches the node"
+            )
 
             async def triggered_is(value: bool) -> bool:
                 latest = await call(perception, "get_latest", {"skill": "watch_for"})

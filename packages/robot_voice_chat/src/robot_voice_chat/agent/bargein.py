@@ -50,10 +50,20 @@ class BargeIn:
         return any(word in self.config.stop_words for word in words)
 
     async def safety_stop(self, reason: str = "stop") -> None:
-        """(1) cancel motion tasks + safety_stop_tool, (2) interrupt speech, (2b) end watchers
-        and stop the vision skills the brain started, (3) pause, (4) ask, (5) suspend until
-        the user answers."""
+        """(0) pause and suspend (state only, no await), (1) cancel motion tasks +
+        safety_stop_tool, (2) interrupt speech, (2b) end watchers and stop the vision skills
+        the brain started, (3) mark their steps failed, (4) ask; the loop stays suspended
+        until the user answers."""
         run = self.current_run()
+        active = run is not None and run.mission.active
+        if run is not None and active:
+            # pause before any await: the loop starts no planner step, and a motion task whose
+            # tool call is still in flight is cancelled by the dispatcher when it registers
+            if run.llm_call is not None:
+                run.llm_call.cancel()
+            run.mission.state = "paused"
+            run.suspended = True
+            run.awaiting_user = True
         calls = []
         cancelled = []
         for server in self.tools.servers().values():
@@ -71,14 +81,13 @@ class BargeIn:
         skills = [
             s for s in self.dispatcher.skills.active() if (s.server, s.skill_id) not in watched
         ]
-        active = run is not None and run.mission.active
         if run is not None and active:
-            # pause before any further await, so the loop cannot start another planner step
-            if run.llm_call is not None:
-                run.llm_call.cancel()
-            run.mission.state = "paused"
-            run.suspended = True
-            run.awaiting_user = True
+            # a drive whose call had not answered is failed too (its task is cancelled when
+            # the answer comes), so the paused plan shows no motion step still running
+            in_flight = [run.mission.step(s) for s in self.dispatcher.motion_steps_in_flight]
+            for step in in_flight:
+                if step is not None:
+                    step.set_status("failed", "safety stop")
             for handle in cancelled + watchers:
                 step = run.mission.step(handle.step_id)
                 if step is not None:

@@ -65,6 +65,8 @@ class TaskDispatcher:
         self._background: set[asyncio.Task[None]] = set()
         # Events can overtake the tool result that names their task: keep them briefly.
         self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
+        # steps whose motion tool call has not answered yet (a safety stop fails them too)
+        self.motion_steps_in_flight: set[str] = set()
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -92,12 +94,20 @@ class TaskDispatcher:
         step = mission.step(step_id)
         if mission.state == "paused" and not run.awaiting_user:
             mission.state = "running"
-        if step is not None:
-            step.set_status("running")
-            await self.output.emit_plan(run)
-        await self.output.log_line(run, "tool_call", f"{call.name}({_short(args)})")
-        started = time.monotonic()
-        outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
+        server_cfg = self.tools.servers().get(call.name.partition(".")[0])
+        in_flight = step_id if server_cfg is not None and server_cfg.motion else None
+        if in_flight is not None:
+            self.motion_steps_in_flight.add(in_flight)
+        try:
+            if step is not None:
+                step.set_status("running")
+                await self.output.emit_plan(run)
+            await self.output.log_line(run, "tool_call", f"{call.name}({_short(args)})")
+            started = time.monotonic()
+            outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
+        finally:
+            if in_flight is not None:
+                self.motion_steps_in_flight.discard(in_flight)
         duration_ms = round((time.monotonic() - started) * 1000, 1)
         self.skills.note(call.name, args, outcome.text, outcome.is_error)
         self.trace.record(
@@ -143,16 +153,23 @@ class TaskDispatcher:
             skill_id=skill_id if isinstance(skill_id, str) else None,
             skill_server=server if isinstance(skill_id, str) else None,
         )
-        self.registry.register(handle)
         step = run.mission.step(step_id)
         if step is not None:
             step.task_id = handle.task_id
+        server_cfg = self.tools.servers().get(owner)
+        if run.mission.state == "paused" and server_cfg is not None and server_cfg.motion:
+            # A safety stop came in while this call was in flight (the stop's cancel could not
+            # see it): end it as the stop ends the others, its events orphans, not news.
+            if step is not None:
+                step.set_status("failed", "safety stop")
+                await self.output.emit_plan(run)
+            await self.cancel_task(owner, handle.task_id)
+            return
+        self.registry.register(handle)
+        if step is not None:
             eta = info.get("est_duration_s")
             step.detail = f"ETA {eta:.0f} s" if isinstance(eta, int | float) else "running"
             await self.output.emit_plan(run)
-        server_cfg = self.tools.servers().get(owner)
-        if run.mission.state == "paused" and server_cfg is not None and server_cfg.motion:
-            await self.cancel_task(owner, handle.task_id)  # a stop came in while it started
         now = time.monotonic()
         early = [
             e

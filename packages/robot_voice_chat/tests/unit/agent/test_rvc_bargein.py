@@ -8,7 +8,7 @@ from pathlib import Path
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.bargein import STOP_QUESTION
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import Harness, make_harness
+from robot_voice_chat.testing import Harness, make_harness, task_info
 
 PLAN = reply(
     "",
@@ -87,6 +87,41 @@ async def test_stop_during_a_planner_call_cancels_that_call(tmp_path: Path) -> N
     mission = h.executor.store.get(mission.id) or mission
     assert mission.state == "failed"
     assert len(planner.requests) == 3  # the interrupted step's answer was never used
+
+
+async def test_a_stop_while_the_drive_call_is_in_flight_ends_the_drive_it_started(
+    tmp_path: Path,
+) -> None:
+    """The stop's cancel cannot see a task whose navigate_to has not answered yet: when the
+    answer comes, the dispatcher ends that task as the stop would have (step failed, cancelled,
+    not a live task whose events reach the planner)."""
+    planner = FakeLLM([PLAN, WAIT])
+    h = make_harness(tmp_path, planner)
+    sent, release = asyncio.Event(), asyncio.Event()
+
+    async def slow_navigate(args: dict[str, object]) -> str:
+        sent.set()
+        await asyncio.wait_for(release.wait(), 5)
+        return task_info("nav-1")
+
+    h.tools.add("navigation.navigate_to", slow_navigate, location="string")
+    mission = await h.executor.start("drive to the mailroom")
+    await asyncio.wait_for(sent.wait(), 5)
+
+    await h.executor.on_user_turn("stop")
+    assert mission.state == "paused"
+    assert h.tools.called("navigation.cancel_task") == []  # nothing to cancel yet
+    assert (mission.steps[0].status, mission.steps[0].detail) == ("failed", "safety stop")
+    release.set()
+    await async_wait_until(
+        lambda: h.tools.called("navigation.cancel_task"), 5, "the late drive cancelled"
+    )
+
+    assert h.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+    assert (mission.steps[0].status, mission.steps[0].detail) == ("failed", "safety stop")
+    assert h.executor.task_server("nav-1") is None
+    assert mission.state == "paused"
+    await h.executor.shutdown()
 
 
 async def test_stop_without_a_mission_still_halts_motion_servers(tmp_path: Path) -> None:

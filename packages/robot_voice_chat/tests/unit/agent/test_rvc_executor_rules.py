@@ -4,10 +4,15 @@ same executor, registry, reactions and trace, driven by typed commands over a si
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
+from robot_voice_chat.services.llm.rules.commands import parse
+from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation
 from robot_voice_chat.socket_events import MissionPlan
+from robot_voice_chat.testing import task_info
 from robot_voice_chat.testing_office import office
 
 
@@ -136,3 +141,30 @@ async def test_the_step_budget_still_applies_to_the_rules_planner(tmp_path: Path
     assert mission.state == "failed"
     assert "2 planner steps" in mission.summary
     assert o.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+
+
+def test_a_continue_that_comes_with_the_drives_end_is_used_up_there() -> None:
+    """The drive's end (here: cancelled by the stop) and the user's "continue" arrive in one
+    planner step: the answer is consumed with that outcome, so the detour drive that follows is
+    waited for, not taken for a new pause (which re-sent navigate_to and halted the detour)."""
+    tools = [
+        ToolDefinition(name=n) for n in ("navigation.navigate_to", "navigation.list_locations")
+    ]
+    program = MissionProgram(parse("go to the kitchen"), tools).run()
+    assert [c.name for c in next(program).calls] == ["set_plan", "navigation.list_locations"]
+    places = json.dumps({"locations": [{"name": "kitchen"}]})
+    ok = ToolResult(tool_call_id="", content="ok")
+    act = program.send(Observation(results=[ok, ToolResult(tool_call_id="", content=places)]))
+    assert [c.name for c in act.calls] == ["navigation.navigate_to"]
+    drive = ToolResult(tool_call_id="", content=task_info("nav-1"))
+    assert [c.name for c in program.send(Observation(results=[drive])).calls] == ["wait_for_events"]
+    cancelled = (
+        "[task nav-1 navigation.navigate_to] failed CANCELLED (recoverable): cancelled "
+        'suggestions: call navigate_to("kitchen") to resume the drive'
+    )
+    act = program.send(Observation(results=[ok], lines=[cancelled], paused_reply="continue"))
+    assert [c.name for c in act.calls] == ["update_plan", "say", "navigation.navigate_to"]
+    assert act.calls[-1].arguments["step_id"] == "s1b"
+    again = ToolResult(tool_call_id="", content=task_info("nav-2"))
+    act = program.send(Observation(results=[ok, ok, again]))
+    assert [c.name for c in act.calls] == ["wait_for_events"]

@@ -305,16 +305,18 @@ class MissionProgram:
 
     def _await(self, task_id: str, reason: str) -> Steps:
         while True:
-            if task_id in self.terminal:
-                return self.terminal[task_id]
             if self.pause_reply is not None:
+                # the answer is used up here even when the task ended meanwhile: left pending,
+                # it would read as a new pause at the next wait and halt the next drive
                 reply, self.pause_reply = self.pause_reply.lower(), None
                 if any(re.search(rf"\b{w}\b", reply) for w in _ABORT):
                     raise _Finished("failed", "Stopped by the user; mission aborted.")
                 if any(re.search(rf"\b{w}\b", reply) for w in _CONTINUE):
-                    return Outcome("paused")
+                    return self.terminal.get(task_id, Outcome("paused"))
                 yield from self.act(Call("ask_user", {"question": "Should I continue or abort?"}))
                 continue
+            if task_id in self.terminal:
+                return self.terminal[task_id]
             yield from self.act(Call("wait_for_events", {"reason": reason}))
 
     def _failure(self, task_id: str, line: str) -> Steps:

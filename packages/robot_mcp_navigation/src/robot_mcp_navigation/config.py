@@ -6,10 +6,18 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Literal
 
+import platformdirs
 from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError, field_validator
 
 DEFAULT_PORT = 9101
 DEFAULT_EVENTS_URL = "http://127.0.0.1:8000/api/agent/events"
+APP_NAME = "robot-mcp-navigation"
+
+
+def default_outbox_path() -> Path:
+    """The outbox lives in the per-user data dir, never the working directory (a server an
+    MCP host spawns from ``/`` must still find and keep its undelivered events)."""
+    return platformdirs.user_data_path(APP_NAME) / "outbox.sqlite3"
 
 
 def default_map_path() -> Path:
@@ -32,7 +40,7 @@ class NavigationSettings(BaseModel):
     tick_s: float = Field(default=0.05, gt=0.0, le=1.0, alias="NAV_TICK_S")
     events_url: str = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
     event_secret: SecretStr | None = Field(default=None, alias="RVC_EVENT_SECRET")
-    outbox_path: Path = Field(default=Path("var/navigation-outbox.sqlite3"), alias="NAV_OUTBOX")
+    outbox_path: Path = Field(default_factory=default_outbox_path, alias="NAV_OUTBOX")
     transport: Literal["stdio", "sse", "streamable-http"] = Field(
         default="stdio", alias="MCP_TRANSPORT"
     )
@@ -46,6 +54,13 @@ class NavigationSettings(BaseModel):
     @classmethod
     def _empty_secret_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
+
+    @field_validator("outbox_path")
+    @classmethod
+    def _absolute(cls, value: Path) -> Path:
+        if not value.is_absolute():
+            raise ValueError("must be an absolute path (the working directory is not state)")
+        return value
 
     @field_validator("events_url")
     @classmethod

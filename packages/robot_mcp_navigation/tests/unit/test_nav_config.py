@@ -1,5 +1,6 @@
 from pathlib import Path
 
+import platformdirs
 import pytest
 
 from robot_mcp_navigation.config import ConfigError, default_map_path, load_settings
@@ -16,7 +17,13 @@ def test_defaults_need_no_environment() -> None:
     assert settings.transport == "stdio"
     assert settings.event_secret is None
     assert settings.events_url == "http://127.0.0.1:8000/api/agent/events"
-    assert settings.outbox_path == Path("var/navigation-outbox.sqlite3")
+    assert settings.outbox_path.is_absolute()
+    assert settings.outbox_path.parent == platformdirs.user_data_path("robot-mcp-navigation")
+
+
+def test_a_relative_outbox_path_is_refused_the_working_directory_is_not_state() -> None:
+    with pytest.raises(ConfigError, match="NAV_OUTBOX"):
+        load_settings({"NAV_OUTBOX": "var/outbox.sqlite3"})
 
 
 def test_environment_values_are_parsed_and_the_secret_is_hidden() -> None:

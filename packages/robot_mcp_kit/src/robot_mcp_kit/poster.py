@@ -241,8 +241,14 @@ class EventPoster:
 
     def stats(self) -> dict[str, int]:
         """Counters since start: emitted, delivered, rejected (dead-lettered), refused (401 /
-        403 / 404 / 405 answers, retried), dropped, retries; plus pending and dead letters."""
-        return {**self._stats, "pending": self.pending_count(), "dead_letters": self._dead_letters}
+        403 / 404 / 405 answers, retried), dropped, retries; plus pending, dead letters and
+        in_flight (posts under way now; such an event is never dropped for room)."""
+        return {
+            **self._stats,
+            "pending": self.pending_count(),
+            "dead_letters": self._dead_letters,
+            "in_flight": len(self._in_flight),
+        }
 
     def health(self) -> dict[str, Any]:
         """``status`` is ``"refused"`` while the receiver refuses us (events wait in the

@@ -182,8 +182,11 @@ async def test_a_wrong_secret_keeps_the_event_retries_it_and_shows_in_health(
     await poster.start()
 
     event = await poster.emit("nav-3", "navigate_to", "task_done", {})
-    await async_wait_until(lambda: len(receiver.rejections) >= 3, 10.0, "three refused attempts")
+    # wait on the poster's own count: the receiver records a refusal before the poster has
+    # read the 401 answer
+    await async_wait_until(lambda: poster.health()["refused"] >= 3, 10.0, "three refused attempts")
 
+    assert len(receiver.rejections) >= 3
     assert set(receiver.rejections) == {"bad_signature"}
     assert poster.pending_count() == 1  # kept in the outbox, not dropped
     health = poster.health()
@@ -292,14 +295,27 @@ async def test_only_one_live_poster_may_hold_an_outbox(make_poster: Any) -> None
 async def test_outbox_pressure_drops_oldest_progress_then_triggers_never_terminal_events(
     make_poster: Any, receiver: RecordingReceiver, receiver_server: ReceiverServer
 ) -> None:
-    poster = make_poster(max_outbox=4)
+    # Slow retries: after its first failed attempt each lane's head waits >= 2 s, so the test
+    # can wait until no post is under way (an event in flight is never dropped for room).
+    poster = make_poster(max_outbox=4, backoff_initial_s=4.0, backoff_max_s=4.0)
+
+    async def quiet(attempts: int) -> None:
+        def settled() -> bool:
+            stats = poster.stats()
+            return stats["retries"] >= attempts and stats["in_flight"] == 0
+
+        await async_wait_until(settled, 10.0, f"{attempts} first attempts over, none in flight")
+
     await poster.start()
     p0 = await poster.emit("a", "navigate_to", "progress", {"i": 0})
     t0 = await poster.emit("a", "navigate_to", "trigger_fired", {"trigger": "eta_below"})
     p1 = await poster.emit("b", "navigate_to", "progress", {"i": 1})
     d0 = await poster.emit("a", "navigate_to", "task_done", {})
+    await quiet(2)  # lane heads p0, p1
     w0 = await poster.emit("w", "watch", "watch_event", {"x": 1})  # drops p0
+    await quiet(4)  # + t0 (now head of a), w0
     f0 = await poster.emit("b", "navigate_to", "task_failed", FAILURE)  # drops p1
+    await quiet(5)  # + f0
     d1 = await poster.emit("c", "navigate_to", "task_done", {})  # drops t0
     with pytest.raises(OutboxFullError):
         await poster.emit("c", "navigate_to", "task_done", {})

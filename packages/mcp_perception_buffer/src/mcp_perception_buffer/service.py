@@ -221,7 +221,8 @@ class Perception:
             if self._follower is not None and skill not in self._follower.followed():
                 await self.sync_graph()  # just instantiated: discover it now, not next poll
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(changed.wait(), min(remaining, _WAIT_SLICE_S))
+                async with asyncio.timeout(min(remaining, _WAIT_SLICE_S)):
+                    await changed.wait()
 
     async def health(self) -> dict[str, Any]:
         """Event delivery to the brain and what is followed; ``status`` is the worst of them."""

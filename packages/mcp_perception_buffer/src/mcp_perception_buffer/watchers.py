@@ -126,7 +126,8 @@ class WatcherService:
 
     async def close(self, drain_timeout_s: float = 2.0) -> None:
         with contextlib.suppress(TimeoutError):  # hand queued (terminal) events to the sink
-            await asyncio.wait_for(self._queue.join(), drain_timeout_s)
+            async with asyncio.timeout(drain_timeout_s):
+                await self._queue.join()
         if self._worker is not None:
             self._worker.cancel()
             with contextlib.suppress(asyncio.CancelledError):

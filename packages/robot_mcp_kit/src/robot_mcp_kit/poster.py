@@ -186,7 +186,8 @@ class EventPoster:
         async with self._emit_lock:  # let emits that already began finish storing
             pass
         with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(self._drained.wait(), timeout=max(0.0, flush_timeout_s))
+            async with asyncio.timeout(max(0.0, flush_timeout_s)):
+                await self._drained.wait()
         lanes = list(self._lanes.values())
         for lane in lanes:
             lane.cancel()
@@ -267,7 +268,8 @@ class EventPoster:
     async def wait_drained(self, timeout_s: float) -> bool:
         """Wait until nothing is pending; False at the deadline."""
         try:
-            await asyncio.wait_for(self._drained.wait(), timeout=timeout_s)
+            async with asyncio.timeout(timeout_s):
+                await self._drained.wait()
         except TimeoutError:
             return False
         return True

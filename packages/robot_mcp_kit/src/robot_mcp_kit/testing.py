@@ -180,7 +180,8 @@ class ReceiverServer:
             return
         self._server.should_exit = True
         try:
-            await asyncio.wait_for(self._task, timeout=10.0)
+            async with asyncio.timeout(10.0):
+                await self._task
         finally:
             self._server = None
             self._task = None

@@ -219,7 +219,8 @@ class ProcessMemory:
 
     async def _call(self, operation: str, work: Callable[[], T]) -> T:
         try:
-            return await asyncio.wait_for(asyncio.to_thread(work), self.timeout_s)
+            async with asyncio.timeout(self.timeout_s):
+                return await asyncio.to_thread(work)
         except ProcessNotFoundError as exc:
             raise MemoryServiceError(
                 "not_found",

@@ -214,9 +214,8 @@ class Navigator:
         if drive is None or drive.runner is None:
             return None
         try:
-            return await asyncio.wait_for(
-                asyncio.shield(drive.runner), self._settings.stop_timeout_s
-            )
+            async with asyncio.timeout(self._settings.stop_timeout_s):
+                return await asyncio.shield(drive.runner)
         except TimeoutError:
             logger.warning("navigation_stop_slow", task_id=drive.task_id)
             return self._tasks.get(drive.task_id)

@@ -6,7 +6,7 @@ on the loop thread (the node publishes from its done-callback; rclpy publish is 
 
 In flight = queued + running. When ``max_in_flight`` is reached the *oldest queued* job is
 dropped (its future cancelled); if every in-flight job is already running the new job is
-refused. Each job runs under ``asyncio.wait_for(timeout_s)`` so a hung model frees its worker.
+refused. Each job runs under ``asyncio.timeout(timeout_s)`` so a hung model frees its worker.
 """
 
 from __future__ import annotations
@@ -161,7 +161,8 @@ class Scheduler:
         if not job.future.set_running_or_notify_cancel():
             return
         try:
-            result = await asyncio.wait_for(job.factory(), self.timeout_s)
+            async with asyncio.timeout(self.timeout_s):
+                result = await job.factory()
         except TimeoutError:
             self.stats.timed_out += 1
             job.future.set_exception(

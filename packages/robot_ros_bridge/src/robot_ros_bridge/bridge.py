@@ -2,8 +2,9 @@
 asyncio side of it (ARCHITECTURE.md §3).
 
 Service futures are handed to the event loop with ``call_soon_threadsafe`` and awaited under
-``asyncio.wait_for``; a timed-out request is removed from the client's pending table. A
-service nobody serves is a fast, clean :class:`ServiceUnavailableError`, never a hang.
+``asyncio.timeout`` (not ``wait_for``, which on 3.11 can swallow a cancel); a timed-out
+request is removed from the client's pending table. A service nobody serves is a fast, clean
+:class:`ServiceUnavailableError`, never a hang.
 
 First call after discovery: ``service_is_ready()`` only says that *this* side has matched
 the server (request writer and reply reader). The server matches our reply reader on its
@@ -330,7 +331,10 @@ class RosBridge:
         ros_future.add_done_callback(_deliver)
         remaining = max(deadline - time.monotonic(), 0.0)
         try:
-            response = await asyncio.wait_for(answer, timeout=remaining)
+            # asyncio.timeout, not wait_for: on 3.11 wait_for swallows a cancel that lands as
+            # the answer arrives, and a polling loop then never ends.
+            async with asyncio.timeout(remaining):
+                response = await answer
         except TimeoutError:
             client.remove_pending_request(ros_future)
             raise ServiceTimeoutError(

@@ -276,3 +276,43 @@ async def test_a_callback_that_raises_does_not_stop_the_bridge(
 
     await async_wait_until(delivered, 20.0, "the broken callback to run", interval_s=0.1)
     assert [s["name"] for s in await tasks.list()] == ["lamp"]  # still spinning
+
+
+class _AnsweredAtOnce:
+    """A client whose reply arrives the moment the request is sent: the answer is handed to
+    the event loop in the same tick as a cancel that lands right after the send."""
+
+    service_name = "/instant/answer"
+
+    def __init__(self) -> None:
+        self.dropped: list[object] = []
+
+    def service_is_ready(self) -> bool:
+        return True
+
+    def call_async(self, request: object) -> object:
+        class Done:
+            def add_done_callback(self, callback: object) -> None:
+                callback(self)  # type: ignore[operator]
+
+            def exception(self) -> None:
+                return None
+
+            def result(self) -> str:
+                return "answer"
+
+        return Done()
+
+    def remove_pending_request(self, future: object) -> None:
+        self.dropped.append(future)
+
+
+async def test_a_cancel_that_lands_as_the_answer_arrives_is_not_swallowed() -> None:
+    # asyncio.wait_for on 3.11 returns the answer here and eats the cancel, so a polling loop
+    # calling the service never ends and whoever awaits its cancellation hangs (a CI hang).
+    with RosBridge(_unique("cancel"), discovery_settle_s=0.0) as bridge:
+        call = asyncio.create_task(bridge.call_service(_AnsweredAtOnce(), object(), 5.0))
+        await asyncio.sleep(0)  # the call sends; its answer is queued on the loop
+        call.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await call

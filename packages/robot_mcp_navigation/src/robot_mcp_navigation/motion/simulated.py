@@ -103,7 +103,8 @@ class SimulatedBase(MotionBase):
                     DriveProgress(pose, total, remaining, remaining / self._speed, elapsed)
                 )
                 with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._stop.wait(), self._tick_s)
+                    async with asyncio.timeout(self._tick_s):
+                        await self._stop.wait()
         finally:
             self._driving = False
 

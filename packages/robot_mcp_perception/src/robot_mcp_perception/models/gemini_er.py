@@ -222,12 +222,10 @@ class GeminiERGrounder(Grounder):
                 charge_cloud_request(f"Gemini retry {attempt - 1}")
             started = time.perf_counter()
             try:
-                response = await asyncio.wait_for(
-                    self._client.aio.models.generate_content(
+                async with asyncio.timeout(self.timeout_s):
+                    response = await self._client.aio.models.generate_content(
                         model=self.model, contents=contents, config=config
-                    ),
-                    timeout=self.timeout_s,
-                )
+                    )
                 text = response.text or ""
                 self._problem = None
                 log.debug(

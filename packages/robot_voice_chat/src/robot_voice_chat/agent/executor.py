@@ -216,7 +216,8 @@ class MissionExecutor:
         ):
             timeout = min(self.config.wakeup_timeout_s, self._check_wall_clock(run))
             try:
-                await asyncio.wait_for(run.wakeup.wait(), timeout)
+                async with asyncio.timeout(timeout):
+                    await run.wakeup.wait()
             except TimeoutError:
                 self._check_wall_clock(run)
                 # a task still reporting progress needs no planner call: keep waiting
@@ -356,7 +357,8 @@ class MissionExecutor:
         """Wait for the running mission task (tests, shutdown)."""
         run = self.run
         if run is not None and run.task is not None:
-            await asyncio.wait_for(asyncio.shield(run.task), timeout_s)
+            async with asyncio.timeout(timeout_s):
+                await asyncio.shield(run.task)
 
     async def shutdown(self, timeout_s: float = 5.0) -> None:
         run = self.run

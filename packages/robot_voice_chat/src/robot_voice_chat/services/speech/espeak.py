@@ -61,7 +61,8 @@ class EspeakSpeechOutput(SpeechOutput):
                     stderr=asyncio.subprocess.DEVNULL,
                 )
                 try:
-                    await asyncio.wait_for(self._current.wait(), self._timeout_s)
+                    async with asyncio.timeout(self._timeout_s):
+                        await self._current.wait()
                 except TimeoutError:
                     self._current.kill()
                     await self._current.wait()

@@ -102,16 +102,14 @@ class McpToolBackend(ToolBackend):
         timeout = timeout_s or self._call_timeout_s
         started = time.monotonic()
         try:
-            result = await asyncio.wait_for(
-                session.call_tool(
+            async with asyncio.timeout(timeout):
+                result = await session.call_tool(
                     tool,
                     dict(arguments),
                     read_timeout_seconds=timeout,
                     # the mission's correlation id, bound by the executor for its whole run
                     meta=mission_meta(structlog.contextvars.get_contextvars().get("mission_id")),
-                ),
-                timeout,
-            )
+                )
         except TimeoutError:
             outcome = ToolOutcome(
                 text=f"error: {name} timed out after {timeout:g} s", is_error=True
@@ -195,12 +193,14 @@ class McpToolBackend(ToolBackend):
                 break
             conn.wake.clear()
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(conn.wake.wait(), self._reconnect_interval_s)
+                async with asyncio.timeout(self._reconnect_interval_s):
+                    await conn.wake.wait()
 
     async def _health_loop(self, conn: _Connection, session: ClientSession) -> None:
         while not self._closing:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(conn.wake.wait(), self._health_interval_s)
+                async with asyncio.timeout(self._health_interval_s):
+                    await conn.wake.wait()
             conn.wake.clear()
             async with asyncio.timeout(self._connect_timeout_s):
                 await session.list_tools()

@@ -82,7 +82,11 @@ class McpToolsConfig(BaseModel):
         return self
 
     def servers_without_event_secret(self) -> list[str]:
-        return [s.name for s in self.servers if not s.can_post_events]
+        """Servers that post events (an ``event_secret`` entry) but have no secret to sign
+        with; servers that never post (memory, skill_control) are not listed."""
+        return [
+            s.name for s in self.servers if s.event_secret is not None and not s.can_post_events
+        ]
 
     @field_validator("servers")
     @classmethod

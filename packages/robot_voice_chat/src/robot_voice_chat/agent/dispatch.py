@@ -35,6 +35,24 @@ logger = structlog.get_logger(__name__)
 ORPHAN_GRACE_S = 30.0
 
 
+HELD_BY_STOP = "HELD_BY_SAFETY_STOP"
+
+
+def held_by_stop(run: MissionRun) -> bool:
+    """A safety stop paused the mission and the person has not answered yet."""
+    return run.mission.state == "paused" and run.awaiting_user
+
+
+def held_error(tool: str) -> str:
+    return json.dumps(
+        {
+            "error": HELD_BY_STOP,
+            "detail": f"{tool} was not sent: a safety stop paused the mission. Wait for the "
+            "person's answer; call it again only if they say to continue.",
+        }
+    )
+
+
 def _short(args: dict[str, Any]) -> str:
     text = json.dumps(args, separators=(",", ":"), default=str)
     return text if len(text) <= 120 else text[:117] + "..."
@@ -92,10 +110,13 @@ class TaskDispatcher:
         step_id, args = strip_step_id(call.arguments)
         mission = run.mission
         step = mission.step(step_id)
+        server_cfg = self.tools.servers().get(call.name.partition(".")[0])
+        motion = server_cfg is not None and server_cfg.motion
+        if motion and held_by_stop(run):  # planned before the stop, executed after it
+            return await self._refuse_held(run, call, step_id, args)
         if mission.state == "paused" and not run.awaiting_user:
             mission.state = "running"
-        server_cfg = self.tools.servers().get(call.name.partition(".")[0])
-        in_flight = step_id if server_cfg is not None and server_cfg.motion else None
+        in_flight = step_id if motion else None
         if in_flight is not None:
             self.motion_steps_in_flight.add(in_flight)
         try:
@@ -103,7 +124,10 @@ class TaskDispatcher:
                 step.set_status("running")
                 await self.output.emit_plan(run)
             await self.output.log_line(run, "tool_call", f"{call.name}({_short(args)})")
+            if motion and held_by_stop(run):  # the stop came during the awaits above
+                return await self._refuse_held(run, call, step_id, args)
             started = time.monotonic()
+            # no await between the check above and the send: a stop cannot slip in between
             outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
         finally:
             if in_flight is not None:
@@ -130,6 +154,21 @@ class TaskDispatcher:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
             await self.output.emit_plan(run)
         return ToolResult(tool_call_id=call.id, content=outcome.text, is_error=outcome.is_error)
+
+    async def _refuse_held(
+        self, run: MissionRun, call: ToolCall, step_id: str | None, args: dict[str, Any]
+    ) -> ToolResult:
+        """A motion call while a safety stop waits for the person's answer is never sent."""
+        logger.warning("motion_call_held", tool=call.name, step_id=step_id)
+        self.trace.record(
+            run.mission.id, "tool_held", tool=call.name, arguments=args, step_id=step_id
+        )
+        step = run.mission.step(step_id)
+        if step is not None and step.status == "running":  # the stop may not have seen it
+            step.set_status("failed", "safety stop")
+            await self.output.emit_plan(run)
+        await self.output.log_line(run, "tool_call", f"{call.name} held, not sent: safety stop")
+        return ToolResult(tool_call_id=call.id, content=held_error(call.name), is_error=True)
 
     async def _register_task(
         self,

@@ -3,11 +3,17 @@
 from __future__ import annotations
 
 import asyncio
+import json
 from pathlib import Path
+
+import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.bargein import STOP_QUESTION
+from robot_voice_chat.agent.dispatch import HELD_BY_STOP
+from robot_voice_chat.services.llm.base import ToolCall
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.llm.rules.program import HELD
 from robot_voice_chat.testing import Harness, make_harness, task_info
 
 PLAN = reply(
@@ -121,6 +127,60 @@ async def test_a_stop_while_the_drive_call_is_in_flight_ends_the_drive_it_starte
     assert (mission.steps[0].status, mission.steps[0].detail) == ("failed", "safety stop")
     assert h.executor.task_server("nav-1") is None
     assert mission.state == "paused"
+    await h.executor.shutdown()
+
+
+async def test_a_drive_planned_before_the_stop_is_never_sent(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The stop lands after the planner chose navigate_to but before the call went out (here:
+    while the dispatcher logs it): the robot must not start moving only to be cancelled."""
+    planner = FakeLLM([PLAN, WAIT])
+    h = make_harness(tmp_path, planner)
+    about_to_send, release = asyncio.Event(), asyncio.Event()
+    output = h.executor.dispatcher.output
+    log_line = output.log_line
+
+    async def slow_log_line(run: object, kind: str, text: str) -> None:
+        if kind == "tool_call" and "navigate_to" in text:
+            about_to_send.set()
+            await asyncio.wait_for(release.wait(), 5)
+        await log_line(run, kind, text)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(output, "log_line", slow_log_line)
+    mission = await h.executor.start("drive to the mailroom")
+    await asyncio.wait_for(about_to_send.wait(), 5)
+
+    await h.executor.on_user_turn("stop")
+    release.set()
+    await async_wait_until(lambda: len(planner.requests) >= 1 and h.executor.run, 5, "running")
+    await asyncio.sleep(0.05)
+
+    assert h.tools.called("navigation.navigate_to") == []  # never sent
+    assert h.tools.called("navigation.cancel_task") == []  # so nothing to cancel
+    assert (mission.steps[0].status, mission.steps[0].detail) == ("failed", "safety stop")
+    assert mission.state == "paused"
+    await h.executor.shutdown()
+
+
+async def test_a_motion_call_while_a_stop_awaits_its_answer_is_refused_unsent(
+    tmp_path: Path,
+) -> None:
+    h = make_harness(tmp_path, FakeLLM([PLAN, WAIT]))
+    await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    await h.executor.on_user_turn("stop")
+    run = h.executor.run
+    assert run is not None
+
+    call = ToolCall(id="late", name="navigation.navigate_to", arguments={"location": "x"})
+    result = await h.executor.dispatcher.execute(run, call)
+
+    assert result.is_error
+    assert json.loads(result.content)["error"] == HELD_BY_STOP
+    assert len(h.tools.called("navigation.navigate_to")) == 1  # only the drive before the stop
+    assert run.mission.state == "paused"
+    assert HELD == HELD_BY_STOP  # the rules planner recognises the refusal
     await h.executor.shutdown()
 
 

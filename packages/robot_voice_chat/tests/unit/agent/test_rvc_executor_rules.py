@@ -10,7 +10,7 @@ from pathlib import Path
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
-from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation
+from robot_voice_chat.services.llm.rules.program import HELD, MissionProgram, Observation, Program
 from robot_voice_chat.socket_events import MissionPlan
 from robot_voice_chat.testing import task_info
 from robot_voice_chat.testing_office import office
@@ -168,3 +168,41 @@ def test_a_continue_that_comes_with_the_drives_end_is_used_up_there() -> None:
     again = ToolResult(tool_call_id="", content=task_info("nav-2"))
     act = program.send(Observation(results=[ok, ok, again]))
     assert [c.name for c in act.calls] == ["wait_for_events"]
+
+
+def _program_at_the_drive() -> tuple[Program, ToolResult]:
+    tools = [
+        ToolDefinition(name=n) for n in ("navigation.navigate_to", "navigation.list_locations")
+    ]
+    program = MissionProgram(parse("go to the kitchen"), tools).run()
+    next(program)
+    places = json.dumps({"locations": [{"name": "kitchen"}]})
+    ok = ToolResult(tool_call_id="", content="ok")
+    act = program.send(Observation(results=[ok, ToolResult(tool_call_id="", content=places)]))
+    assert [c.name for c in act.calls] == ["navigation.navigate_to"]
+    return program, ok
+
+
+HELD_RESULT = ToolResult(
+    tool_call_id="",
+    content=json.dumps({"error": HELD, "detail": "not sent: a safety stop"}),
+    is_error=True,
+)
+
+
+def test_a_drive_held_by_a_stop_is_driven_again_after_continue() -> None:
+    program, _ = _program_at_the_drive()
+    act = program.send(Observation(results=[HELD_RESULT], paused_reply="continue"))
+    assert [c.name for c in act.calls] == ["update_plan", "navigation.navigate_to"]
+    assert act.calls[-1].arguments == {"step_id": "s1b", "location": "kitchen"}
+
+
+def test_a_drive_held_by_a_stop_waits_for_the_answer_and_abort_ends_it() -> None:
+    program, ok = _program_at_the_drive()
+    act = program.send(Observation(results=[HELD_RESULT]))
+    assert [c.name for c in act.calls] == ["wait_for_events"]  # no answer yet: no new drive
+    act = program.send(Observation(results=[ok], paused_reply="hmm"))
+    assert [c.name for c in act.calls] == ["ask_user"]
+    act = program.send(Observation(results=[ok], paused_reply="abort"))
+    assert [c.name for c in act.calls] == ["finish_mission"]
+    assert act.calls[0].arguments["outcome"] == "failed"

@@ -25,7 +25,7 @@ from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.services.tools.base import McpServerConfig
-from robot_voice_chat.settings import AppConfig
+from robot_voice_chat.settings import AppConfig, McpToolsConfig
 from robot_voice_chat.testing import NAV_SECRET, PERCEPTION_SECRET, make_harness
 
 SECRET = NAV_SECRET
@@ -359,3 +359,14 @@ def test_event_secrets_shorter_than_32_bytes_are_refused_at_startup(
     assert not secretless.can_post_events  # empty = cannot post, not an error
     monkeypatch.setenv("NAV_EVENT_SECRET", "nav-secret")
     assert main(["--port", "1"]) == 2
+
+
+def test_readyz_lists_only_posting_servers_that_lack_a_secret() -> None:
+    tools = McpToolsConfig(
+        servers=[
+            McpServerConfig(name="navigation", url="http://x", event_secret=SecretStr("")),
+            McpServerConfig(name="perception", url="http://x", event_secret=SecretStr("p" * 32)),
+            McpServerConfig(name="memory", url="http://x"),  # never posts events
+        ]
+    )
+    assert tools.servers_without_event_secret() == ["navigation"]

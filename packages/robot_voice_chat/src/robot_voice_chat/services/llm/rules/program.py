@@ -42,6 +42,8 @@ UNDERSTOOD = (
 _EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
+HELD = "HELD_BY_SAFETY_STOP"
+"""The brain's refusal of a motion call planned before a stop (agent/dispatch.py)."""
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
 _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
@@ -232,6 +234,12 @@ class MissionProgram:
                 args["triggers"] = [{"type": "eta_below", "seconds": self.settings.eta_trigger_s}]
                 calls.insert(-1, self._prewarm_reaction(prepare))
             result = (yield from self.act(*calls))[-1]
+            if result.is_error and HELD in result.content:  # never sent: a stop came first
+                yield from self._until_resumed(f"stopped before driving to the {leg}")
+                legs -= 1
+                current = self._add_step(current, f"Resume the drive to the {leg}")
+                before = [self.plan_call()]
+                continue
             if (
                 result.is_error
                 and "BUSY" in result.content
@@ -305,19 +313,37 @@ class MissionProgram:
 
     def _await(self, task_id: str, reason: str) -> Steps:
         while True:
-            if self.pause_reply is not None:
-                # the answer is used up here even when the task ended meanwhile: left pending,
-                # it would read as a new pause at the next wait and halt the next drive
-                reply, self.pause_reply = self.pause_reply.lower(), None
-                if any(re.search(rf"\b{w}\b", reply) for w in _ABORT):
-                    raise _Finished("failed", "Stopped by the user; mission aborted.")
-                if any(re.search(rf"\b{w}\b", reply) for w in _CONTINUE):
-                    return self.terminal.get(task_id, Outcome("paused"))
+            # the answer is used up here even when the task ended meanwhile: left pending,
+            # it would read as a new pause at the next wait and halt the next drive
+            answer = self._take_pause_answer()
+            if answer == "continue":
+                return self.terminal.get(task_id, Outcome("paused"))
+            if answer == "unclear":
                 yield from self.act(Call("ask_user", {"question": "Should I continue or abort?"}))
-                continue
-            if task_id in self.terminal:
+            elif task_id in self.terminal:
                 return self.terminal[task_id]
-            yield from self.act(Call("wait_for_events", {"reason": reason}))
+            else:
+                yield from self.act(Call("wait_for_events", {"reason": reason}))
+
+    def _until_resumed(self, reason: str) -> Steps:
+        """Wait for the person's answer to a safety stop: continue returns, abort ends."""
+        while (answer := self._take_pause_answer()) != "continue":
+            if answer == "unclear":
+                yield from self.act(Call("ask_user", {"question": "Should I continue or abort?"}))
+            else:
+                yield from self.act(Call("wait_for_events", {"reason": reason}))
+
+    def _take_pause_answer(self) -> str | None:
+        """The person's answer to a stop, used up: continue | unclear | None (none yet);
+        an abort ends the mission."""
+        if self.pause_reply is None:
+            return None
+        reply, self.pause_reply = self.pause_reply.lower(), None
+        if any(re.search(rf"\b{w}\b", reply) for w in _ABORT):
+            raise _Finished("failed", "Stopped by the user; mission aborted.")
+        if any(re.search(rf"\b{w}\b", reply) for w in _CONTINUE):
+            return "continue"
+        return "unclear"
 
     def _failure(self, task_id: str, line: str) -> Steps:
         if has_tool(self.tools, GET_TASK):

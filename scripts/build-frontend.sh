@@ -16,12 +16,7 @@ inputs=$(find package.json package-lock.json index.html vite.config.ts tsconfig.
 lock=$(sha256sum package-lock.json | cut -d' ' -f1)
 if [[ ! -d node_modules || ! -f node_modules/.lock-hash || $(cat node_modules/.lock-hash) != "$lock" ]]; then
   echo "setup: npm ci (frontend)"
-  # A registry mirror that lacks other platforms' optional native packages (rollup, tailwind
-  # oxide) yields a lockfile `npm ci` calls out of sync; then install from it without saving.
-  if ! npm ci --no-audit --no-fund --loglevel=silent; then
-    echo "setup: npm ci refused the lockfile; npm install --no-save from it instead"
-    npm install --no-save --no-audit --no-fund --loglevel=error
-  fi
+  npm ci --no-audit --no-fund --loglevel=error
   echo "$lock" > node_modules/.lock-hash
 fi
 if [[ -f "$stamp" && $(cat "$stamp") == "$inputs" && -f "$static/index.html" ]]; then

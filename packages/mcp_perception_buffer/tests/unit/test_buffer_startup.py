@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from robot_stack_testing import start_refusal
 
 
 @pytest.mark.parametrize(
@@ -21,16 +20,6 @@ import pytest
 def test_a_bad_setting_exits_2_with_one_line(
     tmp_path: Path, env: dict[str, str], says: str
 ) -> None:
-    done = subprocess.run(
-        [sys.executable, "-m", "mcp_perception_buffer"],
-        env={"PATH": os.environ["PATH"], "HOME": str(tmp_path), **env},
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert done.returncode == 2, done.stderr
-    assert done.stdout == ""
-    assert done.stderr.count("\n") == 1
-    assert done.stderr.startswith("mcp-perception-buffer: cannot start: ")
-    assert says in done.stderr
+    line = start_refusal("mcp_perception_buffer", tmp_path, env)
+    assert line.startswith("mcp-perception-buffer: cannot start: ")
+    assert says in line

@@ -3,7 +3,7 @@ process fixtures and deadline-bound waits."""
 
 from robot_stack_testing.ports import free_tcp_port, wait_for_tcp_port
 from robot_stack_testing.postgres import PostgresServer
-from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher
+from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher, start_refusal
 from robot_stack_testing.stdio import (
     StdioTranscript,
     inspector_tools_list,
@@ -21,6 +21,7 @@ __all__ = [
     "free_tcp_port",
     "inspector_tools_list",
     "non_protocol_lines",
+    "start_refusal",
     "stdio_session",
     "wait_for_tcp_port",
     "wait_until",

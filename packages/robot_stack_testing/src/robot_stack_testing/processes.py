@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -76,3 +77,21 @@ class ProcessLauncher:
         for process in reversed(self._processes):
             self.stop(process)
         self._processes.clear()
+
+
+def start_refusal(module: str, home: Path, env: Mapping[str, str], timeout_s: float = 60.0) -> str:
+    """Run ``python -m module`` with only PATH, HOME and ``env``: it must refuse to start the
+    way every server here does (exit 2, nothing on stdout, exactly one line on stderr, no
+    traceback). Returns that line."""
+    done = subprocess.run(  # noqa: S603 - argv list from the test itself
+        [sys.executable, "-m", module],
+        env={"PATH": os.environ["PATH"], "HOME": str(home), **env},
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stdout == "", done.stdout
+    assert done.stderr.count("\n") == 1, done.stderr
+    return done.stderr.rstrip("\n")

@@ -2,7 +2,6 @@
 directly (no ROS) and the VisionTasks port faked."""
 
 import asyncio
-import json
 import threading
 import time
 from pathlib import Path
@@ -15,6 +14,7 @@ from mcp_perception_buffer.composition import PerceptionApp, build_app, event_si
 from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import LoggingEventSink, PosterEventSink, RecordingEventSink
 from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
+from robot_mcp_kit.testing_mcp import tool_answer
 from robot_ros_bridge.testing import FakeVisionTasks
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.ports import free_tcp_port
@@ -27,17 +27,6 @@ DET = {
     "point": {"x": 2.0, "y": 2.0},
     "extra": {},
 }
-
-
-async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
-    """A tool's answer: its structuredContent object, or {"_error": ...} for a tool error."""
-    result = await client.call_tool(tool, args or {})
-    payload = json.loads(result.content[0].text)  # type: ignore[union-attr]
-    if result.is_error:
-        return {"_error": payload}
-    assert isinstance(result.structured_content, dict)
-    assert payload == result.structured_content  # the text block mirrors it
-    return result.structured_content
 
 
 @pytest.fixture
@@ -78,29 +67,29 @@ async def test_reads_return_stamp_age_and_stale_and_mask_refs(app: PerceptionApp
     app.buffer.add_result("find_object", now - 1.0, [DET])
     app.buffer.add_output("find_object", "found", True, now - 1.0)
     async with Client(app.server) as client:
-        latest = await call(client, "get_latest", {"skill": "find_object"})
+        latest = await tool_answer(client, "get_latest", {"skill": "find_object"})
         assert latest["stale"] is False
         assert 0.0 <= latest["age_s"] < 60
         assert latest["detections"][0]["mask_ref"]["topic"] == "/vision/find_object/detections"
         assert latest["outputs"]["found"]["value"] is True
-        history = await call(client, "get_history", {"skill": "find_object", "seconds": 30})
+        history = await tool_answer(client, "get_history", {"skill": "find_object", "seconds": 30})
         assert len(history["results"]) == 1
         assert history["outputs"]["found"][0]["value"] is True
-        seen = await call(client, "what_do_you_see")
+        seen = await tool_answer(client, "what_do_you_see")
         assert seen["mode"] == "warm"
-        buffers = await call(client, "list_buffers")
+        buffers = await tool_answer(client, "list_buffers")
         assert buffers["buffers"][0]["skill"] == "find_object"
         assert buffers["stale"] is False
-        unknown = await call(client, "get_latest", {"skill": "nope"})
+        unknown = await tool_answer(client, "get_latest", {"skill": "nope"})
         assert unknown["_error"]["error"] == "unknown_skill"
         assert "wait_for_result" in unknown["_error"]["detail"]
-        bad = await call(client, "get_history", {"skill": "find_object", "seconds": 0})
+        bad = await tool_answer(client, "get_history", {"skill": "find_object", "seconds": 0})
         assert bad["_error"]["error"] == "invalid_seconds"
 
 
 async def test_what_do_you_see_when_cold_says_how_to_get_a_fresh_view(app: PerceptionApp) -> None:
     async with Client(app.server) as client:
-        seen = await call(client, "what_do_you_see")
+        seen = await tool_answer(client, "what_do_you_see")
     assert seen["mode"] == "cold"
     assert "instantiate_skill" in seen["hint"]
 
@@ -114,10 +103,10 @@ async def test_wait_for_result_blocks_until_a_result_arrives_from_another_thread
         timer = threading.Timer(0.3, lambda: app.buffer.add_result("once", stamp, [DET]))
         timer.start()
         async with Client(app.server) as client:
-            got = await call(client, "wait_for_result", {"skill": "once", "timeout_s": 10})
+            got = await tool_answer(client, "wait_for_result", {"skill": "once", "timeout_s": 10})
             assert got["detections"][0]["label"] == "mug"
             assert got["stamp"] == pytest.approx(stamp)
-            newer = await call(
+            newer = await tool_answer(
                 client, "wait_for_result", {"skill": "once", "timeout_s": 0.3, "after_stamp": stamp}
             )
             assert newer["_error"]["error"] == "timeout"
@@ -141,9 +130,9 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
     try:
         async with Client(app.server) as client:
             await app.perception.sync_watchers()
-            listed = await call(client, "list_tasks", {"states": ["running"]})
+            listed = await tool_answer(client, "list_tasks", {"states": ["running"]})
             assert [t["task_id"] for t in listed["tasks"]] == ["watch-door"]
-            task = await call(client, "get_task", {"task_id": "watch-door"})
+            task = await tool_answer(client, "get_task", {"task_id": "watch-door"})
             assert task["state"] == "running"
             assert task["server"] == "perception"
             app.buffer.add_output("door", "open", True, time.time())
@@ -152,10 +141,10 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
                     break
                 await asyncio.sleep(0.02)
             assert len(sink.events) == 1
-            fired = await call(client, "get_task", {"task_id": "watch-door"})
+            fired = await tool_answer(client, "get_task", {"task_id": "watch-door"})
             assert fired["fired"] == 1
             assert fired["last_fired_at"] == fired["fired_at"][0]
-            cancelled = await call(client, "cancel_task", {"task_id": "watch-door"})
+            cancelled = await tool_answer(client, "cancel_task", {"task_id": "watch-door"})
             assert cancelled["state"] == "cancelled"
             assert cancelled["skill_stopped"] is True
             assert "door" not in tasks.skills
@@ -165,13 +154,13 @@ async def test_watcher_tasks_are_listed_fetched_and_cancelled(
                     break
                 await asyncio.sleep(0.02)
             assert [e[2] for e in sink.events] == ["watch_event", "task_failed"]
-            again = await call(client, "cancel_task", {"task_id": "watch-door"})
+            again = await tool_answer(client, "cancel_task", {"task_id": "watch-door"})
             assert again["skill_stopped"] is False
-            missing = await call(client, "get_task", {"task_id": "watch-x"})
+            missing = await tool_answer(client, "get_task", {"task_id": "watch-x"})
             assert missing["_error"]["error"] == "unknown_task"
-            missing = await call(client, "cancel_task", {"task_id": "watch-x"})
+            missing = await tool_answer(client, "cancel_task", {"task_id": "watch-x"})
             assert missing["_error"]["error"] == "unknown_task"
-            assert (await call(client, "list_tasks"))["tasks"][0]["state"] == "cancelled"
+            assert (await tool_answer(client, "list_tasks"))["tasks"][0]["state"] == "cancelled"
     finally:
         await app.perception.close()
 
@@ -190,7 +179,7 @@ async def test_a_cancel_whose_skill_cannot_be_stopped_still_disarms_and_says_why
     await app.perception.sync_watchers()
     del tasks.skills["gone"]  # deleted behind the buffer's back, before its next poll
     async with Client(app.server) as client:
-        answer = await call(client, "cancel_task", {"task_id": "watch-gone"})
+        answer = await tool_answer(client, "cancel_task", {"task_id": "watch-gone"})
     assert answer["state"] == "cancelled"
     assert answer["skill_stopped"] is False
     assert answer["skill_stop_error"] == "unknown_skill"
@@ -204,7 +193,7 @@ async def test_a_failing_vision_node_does_not_break_the_watch_poll(
     tasks.fail_with = ServiceUnavailableError("no server for /vision_node/list_vision_tasks")
     await app.perception.sync_watchers()  # logged, not raised
     async with Client(app.server) as client:
-        answer = await call(client, "cancel_task", {"task_id": "watch-a"})
+        answer = await tool_answer(client, "cancel_task", {"task_id": "watch-a"})
         assert answer["_error"]["error"] == "unknown_task"
 
 
@@ -217,7 +206,7 @@ def test_the_process_runs_the_service_on_its_own_loop_thread(
 
         async def ask() -> Any:
             async with Client(app.server) as client:
-                return await call(client, "list_tasks")
+                return await tool_answer(client, "list_tasks")
 
         assert asyncio.run(ask()) == {"tasks": []}
     finally:
@@ -264,7 +253,7 @@ async def test_health_shows_that_the_brain_refuses_our_events_and_they_wait(
             app.buffer.add_output("door", "open", True, time.time())
             await async_wait_until(lambda: receiver.rejections, 10.0, "a refused post")
             async with Client(app.server) as client:
-                health = await call(client, "get_health")
+                health = await tool_answer(client, "get_health")
         finally:
             await app.perception.close()
     assert health["status"] == "degraded"
@@ -281,7 +270,7 @@ async def test_health_without_a_brain_says_events_are_not_posted() -> None:
     await app_sinkless.perception.start()
     try:
         async with Client(app_sinkless.server) as client:
-            health = await call(client, "get_health")
+            health = await tool_answer(client, "get_health")
     finally:
         await app_sinkless.perception.close()
     assert health["status"] == "ok"

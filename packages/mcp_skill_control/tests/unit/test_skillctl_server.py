@@ -2,26 +2,15 @@
 
 import json
 from pathlib import Path
-from typing import Any
 
 import pytest
 from mcp import Client
 
 from mcp_skill_control.composition import build_app
 from mcp_skill_control.config import DEFAULT_CATALOG, SkillControlConfig
+from robot_mcp_kit.testing_mcp import tool_answer
 from robot_ros_bridge import ServiceTimeoutError
 from robot_ros_bridge.testing import FakeVisionTasks
-
-
-async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
-    """A tool's answer: its structuredContent object, or {"_error": ...} for a tool error."""
-    result = await client.call_tool(tool, args or {})
-    payload = json.loads(result.content[0].text)  # type: ignore[union-attr]
-    if result.is_error:
-        return {"_error": payload}
-    assert isinstance(result.structured_content, dict)
-    assert payload == result.structured_content  # the text block mirrors it
-    return result.structured_content
 
 
 @pytest.fixture
@@ -58,36 +47,38 @@ async def test_the_tools_round_trip_through_mcp(
 ) -> None:
     app = build_app(config, tasks=tasks)
     async with Client(app.server) as client:
-        templates = await call(client, "list_skill_templates")
+        templates = await tool_answer(client, "list_skill_templates")
         assert next(t["name"] for t in templates["templates"]) == "find_object"
-        made = await call(
+        made = await tool_answer(
             client,
             "instantiate_skill",
             {"template": "watch_for", "params": {"condition": "door open"}},
         )
         assert made["task_id"] == "watch-watch_for"
         assert made["state"] == "running"
-        raw = await call(
+        raw = await tool_answer(
             client,
             "instantiate_raw_skill",
             {"skill": {"name": "shelf", "mode": "region", "grounding": "shelf"}},
         )
         assert raw["topic"] == "/vision/shelf/detections"
-        warm = await call(
+        warm = await tool_answer(
             client, "prewarm_skill", {"template": "free_space", "params": {"what": "box"}}
         )
         assert warm["prewarm"] is True
-        assert await call(client, "set_skill_enabled", {"skill_id": "shelf", "enabled": False}) == {
+        assert await tool_answer(
+            client, "set_skill_enabled", {"skill_id": "shelf", "enabled": False}
+        ) == {
             "skill_id": "shelf",
             "enabled": False,
         }
-        running = await call(client, "list_running_skills")
+        running = await tool_answer(client, "list_running_skills")
         assert {s["skill_id"] for s in running["skills"]} == {
             "watch_for",
             "shelf",
             "prewarm_free_space",
         }
-        assert await call(client, "stop_skill", {"skill_id": "shelf"}) == {
+        assert await tool_answer(client, "stop_skill", {"skill_id": "shelf"}) == {
             "skill_id": "shelf",
             "stopped": True,
         }
@@ -98,14 +89,16 @@ async def test_catalog_and_node_refusals_are_clean_tool_errors(
 ) -> None:
     app = build_app(config, tasks=tasks)
     async with Client(app.server) as client:
-        missing = await call(client, "instantiate_skill", {"template": "find_object"})
+        missing = await tool_answer(client, "instantiate_skill", {"template": "find_object"})
         assert missing["_error"]["error"] == "missing_params"
-        unknown = await call(client, "instantiate_skill", {"template": "teleport", "params": {}})
+        unknown = await tool_answer(
+            client, "instantiate_skill", {"template": "teleport", "params": {}}
+        )
         assert unknown["_error"]["error"] == "unknown_template"
-        ghost = await call(client, "stop_skill", {"skill_id": "ghost"})
+        ghost = await tool_answer(client, "stop_skill", {"skill_id": "ghost"})
         assert ghost["_error"] == {"error": "unknown_skill", "detail": "no skill named 'ghost'"}
         tasks.fail_with = ServiceTimeoutError("/vision_node/list_vision_tasks did not answer")
-        timeout = await call(client, "list_running_skills")
+        timeout = await tool_answer(client, "list_running_skills")
         assert timeout["_error"]["error"] == "service_timeout"
         assert "did not answer" in timeout["_error"]["detail"]
 
@@ -168,10 +161,10 @@ async def test_instantiate_skill_accepts_numbers_and_booleans_the_template_decla
     )
     app = build_app(SkillControlConfig(skills_catalog=catalog), tasks=tasks)
     async with Client(app.server) as client:
-        made = await call(
+        made = await tool_answer(
             client, "instantiate_skill", {"template": "look", "params": {"rate": 2.5, "once": True}}
         )
-        wrong = await call(
+        wrong = await tool_answer(
             client, "instantiate_skill", {"template": "look", "params": {"rate": "x", "once": 1}}
         )
     assert made["skill_id"] == "look"

@@ -13,6 +13,7 @@ from robot_mcp_kit.mcp_runtime import (
     tool_error,
     transport_settings,
 )
+from robot_mcp_kit.testing_mcp import tool_answer
 
 
 def build_server() -> MCPServer:
@@ -117,3 +118,11 @@ def test_transport_settings_read_the_environment() -> None:
 def test_transport_settings_reject_bad_values_clearly(env: dict[str, str], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         transport_settings(env, 9101)
+
+
+async def test_tool_answer_reads_structured_content_and_errors() -> None:
+    server = install_json_tool_errors(build_server())
+    async with Client(server) as client:
+        assert await tool_answer(client, "open_door", {"door": "kitchen"}) == {"opened": "kitchen"}
+        failed = await tool_answer(client, "open_door", {"door": "mailroom"})
+    assert failed == {"_error": {"error": "DOOR_LOCKED", "detail": "the mailroom door is locked"}}

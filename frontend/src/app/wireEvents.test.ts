@@ -3,11 +3,22 @@ import type { RobotSocket } from '@/lib/socket';
 import { useChatStore } from '@/stores/chatStore';
 import { useConnectionStore } from '@/stores/connectionStore';
 import { useMissionStore } from '@/stores/missionStore';
+import { useSettingsStore, type UiConfig } from '@/stores/settingsStore';
 import { fiveStates } from '@/testing/fixtures';
 import type { ServerEvents } from '@/types/events';
 import { wireEvents } from './wireEvents';
 
 type Handler = (payload: never) => void;
+
+const uiConfig: UiConfig = {
+  deployment: 'dev',
+  llm: 'rules',
+  planner: 'rules',
+  speech_input: false,
+  speech_input_reason: null,
+  speech_output_browser: false,
+  camera: false,
+};
 
 /** Records handlers the way socket.io-client would, and lets the test deliver events. */
 function fakeSocket() {
@@ -75,4 +86,24 @@ describe('wireEvents', () => {
     expect(useConnectionStore.getState()).toMatchObject({ state: 'connected', attempts: 0 });
     expect(rehydrate).toHaveBeenCalledOnce();
   });
+
+  it('speaks the robot sentences and stops at once on speech_interrupted (barge-in)', () => {
+    const synthesis = { speak: vi.fn(), cancel: vi.fn() };
+    vi.stubGlobal('speechSynthesis', synthesis);
+    vi.stubGlobal('SpeechSynthesisUtterance', class {
+      constructor(readonly text: string) {}
+    });
+    useSettingsStore.setState({ muted: false, config: { ...uiConfig, speech_output_browser: true } });
+    try {
+      const { socket, deliver } = fakeSocket();
+      wireEvents(socket, () => undefined);
+      deliver('speak', { text: 'Driving to the kitchen.', utterance_id: 'u1' });
+      expect(synthesis.speak).toHaveBeenCalledTimes(1);
+      deliver('speech_interrupted', {});
+      expect(synthesis.cancel).toHaveBeenCalledTimes(1);
+    } finally {
+      vi.unstubAllGlobals();
+    }
+  });
 });
+

@@ -1,8 +1,9 @@
 """The operator UI in a real browser (Debian's chromium, launched by path) against real processes.
 
-One local stack (deploy/local-stack.yaml on free ports, the brain on its dev preset: recorded
-planner replies) per scenario, because a replay recording and the map's once-failure belong to
-one process life. The test is the operator: it clicks and types by role and name (the UI's test
+One local stack (deploy/local-stack.yaml on free ports) per scenario, because a replay
+recording and the map's once-failure belong to one process life: the mailroom scenario runs on
+recorded planner replies, the stop/continue scenario on the dev preset as shipped (the offline
+rules planner, which replans from where the robot stopped). The test is the operator: it clicks and types by role and name (the UI's test
 contract) and reads what the page shows. Screenshots of each state land in build/ui-screenshots/.
 """
 
@@ -219,11 +220,26 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     assert tablet_errors == [], tablet_errors
 
 
-def test_stop_mid_drive_pauses_and_continue_resumes_the_conversation(
-    browser: Browser, stack: RunningStack
+@pytest.fixture
+def rules_stack(tmp_path: Path) -> Iterator[RunningStack]:
+    """The dev preset as shipped (the offline rules planner): it replans from where the robot
+    stopped, so a stopped drive can be continued in the browser."""
+    overrides = {
+        **free_port_overrides(STACK_FILE),
+        "nav_time_scale": "4",
+        "brain_config_overrides": "",
+    }
+    with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
+        wait_servers_connected(running)
+        yield running
+
+
+def test_stop_mid_drive_pauses_and_continue_drives_on_to_the_goal(
+    browser: Browser, rules_stack: RunningStack
 ) -> None:
+    stack = rules_stack
     page, errors = open_ui(browser, stack.brain_url)
-    send(page, MAILROOM_REQUEST)
+    send(page, "go to the kitchen")
     expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
     start = robot_xy(page)
     wait_until(lambda: robot_xy(page) != start, 30.0, "the robot to drive")
@@ -243,14 +259,19 @@ def test_stop_mid_drive_pauses_and_continue_resumes_the_conversation(
     assert robot_xy(page) == (pose["x"], pose["y"])
     shoot(page, "07-paused")
 
-    # Continue is the operator's turn "continue", handed to the paused mission's planner. (The
-    # recorded dev planner cannot resume a drive it never recorded, so what happens next is
-    # not this test's business; a live planner replans from the current pose.)
+    # Continue is the operator's turn "continue": the planner adds a step that drives on from
+    # the halted pose, and the mission ends at the goal.
     page.get_by_role("button", name="Continue").click()
     expect(page.get_by_role("log", name="Conversation")).to_contain_text("continue")
-    activity = page.get_by_role("region", name="Activity")
-    expect(activity.get_by_text("continue", exact=True)).to_be_visible(timeout=20_000)
+    expect(banner).to_be_hidden(timeout=20_000)
+    expect(step(page, "s1b")).to_contain_text("Resume the drive to the kitchen")
+    wait_until(lambda: robot_xy(page) != (pose["x"], pose["y"]), 30.0, "the robot to drive on")
     shoot(page, "08-continued")
+    summary = page.get_by_role("log", name="Conversation").get_by_role("article")
+    expect(summary).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
+    expect(summary).to_contain_text("succeeded")
+    assert httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()["moving"] is False
+    shoot(page, "09-arrived-after-stop")
     assert errors == [], errors
 
 

@@ -219,7 +219,7 @@ def test_sam_encodes_a_frame_with_box_and_point_prompts_once(
     fake_ultralytics: Any, weights: str
 ) -> None:
     sam = SamSegmenter(weights)
-    sam.segment_many(
+    masks = sam.segment_many(
         IMAGE,
         [
             SegmentPrompt(points=[(5, 50)]),
@@ -233,6 +233,9 @@ def test_sam_encodes_a_frame_with_box_and_point_prompts_once(
     assert [c["frame"] is model.predictors[-1].frame for c in model.calls] == [True, True]
     assert model.calls[0]["bboxes"] == [[0, 0, 10, 10], [20, 20, 40, 30]]
     assert model.calls[1]["points"] == [[[5, 50], [5, 50]], [[60, 40], [62, 42]]]
+    # each mask goes back to its prompt's place
+    assert [bool(masks[0][50, 5]), int(masks[1].sum()), bool(masks[2][42, 62])] == [True, 100, True]
+    assert int(masks[3].sum()) == 200
 
 
 def test_sam_reuses_the_embedding_for_later_prompts_on_the_same_pixels(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 from pathlib import Path
 from typing import Any
@@ -48,3 +49,36 @@ def to_numpy(value: Any) -> Any:
     if hasattr(value, "numpy"):
         return value.numpy()
     return np.asarray(value)
+
+
+def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
+    """The prompt predictor of a loaded ``ultralytics.SAM``, set up on its weights.
+
+    The class is the one the model's ``task_map`` names (SAM, SAM 2 or SAM 3 predictor) and the
+    settings are those ``SAM.predict`` uses. Unlike a ``SAM(...)`` call, which encodes the image
+    every time, the predictor keeps the embedding of the frame given to ``set_image`` and a
+    later ``predictor(bboxes=...)`` / ``predictor(points=..., labels=...)`` runs only the
+    prompt decoder on it.
+    """
+    predictor_class = model.task_map["segment"]["predictor"]
+    predictor = predictor_class(
+        overrides={
+            "model": checkpoint,
+            "task": "segment",
+            "mode": "predict",
+            "conf": 0.25,
+            "imgsz": imgsz,
+            "device": device,
+            "save": False,
+            "verbose": False,
+        }
+    )
+    predictor.setup_model(model=model.model, verbose=False)
+    return predictor
+
+
+def frame_key(image: Any) -> bytes:
+    """A digest of a frame's pixels and shape: equal keys, same embedding."""
+    digest = hashlib.blake2b(np.ascontiguousarray(image).data, digest_size=16)
+    digest.update(repr(image.shape).encode())
+    return digest.digest()

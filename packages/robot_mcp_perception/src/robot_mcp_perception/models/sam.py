@@ -3,10 +3,20 @@
 ``ultralytics`` is imported lazily (not at module import); a missing extra or checkpoint is
 a :class:`ModelUnavailableError` at construction (start-up) that says how to fix it. All
 model calls run on one worker thread (``ThreadPoolExecutor(max_workers=1)``): GPU access is
-serialized, and callers on other threads simply wait their turn. ``segment_many`` sends all
-boxes of one frame in one predictor call and all point prompts of the frame in one more (an
-(objects × points) array; shorter point lists are padded with SAM's "not a point" label -1),
-so a frame is embedded once per prompt kind.
+serialized, and callers on other threads simply wait their turn.
+
+One image encode per frame: the adapter drives ultralytics' SAM predictor (the class the
+model's ``task_map`` names) directly. ``set_image`` runs the image encoder once; then the
+prompt decoder runs on that embedding once for all boxes of the call and once for all
+point-only prompts (an (objects × points) array; shorter point lists are padded with SAM's
+"not a point" label -1). Boxes and points do not share a decoder call because SAM reads a
+box and points given together as prompts of one object. The embedding is kept, keyed by a
+digest of the pixels, so a later call on the same frame (the tiled pipeline's point retry,
+the box → points fallback of ground_and_segment) decodes without encoding again.
+
+ultralytics drops masks scoring below ``conf`` and numbers the rest by prompt (``boxes.cls``);
+masks are matched to prompts by that number, and a prompt whose mask was dropped gets an
+empty mask (never a neighbour's).
 """
 
 from __future__ import annotations
@@ -18,7 +28,13 @@ import cv2
 import numpy as np
 
 from robot_mcp_perception.models._checks import check_image, check_points, clip_box
-from robot_mcp_perception.models._ultralytics import checked_weights, import_ultralytics, to_numpy
+from robot_mcp_perception.models._ultralytics import (
+    checked_weights,
+    frame_key,
+    import_ultralytics,
+    sam_predictor,
+    to_numpy,
+)
 from robot_mcp_perception.models.base import (
     Box,
     CostClass,
@@ -40,9 +56,15 @@ class SamSegmenter(Segmenter):
         self.checkpoint = str(weights)
         self.device = device
         self.imgsz = imgsz
+        self._encoded: bytes | None = None  # frame_key of the embedding the predictor holds
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sam")
+
+        def load() -> Any:
+            model = ultralytics.SAM(self.checkpoint)
+            return sam_predictor(model, self.checkpoint, device, imgsz)
+
         try:
-            self._model = self._pool.submit(ultralytics.SAM, self.checkpoint).result()
+            self._predictor = self._pool.submit(load).result()
         except Exception as exc:  # the library boundary: any load failure is "unavailable"
             self._pool.shutdown(wait=False)
             raise ModelError(f"could not load SAM checkpoint {weights}: {exc}") from exc
@@ -62,51 +84,65 @@ class SamSegmenter(Segmenter):
 
     def segment_many(self, image: Image, prompts: list[SegmentPrompt]) -> list[Mask]:
         height, width = check_image(image)
-        bgr = cv2.cvtColor(image, cv2.COLOR_RGB2BGR)  # ultralytics reads numpy frames as BGR
-        masks: list[Mask | None] = [None] * len(prompts)
+        if not prompts:
+            return []
         boxed = [i for i, p in enumerate(prompts) if p.box is not None]
-        if boxed:
-            boxes = [list(clip_box(prompts[i].box, width, height)) for i in boxed]  # type: ignore[arg-type]
-            for i, mask in zip(
-                boxed, self._predict(bgr, (height, width), bboxes=boxes), strict=True
-            ):
-                masks[i] = mask
         pointed = [i for i, p in enumerate(prompts) if p.box is None]
-        if pointed:
-            lists = [
-                [list(pt) for pt in check_points(prompts[i].points, width, height)] for i in pointed
-            ]
-            most = max(len(pts) for pts in lists)
-            points = [pts + [pts[0]] * (most - len(pts)) for pts in lists]
-            labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in lists]
-            for i, mask in zip(
-                pointed,
-                self._predict(bgr, (height, width), points=points, labels=labels),
-                strict=True,
-            ):
-                masks[i] = mask
-        return [m for m in masks if m is not None]
+        boxes = [list(clip_box(prompts[i].box, width, height)) for i in boxed]  # type: ignore[arg-type]
+        lists = [
+            [list(pt) for pt in check_points(prompts[i].points, width, height)] for i in pointed
+        ]
+        most = max((len(pts) for pts in lists), default=0)
+        points = [pts + [pts[0]] * (most - len(pts)) for pts in lists]
+        labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in lists]
 
-    def _predict(self, bgr: Any, shape: tuple[int, int], **prompt: Any) -> list[Mask]:
-        expected = len(prompt.get("bboxes", [])) or len(prompt.get("points", [])) or 1
+        decodes: list[tuple[list[int], dict[str, Any]]] = [
+            (boxed, {"bboxes": boxes}),
+            (pointed, {"points": points, "labels": labels}),
+        ]
 
-        def run() -> Any:
-            return self._model(bgr, device=self.device, imgsz=self.imgsz, verbose=False, **prompt)
+        def run() -> list[Mask]:
+            self._encode(image)
+            masks: dict[int, Mask] = {}
+            for indices, prompt in decodes:
+                if indices:  # the prompt decoder only: the embedding is the frame's
+                    answer = self._predictor(**prompt)
+                    found = _masks_by_prompt(answer, len(indices), (height, width))
+                    masks.update(zip(indices, found, strict=True))
+            return [masks[i] for i in range(len(prompts))]
 
         try:
-            results = self._pool.submit(run).result()
+            return self._pool.submit(run).result()
         except Exception as exc:  # the library boundary (CUDA OOM, bad prompt, …)
             raise ModelError(f"SAM prediction failed: {exc}") from exc
-        data = getattr(getattr(results[0], "masks", None), "data", None) if results else None
-        if data is None:
-            return [np.zeros(shape, dtype=bool) for _ in range(expected)]
-        arr = to_numpy(data)
-        out = []
-        for k in range(expected):
-            m = arr[min(k, len(arr) - 1)] if len(arr) else np.zeros(shape)
-            if m.shape != shape:
-                m = cv2.resize(
-                    m.astype(np.float32), (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR
-                )
-            out.append(np.asarray(m > 0.5, dtype=bool))
-        return out
+
+    def _encode(self, image: Image) -> None:
+        """Run the image encoder unless the predictor holds this frame's embedding already.
+
+        Runs on the worker thread only, so the key and the predictor's state change together.
+        """
+        key = frame_key(image)
+        if key == self._encoded:
+            return
+        self._encoded = None  # a failed encode leaves no embedding to trust
+        self._predictor.set_image(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))  # ultralytics: BGR
+        self._encoded = key
+
+
+def _masks_by_prompt(results: Any, count: int, shape: tuple[int, int]) -> list[Mask]:
+    """One full-frame mask per prompt; ``boxes.cls`` says which prompt each mask answers."""
+    masks = [np.zeros(shape, dtype=bool) for _ in range(count)]
+    result = results[0] if results else None
+    data = getattr(getattr(result, "masks", None), "data", None)
+    if data is None:
+        return masks
+    arr = to_numpy(data)
+    numbers = getattr(getattr(result, "boxes", None), "cls", None)
+    order = [int(n) for n in to_numpy(numbers)] if numbers is not None else range(len(arr))
+    for k, m in zip(order, arr, strict=False):
+        if m.shape != shape:
+            m = cv2.resize(
+                m.astype(np.float32), (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR
+            )
+        masks[k] = np.asarray(m > 0.5, dtype=bool)
+    return masks

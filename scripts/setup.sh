@@ -13,6 +13,7 @@ command -v espeak-ng >/dev/null 2>&1 || need_apt+=(espeak-ng)  # the robot prese
 command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
 command -v curl >/dev/null 2>&1 || need_apt+=(curl)
 command -v jq >/dev/null 2>&1 || need_apt+=(jq)
+command -v caddy >/dev/null 2>&1 || need_apt+=(caddy)  # deploy/Caddyfile, tests/deploy
 # the memory tests start a throwaway PostgreSQL server (robot_stack_testing.postgres)
 compgen -G '/usr/lib/postgresql/*/bin/pg_ctl' >/dev/null || need_apt+=(postgresql)
 if ((${#need_apt[@]})); then

@@ -50,7 +50,7 @@ export function CameraView() {
 
   return (
     <Panel label="Camera view" title="Camera">
-      <div ref={box} className="aspect-[4/3] bg-raised">
+      <div ref={box} className="aspect-[4/3] bg-raised lg:aspect-auto lg:h-[30vh]">
         {offline || !src ? (
           <div role="img" aria-label="Camera" className="flex h-full flex-col items-center justify-center p-4 text-center">
             <strong className="text-sm">{offline ? 'Camera offline' : 'Waiting for the camera…'}</strong>

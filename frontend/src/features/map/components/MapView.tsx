@@ -76,7 +76,7 @@ export function MapView() {
       {!list || !project ? (
         <p className="p-3 text-sm text-muted">{error ? `Navigation unavailable: ${error}` : 'Loading the map…'}</p>
       ) : (
-        <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor" role="group" aria-label="Floor map">
+        <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor lg:max-h-[38vh]" role="group" aria-label="Floor map">
           {list.locations.map((loc) => {
             const [cx, cy] = project(loc.x, loc.y);
             const [lx, ly, anchor] = labels.get(loc.name) ?? [cx, cy - 12, 'middle'];

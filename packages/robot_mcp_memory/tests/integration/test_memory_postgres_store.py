@@ -11,7 +11,7 @@ import pytest
 from robot_mcp_memory.documents import parse_process
 from robot_mcp_memory.query import build_query
 from robot_mcp_memory.store.base import StoreError
-from robot_mcp_memory.store.postgres import PostgresProcessStore, render_websearch
+from robot_mcp_memory.store.postgres import PostgresProcessStore, search_terms
 from robot_mcp_memory.store.postgres_schema import SCHEMA_VERSION
 from robot_stack_testing import free_tcp_port
 
@@ -91,7 +91,5 @@ def test_a_store_whose_server_went_away_reports_store_errors(postgres_dsn: str) 
         store.list_processes()
 
 
-def test_websearch_text_is_an_or_of_quoted_terms() -> None:
-    assert render_websearch(("pick up", 'we"ird', "or", "or", " ")) == (
-        '"pick up" or "we ird" or "or"'
-    )
+def test_search_terms_are_distinct_with_whitespace_collapsed() -> None:
+    assert search_terms(("pick  up", 'we"ird', "or", "or", " ", "")) == ["pick up", 'we"ird', "or"]

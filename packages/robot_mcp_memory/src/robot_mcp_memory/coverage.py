@@ -1,6 +1,6 @@
 """Second-stage lexical re-ranking: how much of the request does a candidate cover?
 
-The store's text score (BM25, ts_rank_cd) adds up term matches, so a document that repeats one
+The store's text score (BM25 on both stores) adds up term matches, so a document that repeats one
 common word of the request ("take", "room") can beat the one that matches every distinctive
 part of it through synonyms. This stage looks at each candidate of the store's pool (the
 adapter-independent part of ranking, so SQLite and PostgreSQL rank alike) and scores, for every

@@ -188,6 +188,73 @@ def test_a_tiny_store_still_ranks_by_distinctive_words(open_store: StoreFactory,
     assert best.relevance > other.relevance > 0
 
 
+ESPRESSO_ID = "refill-espresso-machine"
+
+
+def save_robot_patrols_and_espresso(store: ProcessStore) -> None:
+    """Eight processes about the robot's patrols ("robot" in every title, task pattern, tag and
+    step) and one whose only word of the query, "espresso", is in one step."""
+    for place in ("lobby", "garage", "lab", "gym", "roof", "archive", "studio", "clinic"):
+        store.save(
+            parse_process(
+                render_process(
+                    f"robot-patrol-{place}",
+                    f"Robot patrol of the {place}",
+                    f"the robot patrols the {place} and the robot reports",
+                    ["robot", "patrol"],
+                    [f"the robot drives to the {place}", "the robot looks around"],
+                )
+            )
+        )
+    store.save(
+        parse_process(
+            render_process(
+                ESPRESSO_ID,
+                "Refill the coffee machine",
+                "fill the kitchen's coffee machine with beans and water",
+                ["kitchen", "coffee"],
+                ["navigate_to(kitchen)", "open the hopper of the espresso maker", "pour beans"],
+            )
+        )
+    )
+
+
+def test_a_rare_word_outranks_a_common_word_that_many_processes_share(
+    open_store: StoreFactory,
+) -> None:
+    store = open_store()
+    save_robot_patrols_and_espresso(store)
+
+    ranked = store.search(build_query("robot espresso", synonyms=False), 10)
+
+    assert ranked[0].process.id == ESPRESSO_ID
+    assert len(ranked) == 9
+
+
+def test_a_word_most_processes_share_weighs_less_than_a_rare_word(open_store: StoreFactory) -> None:
+    store = open_store()
+    save_robot_patrols_and_espresso(store)
+
+    (alone,) = store.search(build_query("espresso", synonyms=False), 10)
+    with_common = store.search(build_query("robot espresso", synonyms=False), 10)[0]
+    (common_only, *_) = store.search(build_query("robot", synonyms=False), 10)
+
+    assert with_common.process.id == alone.process.id == ESPRESSO_ID
+    assert with_common.relevance == pytest.approx(alone.relevance)  # no "robot" in it
+    assert alone.relevance > 2 * common_only.relevance
+
+
+async def test_find_processes_puts_the_rare_word_first_among_many_common_ones(
+    open_store: StoreFactory,
+) -> None:
+    store = open_store()
+    save_robot_patrols_and_espresso(store)
+
+    found = await ProcessMemory(store).find("can the robot make me an espresso", k=3)
+
+    assert found["results"][0]["id"] == ESPRESSO_ID
+
+
 def test_an_empty_query_or_zero_limit_returns_nothing(open_store: StoreFactory, docs: Any) -> None:
     store = open_store()
     store.save(parse_process(docs.mailroom))

@@ -8,10 +8,10 @@ from typing import Any
 import psycopg
 import pytest
 
-from robot_mcp_memory.documents import parse_process
+from robot_mcp_memory.documents import parse_process, render_process
 from robot_mcp_memory.query import build_query
 from robot_mcp_memory.store.base import StoreError
-from robot_mcp_memory.store.postgres import PostgresProcessStore, render_websearch
+from robot_mcp_memory.store.postgres import PostgresProcessStore, search_terms
 from robot_mcp_memory.store.postgres_schema import SCHEMA_VERSION
 from robot_stack_testing import free_tcp_port
 
@@ -83,6 +83,64 @@ def test_indexed_concepts_are_rederived_when_the_synonym_list_changes(
     assert found == ["fetch-package-from-mailroom"]
 
 
+def test_a_version_1_database_gets_document_lengths_and_ranks_after_migrating(
+    postgres_dsn: str, docs: Any
+) -> None:
+    first = PostgresProcessStore(postgres_dsn, "robot-1")
+    first.save(parse_process(docs.mailroom))
+    first.save(parse_process(docs.reception))
+    first.close()
+    with psycopg.connect(postgres_dsn) as conn:  # back to what a version 1 server left
+        conn.execute("ALTER TABLE processes DROP COLUMN document_length")
+        conn.execute("DROP FUNCTION memory_token_count(tsvector)")
+        conn.execute("DELETE FROM memory_schema WHERE version >= 2")
+
+    reopened = PostgresProcessStore(postgres_dsn, "robot-1")
+    try:
+        ranked = reopened.search(build_query("mailroom package", synonyms=False), 5)
+    finally:
+        reopened.close()
+
+    with psycopg.connect(postgres_dsn) as conn:
+        lengths = conn.execute("SELECT document_length FROM processes").fetchall()
+    assert len(lengths) == 2
+    assert all(length > 10 for (length,) in lengths)
+    assert [c.process.id for c in ranked] == [
+        "fetch-package-from-mailroom",
+        "collect-parcel-at-reception",
+    ]
+    assert ranked[0].relevance > ranked[1].relevance > 0
+
+
+def test_term_weights_come_from_the_stores_own_scope(postgres_dsn: str, docs: Any) -> None:
+    mine = PostgresProcessStore(postgres_dsn, "robot-1", visibility="robot")
+    other = PostgresProcessStore(postgres_dsn, "robot-2", visibility="robot")
+    try:
+        for markdown in docs.all():
+            mine.save(parse_process(markdown))
+        query = build_query("mailroom package", synonyms=False)
+        before = [(c.process.id, c.relevance) for c in mine.search(query, 5)]
+        for index in range(20):  # "mailroom" in every process of another robot's scope
+            other.save(
+                parse_process(
+                    render_process(
+                        f"mailroom-round-{index}",
+                        "Mailroom round",
+                        "visit the mailroom",
+                        [],
+                        ["go"],
+                    )
+                )
+            )
+        after = [(c.process.id, c.relevance) for c in mine.search(query, 5)]
+    finally:
+        mine.close()
+        other.close()
+
+    assert after == before
+    assert before[0][0] == "fetch-package-from-mailroom"
+
+
 def test_a_store_whose_server_went_away_reports_store_errors(postgres_dsn: str) -> None:
     store = PostgresProcessStore(postgres_dsn, "robot-1", connect_timeout_s=1)
     store.close()
@@ -91,7 +149,5 @@ def test_a_store_whose_server_went_away_reports_store_errors(postgres_dsn: str) 
         store.list_processes()
 
 
-def test_websearch_text_is_an_or_of_quoted_terms() -> None:
-    assert render_websearch(("pick up", 'we"ird', "or", "or", " ")) == (
-        '"pick up" or "we ird" or "or"'
-    )
+def test_search_terms_are_distinct_with_whitespace_collapsed() -> None:
+    assert search_terms(("pick  up", 'we"ird', "or", "or", " ", "")) == ["pick up", 'we"ird', "or"]

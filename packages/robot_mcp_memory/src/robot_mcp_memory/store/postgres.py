@@ -2,16 +2,18 @@
 
 Tables (:mod:`.postgres_schema`): ``processes`` (one row per scope and id: the current version
 pointer plus its ``document`` tsvector — title A, task pattern B, tags C, body D, English
-stemming — and its ``concepts`` tsvector of synonym concepts), ``process_versions`` (every
-version, with the robot that saved it) and ``outcomes`` (robot, success, note; counts are
-aggregated from it per version, fleet-wide and for this robot).
+stemming —, its token count ``document_length`` and its ``concepts`` tsvector of synonym
+concepts), ``process_versions`` (every version, with the robot that saved it) and ``outcomes``
+(robot, success, note; counts are aggregated from it per version, fleet-wide and for this robot).
 
-Search: the query's words go through ``websearch_to_tsquery('english', ...)`` as an OR of
-quoted terms (terms hold only word characters and spaces, so no operator can be injected), its
-concepts through ``websearch_to_tsquery('simple', ...)``; relevance is
-``ts_rank_cd(document) + concept_weight · ts_rank_cd(concepts)`` with weights title 4 : task
-pattern 3 : tags 2 : body 1, and the outcome adjustment of :mod:`robot_mcp_memory.ranking` is
-applied above the port as for every adapter.
+Search is BM25 computed in SQL (:data:`_SEARCH`), as FTS5's ``bm25()`` ranks on SQLite: every
+query word (``phraseto_tsquery('english', ...)``) and concept (``'simple'``) is a term of its own,
+weighted by its inverse document frequency within the scope, so the rare word that tells
+processes apart outranks the common ones most processes share ("robot", "take", "room"); a
+term's frequency is weighted by field (title 4 : task pattern 3 : tags 2 : body 1), saturates
+(k1) and is normalized by document length (b). Terms are bound parameters read as plain text
+(no operator in them means anything). The outcome adjustment of :mod:`robot_mcp_memory.ranking`
+is applied above the port as for every adapter.
 
 Concurrency: transactions run at READ COMMITTED. A save first makes sure the process's head row
 exists (``INSERT … ON CONFLICT DO NOTHING``), then locks it (``SELECT … FOR UPDATE``) and
@@ -53,9 +55,15 @@ from robot_mcp_memory.store.postgres_schema import CONCEPT_VECTOR, DOCUMENT_VECT
 T = TypeVar("T")
 Connection = psycopg.Connection[TupleRow]
 
-# ts_rank_cd weights in its order {D, C, B, A}: body 1, tags 2, task pattern 3, title 4.
-RANK_WEIGHTS = "'{0.25, 0.5, 0.75, 1.0}'::float4[]"
-RANK_NORMALIZATION = 1  # divide by 1 + log(document length): long bodies don't win by length
+# BM25 parameters (as FTS5's bm25() on SQLite): term-frequency saturation and length normalization.
+BM25_K1 = 1.2
+BM25_B = 0.75
+# Field weights in ts_rank_cd's order {D, C, B, A}, scaled by FIELD_SCALE: body 1, tags 2, task
+# pattern 3, title 4 (ts_rank_cd takes weights ≤ 1; with normalization 0 and a one-term query it
+# returns the sum of the weights of the term's occurrences).
+FIELD_WEIGHTS = "'{0.25, 0.5, 0.75, 1.0}'::float4[]"
+FIELD_SCALE = 4.0
+CONCEPT_WEIGHTS = "'{1, 1, 1, 1}'::float4[]"  # concepts are unlabelled: each occurrence counts 1
 
 _STATS = """CROSS JOIN LATERAL (
     SELECT count(*) FILTER (WHERE o.success) AS successes,
@@ -75,10 +83,50 @@ _CURRENT = (
 )
 
 
-def render_websearch(terms: tuple[str, ...]) -> str:
-    """``websearch_to_tsquery`` text for ``terms``: an OR of quoted words and phrases."""
-    cleaned = dict.fromkeys(" ".join(term.replace('"', " ").split()) for term in terms)
-    return " or ".join(f'"{term}"' for term in cleaned if term)
+def search_terms(terms: tuple[str, ...]) -> list[str]:
+    """Distinct non-empty terms, whitespace collapsed: each becomes one ``phraseto_tsquery``
+    (a bound parameter, read as plain text: no operator in it means anything)."""
+    return list(dict.fromkeys(" ".join(term.split()) for term in terms if term.strip()))
+
+
+# BM25 in SQL. Each distinct query term is its own tsquery: words ('english' stemming) against
+# ``document``, concepts ('simple') against ``concepts``. ``matches`` holds every (term, process)
+# match of the scope, found through the GIN indexes, with ``f``, the term's field-weighted
+# frequency in that process. Per term, df = its number of matches and idf = ln(1 + (N − df +
+# 0.5) / (df + 0.5)) (N: the scope's processes; Lucene's form, positive for every df, so tiny
+# stores rank too). A process scores Σ weight · idf · f · (k1 + 1) / (f + k1 · (1 − b + b · dl /
+# avgdl)) over the terms it matches (dl: its ``document_length``, avgdl: the scope's mean; weight:
+# 1 for words, the query's concept weight for concepts). So a word that few processes contain
+# outweighs one most of them share, and repeating a word saturates.
+_SEARCH = (
+    "WITH terms AS ("  # noqa: S608 - constant SQL, every value is a bound parameter
+    "SELECT DISTINCT 'w' AS field, phraseto_tsquery('english', t) AS q "
+    "FROM unnest(%(words)s::text[]) AS t UNION "
+    "SELECT DISTINCT 'c', phraseto_tsquery('simple', t) FROM unnest(%(concepts)s::text[]) AS t), "
+    "usable AS (SELECT row_number() OVER () AS term, field, q FROM terms WHERE numnode(q) > 0), "
+    "matches AS MATERIALIZED ("
+    "SELECT u.term, p.process_id, p.document_length AS dl, 1.0::float8 AS weight, "
+    f"{FIELD_SCALE} * ts_rank_cd({FIELD_WEIGHTS}, p.document, u.q, 0)::float8 AS f "
+    "FROM usable u JOIN processes p ON p.document @@ u.q "
+    "WHERE u.field = 'w' AND p.scope = %(scope)s "
+    "UNION ALL SELECT u.term, p.process_id, p.document_length, %(concept_weight)s::float8, "
+    f"ts_rank_cd({CONCEPT_WEIGHTS}, p.concepts, u.q, 0)::float8 "
+    "FROM usable u JOIN processes p ON p.concepts @@ u.q "
+    "WHERE u.field = 'c' AND p.scope = %(scope)s), "
+    "corpus AS (SELECT count(*)::float8 AS n, greatest(avg(document_length), 1)::float8 AS avgdl "
+    "FROM processes WHERE scope = %(scope)s), "
+    "idf AS (SELECT m.term, ln(1 + (c.n - count(*) + 0.5) / (count(*) + 0.5)) AS idf "
+    "FROM matches m CROSS JOIN corpus c GROUP BY m.term, c.n), "
+    "hits AS (SELECT m.process_id, sum(m.weight * i.idf * m.f * (%(k1)s + 1) "
+    "/ (m.f + %(k1)s * (1 - %(b)s + %(b)s * m.dl / c.avgdl))) AS relevance "
+    "FROM matches m JOIN idf i ON i.term = m.term CROSS JOIN corpus c "
+    "GROUP BY m.process_id ORDER BY relevance DESC, m.process_id LIMIT %(limit)s) "
+    f"SELECT h.relevance, {_COLUMNS} FROM hits h "
+    "JOIN processes p ON p.scope = %(scope)s AND p.process_id = h.process_id "
+    "JOIN process_versions v ON v.scope = p.scope AND v.process_id = p.process_id "
+    f"AND v.version = p.current_version {_STATS} "
+    "ORDER BY h.relevance DESC, h.process_id"
+)
 
 
 def _cannot_open(exc: BaseException) -> str:
@@ -218,31 +266,17 @@ class PostgresProcessStore(ProcessStore):
     def search(self, query: SearchQuery, limit: int) -> list[Candidate]:
         if query.empty or limit <= 0:
             return []
-        concepts = render_websearch(query.concepts) if query.concept_weight > 0 else ""
         params = self._params(
-            words=render_websearch(query.words),
-            concepts=concepts,
+            words=search_terms(query.words),
+            concepts=search_terms(query.concepts) if query.concept_weight > 0 else [],
             concept_weight=query.concept_weight,
+            k1=BM25_K1,
+            b=BM25_B,
             limit=limit,
-        )
-        sql = (
-            "WITH q AS (SELECT websearch_to_tsquery('english', %(words)s) AS w, "  # noqa: S608 - constant SQL
-            "websearch_to_tsquery('simple', %(concepts)s) AS c), "
-            "hits AS (SELECT p.scope, p.process_id, "
-            f"ts_rank_cd({RANK_WEIGHTS}, p.document, q.w, {RANK_NORMALIZATION}) "
-            f"+ %(concept_weight)s * ts_rank_cd(p.concepts, q.c, {RANK_NORMALIZATION}) "
-            "AS relevance FROM processes p, q WHERE p.scope = %(scope)s "
-            "AND (p.document @@ q.w OR p.concepts @@ q.c) "
-            "ORDER BY relevance DESC, p.process_id LIMIT %(limit)s) "
-            f"SELECT h.relevance, {_COLUMNS} FROM hits h "
-            "JOIN processes p ON p.scope = h.scope AND p.process_id = h.process_id "
-            "JOIN process_versions v ON v.scope = p.scope AND v.process_id = p.process_id "
-            f"AND v.version = p.current_version {_STATS} "
-            "ORDER BY h.relevance DESC, h.process_id"
         )
 
         def work(conn: Connection) -> list[Candidate]:
-            rows = conn.execute(sql, params).fetchall()
+            rows = conn.execute(_SEARCH, params).fetchall()
             return [
                 Candidate(process=_stored(row[1:]), relevance=max(float(row[0]), 0.0))
                 for row in rows

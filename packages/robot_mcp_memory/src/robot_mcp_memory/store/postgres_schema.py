@@ -72,8 +72,19 @@ _V1 = (
     "CREATE TABLE memory_meta (key text PRIMARY KEY, value text NOT NULL)",
 )
 
+# Version 2: BM25 ranking. ``document_length`` is the number of tokens indexed in ``document``
+# (BM25's document length; the average over a scope is its avgdl), kept by PostgreSQL itself:
+# a stored generated column, filled for existing rows when it is added.
+_V2 = (
+    """CREATE FUNCTION memory_token_count(tsvector) RETURNS integer
+        LANGUAGE sql IMMUTABLE STRICT PARALLEL SAFE
+        AS $$ SELECT coalesce(sum(cardinality(positions)), 0)::integer FROM unnest($1) $$""",
+    "ALTER TABLE processes ADD COLUMN document_length integer NOT NULL "
+    "GENERATED ALWAYS AS (memory_token_count(document)) STORED",
+)
+
 # Schema version → its statements; append new versions, never edit applied ones.
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: _V1}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: _V1, 2: _V2}
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -27,15 +27,12 @@ from robot_voice_chat.agent.task_registry import (
     server_restarted_event,
 )
 from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.services.llm.base import ToolCall, ToolResult
+from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 ORPHAN_GRACE_S = 30.0
-
-
-HELD_BY_STOP = "HELD_BY_SAFETY_STOP"
 
 
 def held_by_stop(run: MissionRun) -> bool:
@@ -46,7 +43,7 @@ def held_by_stop(run: MissionRun) -> bool:
 def held_error(tool: str) -> str:
     return json.dumps(
         {
-            "error": HELD_BY_STOP,
+            "error": HELD_BY_SAFETY_STOP,
             "detail": f"{tool} was not sent: a safety stop paused the mission. Wait for the "
             "person's answer; call it again only if they say to continue.",
         }

@@ -8,9 +8,9 @@ import json
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
+from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
-from robot_voice_chat.services.llm.rules.program import HELD, MissionProgram, Observation, Program
+from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
 from robot_voice_chat.socket_events import MissionPlan
 from robot_voice_chat.testing import task_info
 from robot_voice_chat.testing_office import office
@@ -185,7 +185,7 @@ def _program_at_the_drive() -> tuple[Program, ToolResult]:
 
 HELD_RESULT = ToolResult(
     tool_call_id="",
-    content=json.dumps({"error": HELD, "detail": "not sent: a safety stop"}),
+    content=json.dumps({"error": HELD_BY_SAFETY_STOP, "detail": "not sent: a safety stop"}),
     is_error=True,
 )
 

@@ -25,6 +25,11 @@ class ToolCall(BaseModel):
     arguments: dict[str, Any] = Field(default_factory=dict)
 
 
+HELD_BY_SAFETY_STOP = "HELD_BY_SAFETY_STOP"
+"""The error code of a motion tool call the brain held, never sent, because a safety stop
+waits for the person's answer (agent/dispatch.py); planners treat it as a pause."""
+
+
 class ToolResult(BaseModel):
     """The answer to one tool call; failures are values (``is_error``), never exceptions."""
 

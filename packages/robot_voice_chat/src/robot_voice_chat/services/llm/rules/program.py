@@ -14,7 +14,7 @@ from collections.abc import Generator
 from dataclasses import dataclass, field
 from typing import Any
 
-from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
+from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
@@ -42,8 +42,6 @@ UNDERSTOOD = (
 _EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
-HELD = "HELD_BY_SAFETY_STOP"
-"""The brain's refusal of a motion call planned before a stop (agent/dispatch.py)."""
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
 _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
@@ -234,7 +232,7 @@ class MissionProgram:
                 args["triggers"] = [{"type": "eta_below", "seconds": self.settings.eta_trigger_s}]
                 calls.insert(-1, self._prewarm_reaction(prepare))
             result = (yield from self.act(*calls))[-1]
-            if result.is_error and HELD in result.content:  # never sent: a stop came first
+            if result.is_error and HELD_BY_SAFETY_STOP in result.content:  # a stop came first
                 yield from self._until_resumed(f"stopped before driving to the {leg}")
                 legs -= 1
                 current = self._add_step(current, f"Resume the drive to the {leg}")

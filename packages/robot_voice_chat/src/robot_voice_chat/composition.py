@@ -220,6 +220,8 @@ def build_auth(config: AppConfig) -> OperatorAuth | None:
     if not config.auth.enabled:
         return None
     try:
-        return OperatorAuth.from_env(config.auth)
+        return OperatorAuth.from_env(
+            config.auth, revocations=state_path(config.agent, "", "revoked_sessions.json")
+        )
     except AuthSetupError as exc:
         raise ConfigError(str(exc)) from exc

@@ -160,6 +160,9 @@ class AuthConfig(BaseModel):
     cookie_secure: Literal["auto", "always", "never"] = "auto"
     login_max_failures: int = Field(5, ge=1)
     login_window_s: float = Field(300, gt=0)
+    # argon2 checks running at once (each ~64 MiB) and queued behind them; more → 429
+    login_concurrency: int = Field(2, ge=1)
+    login_queue: int = Field(8, ge=0)
     # Proxies whose X-Forwarded-For/-Proto are believed (uvicorn's forwarded_allow_ips).
     trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
 

@@ -16,6 +16,7 @@ from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
 from robot_voice_chat.api.socket import register_handlers
+from robot_voice_chat.api.socket_sessions import SocketSessions
 from robot_voice_chat.composition import Container
 
 
@@ -43,7 +44,17 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     if container.auth is not None:
         app.add_middleware(OperatorAuthMiddleware, auth=container.auth)
     app.add_middleware(RequestContextMiddleware)
-    app.include_router(auth_routes.build_router(container.auth))
+    sessions = (
+        SocketSessions(container.sio, container.auth)
+        if container.sio is not None and container.auth is not None
+        else None
+    )
+    app.state.socket_sessions = sessions
+    app.include_router(
+        auth_routes.build_router(
+            container.auth, sessions.close_session if sessions is not None else None
+        )
+    )
     app.include_router(health.router)
     app.include_router(chat.router)
     app.include_router(agent.build_router(container.config.api))
@@ -58,7 +69,7 @@ def create_asgi_app(container: Container) -> Any:
     app = create_app(container)
     if container.sio is None:
         return app
-    register_handlers(container)
+    register_handlers(container, app.state.socket_sessions)
     served = socketio.ASGIApp(container.sio, other_asgi_app=app, socketio_path="socket.io")
     # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
     return served if container.auth is None else OperatorAuthMiddleware(served, container.auth)

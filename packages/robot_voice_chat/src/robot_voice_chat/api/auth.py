@@ -3,15 +3,20 @@
 One operator account per robot (``ADMIN_USERNAME``, default ``operator``) whose password is
 stored only as an argon2 hash (``ADMIN_PASSWORD_HASH``, made by ``robot-voice-chat
 hash-password``). A session is an itsdangerous-signed token (``ADMIN_SECRET_KEY``) carrying
-the operator's name and a session id; logout revokes the id until the token would expire.
+the operator's name, a session id and a fingerprint of the password hash. Logout revokes the
+id until the token would expire (kept on disk: a restart does not revive it); a new password
+hash changes the fingerprint, so every session issued before a password change is refused.
 """
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import secrets
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
@@ -19,6 +24,7 @@ from itsdangerous import BadSignature, URLSafeTimedSerializer
 from pydantic import SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from robot_voice_chat.api.auth_revocations import RevocationFileError, RevocationStore
 from robot_voice_chat.settings import AuthConfig
 
 _SALT = "robot-voice-chat.operator-session"
@@ -46,6 +52,15 @@ def hash_password(password: str) -> str:
     return PasswordHasher().hash(password)
 
 
+@dataclass(frozen=True)
+class Session:
+    """A valid session read from a token."""
+
+    operator: str
+    session_id: str
+    expires_at: float  # epoch seconds
+
+
 @dataclass
 class OperatorAuth:
     """Checks credentials and issues/reads session tokens. Built once by the composition root."""
@@ -55,14 +70,24 @@ class OperatorAuth:
     password_hash: str
     secret_key: str
     clock: Callable[[], float] = time.time
-    _revoked: dict[str, float] = field(default_factory=dict)
+    revoked: RevocationStore = field(default_factory=RevocationStore)
 
     def __post_init__(self) -> None:
         self._hasher = PasswordHasher()
         self._serializer = URLSafeTimedSerializer(self.secret_key, salt=_SALT)
+        # changes with the password hash: sessions from before a password change stop working
+        self._password_mark = hmac.new(
+            self.secret_key.encode(), self.password_hash.encode(), hashlib.sha256
+        ).hexdigest()[:16]
 
     @classmethod
-    def from_env(cls, config: AuthConfig, secrets_: AdminSecrets | None = None) -> OperatorAuth:
+    def from_env(
+        cls,
+        config: AuthConfig,
+        secrets_: AdminSecrets | None = None,
+        revocations: Path | None = None,
+    ) -> OperatorAuth:
+        """``revocations``: the file that keeps logouts across restarts (None: memory only)."""
         env = secrets_ or AdminSecrets()
         if not env.username.strip():
             raise AuthSetupError("ADMIN_USERNAME is empty (leave it unset for 'operator')")
@@ -79,7 +104,11 @@ class OperatorAuth:
         stored = env.password_hash.get_secret_value().strip()
         if not stored.startswith("$argon2"):
             raise AuthSetupError("ADMIN_PASSWORD_HASH is not an argon2 hash")
-        return cls(config, env.username, stored, env.secret_key.get_secret_value())
+        try:
+            store = RevocationStore(revocations)
+        except RevocationFileError as exc:
+            raise AuthSetupError(str(exc)) from exc
+        return cls(config, env.username, stored, env.secret_key.get_secret_value(), revoked=store)
 
     def check_password(self, username: str, password: str) -> bool:
         """Constant-time on the username; argon2 verify on the password (CPU-bound: ~50 ms)."""
@@ -92,22 +121,24 @@ class OperatorAuth:
 
     def issue(self) -> str:
         """A signed session token for the operator."""
-        return self._serializer.dumps({"op": self.username, "sid": secrets.token_urlsafe(12)})
+        return self._serializer.dumps(
+            {"op": self.username, "sid": secrets.token_urlsafe(12), "pw": self._password_mark}
+        )
 
     def operator_for(self, token: str | None) -> str | None:
         """The operator's name if ``token`` is a valid, unexpired, unrevoked session."""
-        payload = self._payload(token)
-        return None if payload is None else payload[0]
+        session = self.session(token)
+        return None if session is None else session.operator
 
-    def revoke(self, token: str | None) -> None:
-        payload = self._payload(token)
-        if payload is None:
-            return
-        now = self.clock()
-        self._revoked = {sid: exp for sid, exp in self._revoked.items() if exp > now}
-        self._revoked[payload[1]] = now + self.config.session_ttl_s
+    def revoke(self, token: str | None) -> Session | None:
+        """Refuse ``token``'s session from now on (also after a restart); the revoked session."""
+        session = self.session(token)
+        if session is not None:
+            self.revoked.add(session.session_id, session.expires_at, self.clock())
+        return session
 
-    def _payload(self, token: str | None) -> tuple[str, str] | None:
+    def session(self, token: str | None) -> Session | None:
+        """The session ``token`` carries if it is valid, unexpired and unrevoked."""
         if not token:
             return None
         try:
@@ -119,7 +150,9 @@ class OperatorAuth:
             return None
         if not isinstance(data, dict):
             return None
-        operator, sid = data.get("op"), data.get("sid")
-        if not isinstance(operator, str) or not isinstance(sid, str) or sid in self._revoked:
+        operator, sid, mark = data.get("op"), data.get("sid"), data.get("pw")
+        if not isinstance(operator, str) or not isinstance(sid, str) or sid in self.revoked:
             return None
-        return operator, sid
+        if not isinstance(mark, str) or not secrets.compare_digest(mark, self._password_mark):
+            return None  # issued before the password changed
+        return Session(operator, sid, signed_at.timestamp() + self.config.session_ttl_s)

@@ -45,14 +45,20 @@ def requires_login(path: str) -> bool:
 def session_cookie(scope: Mapping[str, Any], name: str) -> str | None:
     for key, value in scope.get("headers", []):
         if key == b"cookie":
-            jar: SimpleCookie = SimpleCookie()
-            try:
-                jar.load(value.decode("latin-1"))
-            except Exception:  # a malformed Cookie header is simply "no session"
-                return None
-            if name in jar:
-                return jar[name].value
+            found = cookie_value(value.decode("latin-1"), name)
+            if found is not None:
+                return found
     return None
+
+
+def cookie_value(header: str, name: str) -> str | None:
+    """``name``'s value in one Cookie header (None when absent or the header is malformed)."""
+    jar: SimpleCookie = SimpleCookie()
+    try:
+        jar.load(header)
+    except Exception:  # a malformed Cookie header is simply "no session"
+        return None
+    return jar[name].value if name in jar else None
 
 
 class OperatorAuthMiddleware:

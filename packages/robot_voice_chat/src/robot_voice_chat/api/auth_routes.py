@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Awaitable, Callable
 
 import structlog
 from fastapi import APIRouter, Request, Response
@@ -12,9 +13,16 @@ from pydantic import BaseModel, Field
 
 from robot_voice_chat.api.auth import OperatorAuth
 from robot_voice_chat.api.auth_middleware import session_cookie
-from robot_voice_chat.api.auth_throttle import LoginThrottle
+from robot_voice_chat.api.auth_throttle import (
+    LoginThrottle,
+    PasswordChecksBusyError,
+    PasswordCheckSlots,
+)
 
 logger = structlog.get_logger(__name__)
+
+# Called with the session id a logout revoked (closes that session's open sockets).
+LogoutListener = Callable[[str], Awaitable[None]]
 
 
 class LoginRequest(BaseModel):
@@ -37,28 +45,42 @@ def _secure(request: Request, auth: OperatorAuth) -> bool:
     return mode == "always" or (mode == "auto" and request.url.scheme == "https")
 
 
-def build_router(auth: OperatorAuth | None) -> APIRouter:
+def _too_many(detail: str, retry_after: float) -> JSONResponse:
+    return JSONResponse(
+        {"detail": detail},
+        status_code=429,
+        headers={"Retry-After": str(max(1, math.ceil(retry_after)))},
+    )
+
+
+def build_router(auth: OperatorAuth | None, on_logout: LogoutListener | None = None) -> APIRouter:
     router = APIRouter(prefix="/api/auth", tags=["auth"])
     throttle = (
         LoginThrottle(auth.config.login_max_failures, auth.config.login_window_s) if auth else None
     )
+    slots = (
+        PasswordCheckSlots(auth.config.login_concurrency, auth.config.login_queue) if auth else None
+    )
 
     @router.post("/login", operation_id="login", response_model=OperatorInfo)
     async def login(body: LoginRequest, request: Request) -> Response:
-        if auth is None or throttle is None:
+        if auth is None or throttle is None or slots is None:
             return JSONResponse({"detail": "operator login is disabled"}, status_code=404)
         address = _address(request)
-        wait = throttle.retry_after(address)
+        # The attempt is counted before the slow check: parallel requests cannot outrun it.
+        wait = throttle.reserve(address)
         if wait > 0:
-            logger.warning("login_throttled", client=address, username=body.username)
-            return JSONResponse(
-                {"detail": "too many failed logins; try again later"},
-                status_code=429,
-                headers={"Retry-After": str(math.ceil(wait))},
-            )
-        if not await asyncio.to_thread(auth.check_password, body.username, body.password):
-            throttle.failed(address)
-            logger.warning("login_failed", client=address, username=body.username)
+            logger.warning("login_throttled", client=address)
+            return _too_many("too many failed logins; try again later", wait)
+        try:
+            async with slots.slot():
+                ok = await asyncio.to_thread(auth.check_password, body.username, body.password)
+        except PasswordChecksBusyError:
+            logger.warning("login_busy", client=address, checks=slots.admitted)
+            return _too_many("too many logins at once; try again in a moment", 1)
+        if not ok:
+            # the typed user name is never logged (it is often a password typed in the wrong box)
+            logger.warning("login_failed", client=address)
             return JSONResponse({"detail": "wrong username or password"}, status_code=401)
         throttle.succeeded(address)
         logger.info("login_succeeded", client=address, operator=auth.username)
@@ -82,11 +104,11 @@ def build_router(auth: OperatorAuth | None) -> APIRouter:
             OperatorInfo(auth_enabled=auth is not None, operator=None).model_dump()
         )
         if auth is not None:
-            token = session_cookie(request.scope, auth.config.cookie_name)
-            operator = auth.operator_for(token)
-            auth.revoke(token)
-            if operator is not None:
-                logger.info("logout", operator=operator)
+            session = auth.revoke(session_cookie(request.scope, auth.config.cookie_name))
+            if session is not None:
+                logger.info("logout", operator=session.operator)
+                if on_logout is not None:
+                    await on_logout(session.session_id)
             response.delete_cookie(
                 auth.config.cookie_name,
                 path="/",

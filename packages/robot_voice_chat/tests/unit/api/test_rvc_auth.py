@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import asyncio
 import io
+import json
+import stat
 import time
+from pathlib import Path
 
 import pytest
 from pydantic import SecretStr
@@ -13,7 +17,11 @@ from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
 from robot_voice_chat.api.auth_cli import hash_password_command
 from robot_voice_chat.api.auth_guard import PublicBindRefusedError, ensure_bind_allowed
 from robot_voice_chat.api.auth_middleware import requires_login, session_cookie
-from robot_voice_chat.api.auth_throttle import LoginThrottle
+from robot_voice_chat.api.auth_throttle import (
+    LoginThrottle,
+    PasswordChecksBusyError,
+    PasswordCheckSlots,
+)
 from robot_voice_chat.composition import ConfigError, build_auth, compose_config
 from robot_voice_chat.main import main
 from robot_voice_chat.operator import acting_operator
@@ -146,6 +154,94 @@ def test_throttle_refuses_after_max_failures_until_the_window_passes() -> None:
     assert throttle.retry_after("10.0.0.6") == 0  # per address
     clock.now += 61
     assert throttle.retry_after("10.0.0.5") == 0
+
+
+def test_a_reserved_attempt_counts_before_its_password_is_checked() -> None:
+    throttle = LoginThrottle(3, 60, Clock())
+    assert [throttle.reserve("10.0.0.5") for _ in range(3)] == [0, 0, 0]
+    assert throttle.reserve("10.0.0.5") == pytest.approx(60)  # none of the three checked yet
+    assert throttle.reserve("10.0.0.6") == 0
+    throttle.succeeded("10.0.0.5")  # one of them had the right password
+    assert throttle.reserve("10.0.0.5") == 0
+
+
+async def test_password_checks_run_at_most_n_at_once_and_the_excess_is_refused() -> None:
+    slots = PasswordCheckSlots(running=2, waiting=1)
+    release = asyncio.Event()
+    running = 0
+    peak = 0
+
+    async def check() -> None:
+        nonlocal running, peak
+        async with slots.slot():
+            running += 1
+            peak = max(peak, running)
+            await release.wait()
+            running -= 1
+
+    tasks = [asyncio.create_task(check()) for _ in range(3)]
+    await asyncio.sleep(0)
+    assert slots.admitted == 3
+    with pytest.raises(PasswordChecksBusyError):
+        async with slots.slot():
+            pass
+    release.set()
+    async with asyncio.timeout(5):
+        await asyncio.gather(*tasks)
+    assert peak == 2
+    assert slots.admitted == 0
+    async with slots.slot():  # free again
+        assert slots.admitted == 1
+
+
+def test_a_logout_is_kept_on_disk_and_refused_after_a_restart(tmp_path: Path) -> None:
+    path = tmp_path / "data" / "revoked_sessions.json"
+    secrets_ = AdminSecrets(
+        username="ada", password_hash=SecretStr(HASH), secret_key=SecretStr(KEY)
+    )
+    before = OperatorAuth.from_env(AuthConfig(enabled=True), secrets_, revocations=path)
+    token, kept = before.issue(), before.issue()
+    assert before.revoke(token) is not None
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert stat.S_IMODE(path.parent.stat().st_mode) == 0o700
+    after = OperatorAuth.from_env(AuthConfig(enabled=True), secrets_, revocations=path)
+    assert after.operator_for(token) is None
+    assert after.operator_for(kept) == "ada"
+
+
+def test_an_unreadable_revocation_list_refuses_the_start(tmp_path: Path) -> None:
+    path = tmp_path / "revoked_sessions.json"
+    path.write_text('{"revoked": ["not", "a", "map"]}')
+    secrets_ = AdminSecrets(password_hash=SecretStr(HASH), secret_key=SecretStr(KEY))
+    with pytest.raises(AuthSetupError, match="revocation list"):
+        OperatorAuth.from_env(AuthConfig(enabled=True), secrets_, revocations=path)
+    path.write_text("{half")
+    with pytest.raises(AuthSetupError, match="cannot read"):
+        OperatorAuth.from_env(AuthConfig(enabled=True), secrets_, revocations=path)
+
+
+def test_expired_revocations_are_dropped_from_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "revoked_sessions.json"
+    clock = Clock()
+    secrets_ = AdminSecrets(password_hash=SecretStr(HASH), secret_key=SecretStr(KEY))
+    auth = OperatorAuth.from_env(AuthConfig(enabled=True, session_ttl_s=60), secrets_, path)
+    auth.clock = clock
+    auth.revoke(auth.issue())
+    clock.now += 30
+    auth.revoke(auth.issue())
+    assert len(json.loads(path.read_text())["revoked"]) == 2
+    clock.now += 45  # the first would have expired by now
+    auth.revoke(auth.issue())
+    assert len(json.loads(path.read_text())["revoked"]) == 2
+
+
+def test_a_new_password_hash_ends_every_older_session() -> None:
+    auth = make_auth()
+    token = auth.issue()
+    changed = OperatorAuth(AuthConfig(enabled=True), "ada", hash_password("a new one"), KEY)
+    assert changed.operator_for(token) is None
+    assert changed.operator_for(changed.issue()) == "ada"
+    assert make_auth().operator_for(token) == "ada"  # same hash: still valid
 
 
 def test_throttle_forgets_failures_after_a_success() -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import time
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -185,3 +186,106 @@ async def test_without_auth_the_api_is_open_and_login_is_not_offered(
         refused = await http.post("/api/auth/login", json={"username": "a", "password": "b"})
         assert refused.status_code == 404
         assert (await http.post("/api/auth/logout")).status_code == 200
+
+
+async def test_sixty_parallel_logins_from_one_address_are_throttled(
+    served: tuple[str, Container],
+) -> None:
+    address, _ = served
+    limits = httpx.Limits(max_connections=60)
+    async with httpx.AsyncClient(base_url=f"http://{address}", limits=limits, timeout=60) as http:
+        responses = await asyncio.gather(*(login(http, f"guess-{i}") for i in range(60)))
+    statuses = [r.status_code for r in responses]
+    assert statuses.count(401) == 3  # login_max_failures: only three passwords were checked
+    assert statuses.count(429) == 57
+
+
+async def test_the_right_password_last_of_forty_parallel_attempts_is_not_accepted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ADMIN_USERNAME", "ada")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "s" * 48)
+    container = bootstrap(compose_config("test", ["auth.enabled=true"]))
+    app = create_app(container, manage_lifecycle=False)
+    transport = httpx.ASGITransport(app)  # one client address; requests start in order
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as http:
+        attempts = [login(http, f"guess-{i}") for i in range(39)] + [login(http)]
+        statuses = [r.status_code for r in await asyncio.gather(*attempts)]
+    assert statuses[:5] == [401] * 5  # the robot preset's five tries were checked
+    assert statuses[5:] == [429] * 35  # the right password came after the budget was spent
+
+
+async def read_until_closed(ws: Any) -> list[str]:
+    """Frames until Engine.IO's close packet ("1") or the end of the connection."""
+    frames: list[str] = []
+    async with asyncio.timeout(10):
+        try:
+            while not frames or frames[-1] != "1":
+                frames.append(str(await ws.recv()))
+        except websockets.ConnectionClosed:
+            pass
+    return frames
+
+
+def socket_ids(frames: list[str]) -> list[str]:
+    return [json.loads(f[2:])["sid"] for f in frames if f.startswith("40{")]
+
+
+def connected(container: Container, sid: str) -> bool:
+    return bool(container.sio.manager.is_connected(sid, "/"))
+
+
+async def test_an_open_socket_is_closed_at_logout_and_cannot_send_afterwards(
+    served: tuple[str, Container],
+) -> None:
+    address, container = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        cookie = (await login(http)).cookies["rvc_session"]
+        ws = await socket_connect(address, cookie)
+        other = await socket_connect(address, (await login(http)).cookies["rvc_session"])
+        try:
+            async with httpx.AsyncClient(
+                base_url=f"http://{address}", cookies={"rvc_session": cookie}
+            ) as same_session:
+                assert (await same_session.post("/api/auth/logout")).status_code == 200
+            frames = await read_until_closed(ws)
+            assert frames[-2:] == ["41", "1"]  # Socket.IO disconnect, then Engine.IO close
+            (sid,) = socket_ids(frames)
+            assert not connected(container, sid)
+            # another session's socket stays open and works
+            await other.send("421" + json.dumps(["stop_pipeline"]))
+            async with asyncio.timeout(10):
+                while not str(reply := await other.recv()).startswith("431"):
+                    pass
+            assert json.loads(str(reply)[3:]) == [{"ok": True}]
+        finally:
+            await ws.close()
+            await other.close()
+    assert container.executor.store.recent(1) == []
+
+
+async def test_an_expired_session_s_socket_refuses_events_and_is_closed(
+    served: tuple[str, Container],
+) -> None:
+    address, container = served
+    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+        cookie = (await login(http)).cookies["rvc_session"]
+    ws = await socket_connect(address, cookie)
+    async with asyncio.timeout(10):
+        while not (joined := str(await ws.recv())).startswith("40{"):
+            pass
+    (sid,) = socket_ids([joined])
+    auth = container.auth
+    assert auth is not None
+    ttl = auth.config.session_ttl_s
+    auth.clock = lambda: time.time() + ttl + 1  # the session has expired since the connect
+    try:
+        await ws.send("421" + json.dumps(["send_message", {"text": "Go to the kitchen."}]))
+        frames = await read_until_closed(ws)
+        assert '431[{"ok":false,"error":"login required"}]' in frames
+        assert frames[-2:] == ["41", "1"]
+        assert not connected(container, sid)
+    finally:
+        await ws.close()
+    assert container.executor.store.recent(1) == []

@@ -60,8 +60,18 @@ def compose_config(deployment: str = "dev", overrides: list[str] | None = None) 
         data = OmegaConf.to_container(cfg, resolve=True)
         assert isinstance(data, dict)
         return AppConfig.model_validate({**data, "deployment": deployment})
-    except (HydraException, OmegaConfBaseException, ValidationError) as exc:
+    except ValidationError as exc:
+        raise ConfigError(f"configuration ({deployment}): {validation_summary(exc)}") from exc
+    except (HydraException, OmegaConfBaseException) as exc:
         raise ConfigError(f"configuration ({deployment}): {one_line(str(exc))}") from exc
+
+
+def validation_summary(exc: ValidationError) -> str:
+    """``where: what`` for each error — never the input value (it may be a secret)."""
+    return "; ".join(
+        f"{'.'.join(map(str, e['loc'])) or exc.title}: {one_line(e['msg'])}"
+        for e in exc.errors(include_url=False, include_input=False, include_context=False)
+    )
 
 
 def _reason(exc: BaseException) -> str:

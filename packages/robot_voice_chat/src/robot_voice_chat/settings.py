@@ -109,6 +109,9 @@ class ApiConfig(BaseModel):
     unsigned_rate_limit: str = "30/minute"
     default_rate_limit: str = "600/minute"
     max_event_body_bytes: int = Field(65536, gt=0)
+    # deeper events are refused (400): nothing legitimate nests this far, and deep nesting
+    # overflows the stack of whatever walks the payload later (json, pydantic, the trace)
+    max_event_json_depth: int = Field(32, ge=2)
     dedupe_size: int = Field(4096, gt=0)
     signature_tolerance_s: float = 300
     cors_origins: list[str] = Field(default_factory=list)

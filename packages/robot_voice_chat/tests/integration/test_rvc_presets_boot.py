@@ -150,3 +150,21 @@ def test_an_adapter_whose_package_is_missing_refuses_and_names_the_package(
 def test_config_overrides_from_the_environment_reach_the_composition(tmp_path: Path) -> None:
     env = {**base_env(tmp_path, "dev"), "RVC_CONFIG_OVERRIDES": "agent.max_llm_steps=0"}
     assert "max_llm_steps" in run_refused(env)
+
+
+def test_a_refused_secret_never_appears_in_any_log_line(tmp_path: Path) -> None:
+    short = "short-but-secret-value-42"  # refused: fewer than 32 bytes
+    env = {**base_env(tmp_path, "robot"), **KEYS, "NAV_EVENT_SECRET": short}
+    done = subprocess.run(
+        [sys.executable, "-m", "robot_voice_chat", "--port", str(free_tcp_port())],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    output = done.stdout + done.stderr
+    assert done.returncode == 2, output
+    assert "tools.servers.0.event_secret" in output  # the refusal still says what is wrong
+    assert "at least 32" in output
+    assert short not in output
+    assert "input_value" not in output

@@ -90,6 +90,23 @@ async def test_validly_signed_event_is_accepted_and_unknown_task_is_an_orphan(
     assert again.json() == {"status": "duplicate"}
 
 
+@pytest.mark.parametrize("depth", [40, 1000, 5000, 30_000])
+async def test_deeply_nested_json_in_a_signed_event_is_a_400_not_a_500(
+    client: httpx.AsyncClient, depth: int
+) -> None:
+    nested = "[" * depth + "]" * depth
+    raw = body()[:-1] + b', "payload": {"deep": ' + nested.encode() + b"}}"
+    r = await post(client, raw, signed_headers("navigation", SECRET, raw))
+    assert r.status_code == 400
+    assert r.json() == {"status": "rejected", "reason": "json_too_deep"}
+
+
+async def test_an_event_nested_within_the_limit_is_accepted(client: httpx.AsyncClient) -> None:
+    raw = body()[:-1] + b', "payload": {"deep": ' + b"[" * 20 + b"]" * 20 + b"}}"
+    r = await post(client, raw, signed_headers("navigation", SECRET, raw))
+    assert r.json() == {"status": "orphan"}
+
+
 @pytest.mark.parametrize(
     ("server", "secret", "skew", "reason"),
     [

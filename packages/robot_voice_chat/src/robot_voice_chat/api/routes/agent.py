@@ -23,6 +23,7 @@ from robot_voice_chat.api.ingress import (
     RateLimit,
     Unauthorized,
     authenticate,
+    json_depth,
     read_limited,
     single_header,
 )
@@ -83,6 +84,10 @@ def build_router(api: ApiConfig) -> APIRouter:
             data = json.loads(body)
         except (ValueError, UnicodeDecodeError):
             return _reject(400, "malformed_json", server)
+        except RecursionError:  # nesting deeper than the parser's stack
+            return _reject(400, "json_too_deep", server)
+        if json_depth(data) > api.max_event_json_depth:
+            return _reject(400, "json_too_deep", server)
         if not isinstance(data, dict):
             return _reject(400, "body_must_be_an_object", server)
         version = data.get("schema_version")

@@ -1,0 +1,67 @@
+"""Secrets never reach a log line: the values of secret environment variables are redacted
+from structlog events and stdlib records alike."""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import pytest
+import structlog
+from pydantic import BaseModel, SecretStr, ValidationError, field_validator
+
+from robot_voice_chat.composition import validation_summary
+from robot_voice_chat.logging import REDACTED, RedactSecrets, configure_logging, secret_values
+
+SECRET = "s3cr3t-value-of-the-test"
+
+
+def test_only_secret_looking_names_with_real_values_are_redacted() -> None:
+    env = {
+        "ADMIN_SECRET_KEY": SECRET,
+        "GROQ_API_KEY": "gsk-123456",
+        "ADMIN_PASSWORD_HASH": "$argon2id$v=19$abc",
+        "NAV_EVENT_SECRET": "tiny",  # too short to redact safely
+        "HOME": "/root/home-dir",
+    }
+    assert secret_values(env) == [SECRET, "$argon2id$v=19$abc", "gsk-123456"]
+
+
+def test_secrets_are_replaced_in_nested_values() -> None:
+    redact = RedactSecrets([SECRET])
+    event = redact(None, "error", {"event": "x", "error": f"bad {SECRET}!", "n": [SECRET, 3]})
+    assert event == {"event": "x", "error": f"bad {REDACTED}!", "n": [REDACTED, 3]}
+
+
+def test_no_secret_reaches_stderr_from_structlog_or_stdlib(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    monkeypatch.setenv("ADMIN_SECRET_KEY", SECRET)
+    configure_logging("INFO", "json")
+    structlog.get_logger("t").error("startup_refused", error=f"input_value='{SECRET}'")
+    logging.getLogger("uvicorn.error").error("could not use %s", SECRET)
+    err = capsys.readouterr().err
+    assert SECRET not in err
+    assert json.loads(err.splitlines()[0])["error"] == f"input_value='{REDACTED}'"
+    assert f"could not use {REDACTED}" in caplog.text  # the root logger's handlers
+    assert SECRET not in caplog.text
+
+
+def test_validation_errors_name_the_field_but_never_the_value() -> None:
+    class Settings(BaseModel):
+        key: SecretStr
+
+        @field_validator("key")
+        @classmethod
+        def _long(cls, value: SecretStr) -> SecretStr:
+            raise ValueError("too short")
+
+    with pytest.raises(ValidationError) as caught:
+        Settings(key=SecretStr(SECRET))
+    with pytest.raises(ValidationError) as raw:
+        Settings.model_validate({"key": SECRET})
+    assert SECRET in str(raw.value)  # what pydantic itself would print
+    for exc in (caught.value, raw.value):
+        assert validation_summary(exc) == "key: Value error, too short"

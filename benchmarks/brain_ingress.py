@@ -136,7 +136,9 @@ async def reaction_latency(samples: int = 200) -> dict[str, Any]:
     while not run.suspended:  # noqa: ASYNC110 - benchmark polling
         await asyncio.sleep(0.01)
     results = []
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://b") as client:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as client:
         for i in range(samples):
             task_id = f"nav-{i}"
             container.executor.registry.register(

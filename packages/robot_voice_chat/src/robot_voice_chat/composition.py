@@ -26,7 +26,7 @@ from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
+from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -228,6 +228,14 @@ def bootstrap(config: AppConfig) -> Container:
 
 def build_auth(config: AppConfig) -> OperatorAuth | None:
     if not config.auth.enabled:
+        configured = AdminSecrets().password_hash
+        if configured is not None and configured.get_secret_value().strip():
+            # Someone meant to protect this brain: refuse rather than serve it without login.
+            raise ConfigError(
+                f"ADMIN_PASSWORD_HASH is set but operator login is off in the "
+                f"{config.deployment} preset: set auth.enabled=true (or RVC_DEPLOYMENT=robot) "
+                "to require login, or unset ADMIN_PASSWORD_HASH"
+            )
         return None
     try:
         return OperatorAuth.from_env(

@@ -115,6 +115,9 @@ class ApiConfig(BaseModel):
     dedupe_size: int = Field(4096, gt=0)
     signature_tolerance_s: float = 300
     cors_origins: list[str] = Field(default_factory=list)
+    # Host names the brain answers to (port ignored; "*" = any). Anything else is refused:
+    # a DNS-rebinding page reaches the brain under its own name.
+    trusted_hosts: list[str] = Field(default_factory=lambda: ["localhost", "127.0.0.1", "::1"])
 
     @field_validator("event_rate_limit", "unsigned_rate_limit", "default_rate_limit")
     @classmethod

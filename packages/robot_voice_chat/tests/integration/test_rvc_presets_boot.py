@@ -83,6 +83,8 @@ def test_each_preset_boots_as_shipped_and_reports_ready(
 ) -> None:
     port = free_tcp_port()
     env = {**base_env(tmp_path, deployment), **KEYS}
+    if deployment != "robot":  # login off: a configured password would refuse the start
+        del env["ADMIN_PASSWORD_HASH"], env["ADMIN_SECRET_KEY"]
     process = subprocess.Popen(
         [sys.executable, "-m", "robot_voice_chat", "--port", str(port)],
         env=env,
@@ -168,3 +170,13 @@ def test_a_refused_secret_never_appears_in_any_log_line(tmp_path: Path) -> None:
     assert "at least 32" in output
     assert short not in output
     assert "input_value" not in output
+
+
+@pytest.mark.parametrize("deployment", ["dev", "test"])
+def test_a_preset_without_login_refuses_a_configured_password(
+    deployment: str, tmp_path: Path
+) -> None:
+    env = {**base_env(tmp_path, deployment), "ADMIN_PASSWORD_HASH": KEYS["ADMIN_PASSWORD_HASH"]}
+    error = run_refused(env)
+    assert "ADMIN_PASSWORD_HASH is set but operator login is off" in error
+    assert KEYS["ADMIN_PASSWORD_HASH"] not in error

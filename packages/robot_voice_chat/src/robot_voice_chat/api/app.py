@@ -14,7 +14,9 @@ from slowapi.errors import RateLimitExceeded
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
+from robot_voice_chat.api.request_guard import RequestGuard
 from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
+from robot_voice_chat.api.security_headers import SecurityHeadersMiddleware
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.api.socket_sessions import SocketSessions
 from robot_voice_chat.composition import Container
@@ -25,7 +27,20 @@ def _client_key(request: Any) -> str:
     return client.host if client else "?"
 
 
-def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAPI:
+def _guard_options(container: Container) -> dict[str, Any]:
+    return {
+        "trusted_hosts": container.config.api.trusted_hosts,
+        "allowed_origins": container.config.api.cors_origins,
+        "login_enabled": container.auth is not None,
+    }
+
+
+def create_app(
+    container: Container, *, manage_lifecycle: bool = True, guard: bool = True
+) -> FastAPI:
+    """The FastAPI app; ``guard=False`` when the caller puts the guard around it (and
+    Socket.IO) itself, as :func:`create_asgi_app` does."""
+
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if manage_lifecycle:
@@ -44,6 +59,9 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     if container.auth is not None:
         app.add_middleware(OperatorAuthMiddleware, auth=container.auth)
     app.add_middleware(RequestContextMiddleware)
+    if guard:
+        app.add_middleware(RequestGuard, **_guard_options(container))
+        app.add_middleware(SecurityHeadersMiddleware)
     sessions = (
         SocketSessions(container.sio, container.auth)
         if container.sio is not None and container.auth is not None
@@ -66,10 +84,12 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
 
 def create_asgi_app(container: Container) -> Any:
     """The served app: Socket.IO at /socket.io, everything else FastAPI."""
-    app = create_app(container)
-    if container.sio is None:
-        return app
-    register_handlers(container, app.state.socket_sessions)
-    served = socketio.ASGIApp(container.sio, other_asgi_app=app, socketio_path="socket.io")
-    # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
-    return served if container.auth is None else OperatorAuthMiddleware(served, container.auth)
+    app = create_app(container, guard=False)
+    served: Any = app
+    if container.sio is not None:
+        register_handlers(container, app.state.socket_sessions)
+        served = socketio.ASGIApp(container.sio, other_asgi_app=app, socketio_path="socket.io")
+        # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
+        if container.auth is not None:
+            served = OperatorAuthMiddleware(served, container.auth)
+    return SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))

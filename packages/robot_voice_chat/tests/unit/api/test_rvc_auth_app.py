@@ -177,7 +177,9 @@ async def test_without_auth_the_api_is_open_and_login_is_not_offered(
     container = bootstrap(compose_config("dev"))
     assert container.auth is None
     app = create_app(container, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as http:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as http:
         assert (await http.get("/api/agent/missions")).status_code == 200
         assert (await http.get("/api/auth/me")).json() == {
             "auth_enabled": False,

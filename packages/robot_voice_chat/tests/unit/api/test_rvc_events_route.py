@@ -58,7 +58,9 @@ def container_for(tmp_path: Path, planner: FakeLLM | None = None, **api: object)
 @pytest.fixture
 async def client(tmp_path: Path) -> AsyncIterator[httpx.AsyncClient]:
     app = create_app(container_for(tmp_path), manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         yield c
 
 
@@ -166,7 +168,9 @@ async def test_event_for_a_live_task_reaches_the_executor(tmp_path: Path) -> Non
 
     await async_wait_until(lambda: container.executor.registry.get("nav-1") is not None, 5, "task")
     raw = body(type="task_done", seq=1, payload={"result": "arrived"})
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         r = await post(c, raw, signed_headers("navigation", SECRET, raw))
         assert r.json() == {"status": "accepted"}
         await container.executor.wait_idle(5)
@@ -180,7 +184,9 @@ async def test_event_for_a_live_task_reaches_the_executor(tmp_path: Path) -> Non
 
 async def test_rate_limit_per_server_answers_429(tmp_path: Path) -> None:
     app = create_app(container_for(tmp_path, event_rate_limit="2/minute"), manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         codes = []
         for seq in range(3):
             raw = body(seq=seq, event_id=f"e{seq}")
@@ -253,7 +259,7 @@ def test_ingress_never_answers_500_for_any_input(
                 for k, v in headers.items()
             }
             async with httpx.AsyncClient(
-                transport=httpx.ASGITransport(app), base_url="http://t"
+                transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
             ) as c:
                 r = await c.post("/api/agent/events", content=raw, headers=headers)
         except (httpx.LocalProtocolError, UnicodeEncodeError):
@@ -268,7 +274,9 @@ async def test_chat_routes_answer_text_and_transcribed_audio(tmp_path: Path) -> 
     container = container_for(tmp_path)
     container.pipeline._llm = FakeLLM([reply("Hi."), reply("The lab.")])
     app = create_app(container, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         text = (await c.post("/api/chat", json={"text": "hi"})).json()
         assert text["reply"] == "Hi."
         assert text["route"] == "fast"
@@ -290,7 +298,9 @@ async def test_unsigned_floods_are_limited_per_address_and_spend_no_servers_budg
 ) -> None:
     container = container_for(tmp_path, event_rate_limit="2/minute", unsigned_rate_limit="3/minute")
     app = create_app(container, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         forged = []
         for seq in range(5):
             raw = body(seq=seq, event_id=f"forged{seq}")
@@ -316,7 +326,9 @@ async def test_two_concurrent_copies_of_one_event_are_handled_once(tmp_path: Pat
     container.executor.on_task_event = slow_handler  # type: ignore[method-assign]
     app = create_app(container, manage_lifecycle=False)
     raw = body()
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         first = asyncio.create_task(post(c, raw, signed_headers("navigation", SECRET, raw)))
         second = asyncio.create_task(post(c, raw, signed_headers("navigation", SECRET, raw)))
         await asyncio.wait({first, second}, return_when=asyncio.FIRST_COMPLETED)
@@ -339,7 +351,9 @@ async def test_a_failed_handling_releases_the_event_id_for_the_retry(tmp_path: P
     container.executor.on_task_event = flaky  # type: ignore[method-assign]
     app = create_app(container, manage_lifecycle=False)
     raw = body()
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         assert (await post(c, raw, signed_headers("navigation", SECRET, raw))).status_code == 503
         retry = await post(c, raw, signed_headers("navigation", SECRET, raw))
     assert retry.json() == {"status": "accepted"}
@@ -359,7 +373,9 @@ async def test_an_event_for_another_servers_task_is_refused(tmp_path: Path) -> N
     raw = body(
         server="perception", type="task_failed", payload={"error_code": "X", "message": "forged"}
     )
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         r = await post(c, raw, signed_headers("perception", PERCEPTION_SECRET, raw))
     assert r.status_code == 400
     assert r.json()["reason"] == "task_of_another_server"

@@ -61,7 +61,9 @@ async def test_a_mission_and_its_log_are_served_after_a_restart(tmp_path: Path) 
 
     second = brain(tmp_path, FakeLLM([]))
     app = create_app(second, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         snap = (await c.get(f"/api/agent/missions/{mission.id}")).json()
         listing = (await c.get("/api/agent/missions")).json()
 
@@ -122,7 +124,9 @@ async def test_a_missions_token_and_cost_totals_survive_a_restart(tmp_path: Path
 
     second = brain(tmp_path, FakeLLM([]))
     app = create_app(second, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         snap = (await c.get(f"/api/agent/missions/{mission.id}")).json()
 
     assert snap["usage"]["input_tokens"] == 400

@@ -17,7 +17,8 @@ HANDSHAKE = "/socket.io/?EIO=4&transport=polling"
 
 def served_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, overrides: list[str]) -> object:
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path))
-    return create_asgi_app(bootstrap(compose_config("dev", overrides)))
+    hosts = "api.trusted_hosts=[brain.local,localhost]"  # the name this test serves under
+    return create_asgi_app(bootstrap(compose_config("dev", [hosts, *overrides])))
 
 
 async def handshake(app: object, origin: str | None) -> httpx.Response:

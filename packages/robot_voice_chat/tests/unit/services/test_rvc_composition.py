@@ -31,7 +31,7 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
     transport = httpx.ASGITransport(app)
     async with (
         app.router.lifespan_context(app),
-        httpx.AsyncClient(transport=transport, base_url="http://t") as c,
+        httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as c,
     ):
         assert (await c.get("/api/livez")).json() == {"status": "ok"}
 

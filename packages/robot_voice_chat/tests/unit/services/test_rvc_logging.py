@@ -39,9 +39,16 @@ def test_no_secret_reaches_stderr_from_structlog_or_stdlib(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     monkeypatch.setenv("ADMIN_SECRET_KEY", SECRET)
+    handlers = logging.getLogger().handlers
+    filters = [list(h.filters) for h in handlers]
     configure_logging("INFO", "json")
-    structlog.get_logger("t").error("startup_refused", error=f"input_value='{SECRET}'")
-    logging.getLogger("uvicorn.error").error("could not use %s", SECRET)
+    try:
+        structlog.get_logger("t").error("startup_refused", error=f"input_value='{SECRET}'")
+        logging.getLogger("uvicorn.error").error("could not use %s", SECRET)
+    finally:  # stderr is this test's capture: later tests must not log into it
+        structlog.reset_defaults()
+        for handler, kept in zip(handlers, filters, strict=True):
+            handler.filters = kept
     err = capsys.readouterr().err
     assert SECRET not in err
     assert json.loads(err.splitlines()[0])["error"] == f"input_value='{REDACTED}'"

@@ -25,6 +25,7 @@ import socketio
 
 from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_port, wait_until
 from robot_voice_chat.api.auth import hash_password
+from robot_voice_chat.api.security_headers import CONTENT_SECURITY_POLICY
 
 ROOT = Path(__file__).resolve().parents[2]
 CADDYFILE = ROOT / "deploy" / "Caddyfile"
@@ -146,6 +147,19 @@ def test_the_brain_answers_over_https_with_the_security_headers(proxied: Proxied
     assert page.headers["x-content-type-options"] == "nosniff"
     assert page.headers["referrer-policy"] == "no-referrer"
     assert "server" not in page.headers
+    assert page.headers["content-security-policy"] == CONTENT_SECURITY_POLICY
+
+
+def test_the_event_ingress_and_readiness_details_are_not_published(proxied: Proxied) -> None:
+    with https_client(proxied) as client:
+        for path in ("/api/agent/events", "/api/readyz", "/API/ReadyZ", "/api/agent/events/"):
+            answer = client.post(path) if "events" in path else client.get(path)
+            assert answer.status_code == 404, path
+            assert "mcp_servers" not in answer.text
+        assert client.get("/api/livez").status_code == 200
+    # on the robot itself both still answer (the servers post their events here)
+    assert httpx.get(f"{proxied.brain}/api/readyz", timeout=10).status_code == 200
+    assert httpx.post(f"{proxied.brain}/api/agent/events", timeout=10).status_code == 401
 
 
 def test_plain_http_is_redirected_to_https(proxied: Proxied) -> None:

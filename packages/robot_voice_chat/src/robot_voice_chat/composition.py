@@ -130,7 +130,9 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         tools=tools,
         speech_output=build_adapter("speech_output", config.speech_output, emitter=emitter),
         speech_input=build_adapter("speech_input", config.speech_input),
-        camera=HttpCameraFeed(config.ui.camera_url, config.ui.camera_timeout_s),
+        camera=HttpCameraFeed(
+            config.ui.camera_url, config.ui.camera_timeout_s, config.ui.camera_max_bytes
+        ),
     )
 
 

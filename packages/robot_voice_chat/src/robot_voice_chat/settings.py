@@ -181,6 +181,7 @@ class UiConfig(BaseModel):
     static_dir: str = ""  # "" = the package's static/ (built by `make setup`)
     camera_url: str = "http://127.0.0.1:9112"  # the vision node's artifacts server
     camera_timeout_s: float = Field(2.0, gt=0)
+    camera_max_bytes: int = Field(8 * 1024 * 1024, gt=0)  # larger frames are refused
     chat_history_size: int = Field(50, ge=0)
     tool_timeout_s: float = Field(3.0, gt=0)  # pose / locations / detections for the UI
 

@@ -13,7 +13,7 @@ import socketio
 
 from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.composition import Adapters, Container, assemble
-from robot_voice_chat.services.camera.base import CameraFrame, FakeCameraFeed
+from robot_voice_chat.services.camera.base import CameraFrame, CameraOfflineError, FakeCameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
@@ -193,6 +193,54 @@ async def test_the_http_camera_feed_passes_frames_and_maps_node_errors() -> None
         await feed.latest_frame()
     await feed.aclose()
     assert frame == CameraFrame(JPEG, "image/jpeg")
+
+
+@respx.mock
+async def test_html_from_the_camera_upstream_is_refused(tmp_path: Path) -> None:
+    script = b"<html><script>fetch('/api/chat/stop', {method: 'POST'})</script></html>"
+    respx.get("http://127.0.0.1:9112/frames/latest.jpg").mock(
+        return_value=httpx.Response(200, content=script, headers={"content-type": "text/html"})
+    )
+    feed = HttpCameraFeed("http://127.0.0.1:9112")
+    app = create_app(container_for(tmp_path, camera=feed), manage_lifecycle=False)
+    async for c in client_for(app):
+        frame = await c.get("/api/camera/frame")
+    await feed.aclose()
+    assert frame.status_code == 503
+    assert frame.headers["content-type"] == "application/json"
+    assert "'text/html', not an image" in frame.json()["detail"]
+    assert b"<script>" not in frame.content
+
+
+@respx.mock
+async def test_a_camera_frame_larger_than_the_cap_is_refused() -> None:
+    route = respx.get("http://127.0.0.1:9112/frames/latest.jpg")
+    feed = HttpCameraFeed("http://127.0.0.1:9112", max_bytes=1000)
+    big = b"\xff\xd8" + b"\0" * 2000
+    route.mock(
+        return_value=httpx.Response(200, content=big, headers={"content-type": "image/jpeg"})
+    )
+    with pytest.raises(CameraOfflineError, match="larger than 1000 bytes"):
+        await feed.latest_frame()
+
+    async def unsized() -> AsyncIterator[bytes]:  # no Content-Length: counted while read
+        for _ in range(4):
+            yield b"\0" * 400
+
+    route.mock(
+        return_value=httpx.Response(200, content=unsized(), headers={"content-type": "image/png"})
+    )
+    with pytest.raises(CameraOfflineError, match="larger than 1000 bytes"):
+        await feed.latest_frame()
+    await feed.aclose()
+
+
+async def test_a_camera_adapter_that_returns_a_non_image_is_not_served(tmp_path: Path) -> None:
+    camera = FakeCameraFeed(CameraFrame(b"<svg onload=alert(1)>", "image/svg+xml"))
+    app = create_app(container_for(tmp_path, camera=camera), manage_lifecycle=False)
+    async for c in client_for(app):
+        frame = await c.get("/api/camera/frame")
+    assert frame.status_code == 503
 
 
 async def test_detections_flatten_the_perception_buffer(

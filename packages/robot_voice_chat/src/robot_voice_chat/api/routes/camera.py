@@ -11,7 +11,7 @@ from fastapi.responses import JSONResponse, Response
 
 from robot_voice_chat.api.deps import ContainerDep
 from robot_voice_chat.api.tool_json import ToolUnavailableError, call_json, unavailable
-from robot_voice_chat.services.camera.base import CameraOfflineError
+from robot_voice_chat.services.camera.base import IMAGE_TYPES, CameraOfflineError
 
 router = APIRouter(prefix="/api/camera", tags=["camera"])
 NO_STORE = {"Cache-Control": "no-store"}
@@ -26,6 +26,8 @@ async def camera_frame(container: ContainerDep) -> Response:
         frame = await camera.latest_frame()
     except CameraOfflineError as exc:
         return unavailable("camera_offline", str(exc))
+    if frame.media_type not in IMAGE_TYPES:  # whatever the adapter: only images are served
+        return unavailable("camera_offline", f"the camera sent {frame.media_type!r}, not an image")
     return Response(frame.data, media_type=frame.media_type, headers=NO_STORE)
 
 

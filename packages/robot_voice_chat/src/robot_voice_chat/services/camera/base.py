@@ -5,6 +5,9 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass
 
+# What a camera frame may be: the brain serves it on the operator's origin, never anything else.
+IMAGE_TYPES = frozenset({"image/jpeg", "image/png", "image/webp"})
+
 
 class CameraOfflineError(RuntimeError):
     """The camera source cannot deliver a frame now (node down, no frame yet)."""

@@ -1,32 +1,66 @@
-"""CameraFeed over the vision node's artifacts server (``GET /frames/latest.jpg``)."""
+"""CameraFeed over the vision node's artifacts server (``GET /frames/latest.jpg``).
+
+The brain serves what this returns on the operator's origin, so only an image comes through:
+an upstream answering anything else (e.g. ``text/html`` with a script), or more than
+``max_bytes``, is treated as a camera that cannot deliver a frame."""
 
 from __future__ import annotations
 
 import httpx
 
-from robot_voice_chat.services.camera.base import CameraFeed, CameraFrame, CameraOfflineError
+from robot_voice_chat.services.camera.base import (
+    IMAGE_TYPES,
+    CameraFeed,
+    CameraFrame,
+    CameraOfflineError,
+)
 
 FRAME_PATH = "/frames/latest.jpg"
+DEFAULT_MAX_BYTES = 8 * 1024 * 1024
 
 
 class HttpCameraFeed(CameraFeed):
-    def __init__(self, base_url: str, timeout_s: float = 2.0) -> None:
+    def __init__(
+        self, base_url: str, timeout_s: float = 2.0, max_bytes: int = DEFAULT_MAX_BYTES
+    ) -> None:
         self.url = base_url.rstrip("/") + FRAME_PATH
+        self.max_bytes = max_bytes
         self._client = httpx.AsyncClient(timeout=timeout_s)
 
     async def latest_frame(self) -> CameraFrame:
         try:
-            response = await self._client.get(self.url)
+            async with self._client.stream("GET", self.url) as response:
+                if response.status_code != 200:
+                    raise CameraOfflineError(
+                        f"the vision node has no frame ({response.status_code} from {self.url})"
+                    )
+                media_type = response.headers.get("content-type", "").split(";")[0].strip()
+                if media_type.lower() not in IMAGE_TYPES:
+                    raise CameraOfflineError(
+                        f"the vision node answered {media_type or 'no content type'!r}, "
+                        f"not an image ({self.url})"
+                    )
+                data = await self._read_capped(response)
         except httpx.HTTPError as exc:
             raise CameraOfflineError(
                 f"the vision node is not reachable ({self.url}): {exc}"
             ) from exc
-        if response.status_code != 200:
-            raise CameraOfflineError(
-                f"the vision node has no frame ({response.status_code} from {self.url})"
-            )
-        media_type = response.headers.get("content-type", "image/jpeg").split(";")[0]
-        return CameraFrame(response.content, media_type)
+        return CameraFrame(data, media_type.lower())
+
+    async def _read_capped(self, response: httpx.Response) -> bytes:
+        declared = response.headers.get("content-length", "")
+        if declared.isdigit() and int(declared) > self.max_bytes:
+            raise CameraOfflineError(self._too_large())
+        chunks, size = [], 0
+        async for chunk in response.aiter_bytes():
+            size += len(chunk)
+            if size > self.max_bytes:
+                raise CameraOfflineError(self._too_large())
+            chunks.append(chunk)
+        return b"".join(chunks)
+
+    def _too_large(self) -> str:
+        return f"the vision node's frame is larger than {self.max_bytes} bytes ({self.url})"
 
     async def aclose(self) -> None:
         await self._client.aclose()

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_voice_chat.agent.mission import Mission, PlanStep
+from robot_voice_chat.private_files import private_file
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.socket_events import MissionEventLine
 
@@ -57,7 +58,7 @@ class SqliteMissionArchive(MissionArchive):
 
     def _connect(self) -> sqlite3.Connection:
         if not self._ready:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            private_file(self.path)  # 0600 (SQLite gives its -wal/-shm files the same mode)
         db = sqlite3.connect(self.path, timeout=10)
         if not self._ready:
             db.execute("PRAGMA journal_mode=WAL")

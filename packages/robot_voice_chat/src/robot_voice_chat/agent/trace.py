@@ -11,6 +11,7 @@ from typing import Any
 import structlog
 
 from robot_voice_chat.operator import operator_fields
+from robot_voice_chat.private_files import private_dir, private_file
 
 logger = structlog.get_logger(__name__)
 
@@ -36,9 +37,10 @@ class TraceRecorder:
                 await asyncio.to_thread(self._write, pending)
 
     def _write(self, pending: dict[str, list[str]]) -> None:
-        self.directory.mkdir(parents=True, exist_ok=True)
+        private_dir(self.directory)
         for mission_id, lines in pending.items():
-            with (self.directory / f"{mission_id}.jsonl").open("a", encoding="utf-8") as f:
+            path = private_file(self.directory / f"{mission_id}.jsonl")
+            with path.open("a", encoding="utf-8") as f:
                 f.write("\n".join(lines) + "\n")
 
     async def read(self, mission_id: str) -> list[dict[str, Any]]:

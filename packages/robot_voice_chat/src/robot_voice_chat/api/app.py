@@ -8,23 +8,17 @@ from typing import Any
 
 import socketio
 from fastapi import FastAPI
-from slowapi import Limiter, _rate_limit_exceeded_handler
-from slowapi.errors import RateLimitExceeded
 
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
+from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
 from robot_voice_chat.api.request_guard import RequestGuard
 from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
 from robot_voice_chat.api.security_headers import SecurityHeadersMiddleware
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.api.socket_sessions import SocketSessions
 from robot_voice_chat.composition import Container
-
-
-def _client_key(request: Any) -> str:
-    client = request.client
-    return client.host if client else "?"
 
 
 def _guard_options(container: Container) -> dict[str, Any]:
@@ -52,12 +46,14 @@ def create_app(
                 await container.stop()
 
     app = FastAPI(title="robot-voice-chat", lifespan=lifespan)
-    limiter = Limiter(key_func=_client_key, storage_uri="memory://")
-    app.state.limiter = limiter
     app.state.container = container
-    app.add_exception_handler(RateLimitExceeded, _rate_limit_exceeded_handler)  # type: ignore[arg-type]
     if container.auth is not None:
         app.add_middleware(OperatorAuthMiddleware, auth=container.auth)
+    app.add_middleware(
+        DefaultRateLimitMiddleware,
+        limit=container.config.api.default_rate_limit,
+        exempt_paths=[agent.EVENTS_PATH],  # the ingress keeps its own limits
+    )
     app.add_middleware(RequestContextMiddleware)
     if guard:
         app.add_middleware(RequestGuard, **_guard_options(container))

@@ -11,6 +11,8 @@ from typing import Any
 
 import httpx
 import pytest
+import structlog
+import structlog.testing
 import uvicorn
 import websockets
 
@@ -291,3 +293,15 @@ async def test_an_expired_session_s_socket_refuses_events_and_is_closed(
     finally:
         await ws.close()
     assert container.executor.store.recent(1) == []
+
+
+async def test_a_failed_login_does_not_log_the_typed_user_name(
+    served: tuple[str, Container],
+) -> None:
+    address, _ = served
+    with structlog.testing.capture_logs() as logs:
+        async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+            typed = {"username": "hunter2-typed-in-the-wrong-box", "password": "x"}
+            assert (await http.post("/api/auth/login", json=typed)).status_code == 401
+    assert [e for e in logs if e["event"] == "login_failed"]
+    assert "hunter2-typed-in-the-wrong-box" not in repr(logs)

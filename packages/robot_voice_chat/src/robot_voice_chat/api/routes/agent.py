@@ -30,6 +30,7 @@ from robot_voice_chat.api.ingress import (
 from robot_voice_chat.settings import ApiConfig
 
 logger = structlog.get_logger(__name__)
+EVENTS_PATH = "/api/agent/events"
 
 
 class TeachingRequest(BaseModel):

@@ -30,9 +30,11 @@ format: setup  ## apply ruff fixes and formatting
 	uv run --frozen ruff check --fix .
 	uv run --frozen ruff format .
 
-audit: setup  ## pip-audit of the locked dependencies (needs PyPI)
+audit: setup  ## pip-audit of the locked dependencies (needs PyPI); fails if it could not look
 	uv export --frozen --all-packages --no-emit-workspace --no-hashes -o build/requirements-audit.txt
-	uv run --frozen pip-audit -r build/requirements-audit.txt --progress-spinner off
+	rm -f build/pip-audit.json
+	-uv run --frozen pip-audit -r build/requirements-audit.txt --progress-spinner off --format json -o build/pip-audit.json
+	uv run --frozen python scripts/audit_gate.py build/pip-audit.json
 
 bench: setup  ## run every benchmark; JSON results in benchmarks/results/
 	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} bash scripts/run-benchmarks.sh

@@ -3,12 +3,14 @@
 #
 #   sudo deploy/install.sh [--start]            install or update, enable the units
 #   sudo deploy/install.sh --uninstall [--purge] remove units + code (--purge: also config,
-#                                                state and the robot user)
+#                                                state and the service users)
 #
 # Layout: code + one venv + built UI in /opt/robot-stack (root-owned, read-only to services),
-# settings and secrets in /etc/robot-stack/*.env (0640 root:robot, secrets generated once and
-# never overwritten), state in /var/lib/<unit> (systemd StateDirectory), units in
-# /etc/systemd/system, all started by robot-stack.target as the system user `robot`.
+# settings and secrets in /etc/robot-stack/<service>.env (0600 root:root: systemd reads them as
+# root and hands each service only its own; secrets generated once, never overwritten), state in
+# /var/lib/<unit> (systemd StateDirectory), units in /etc/systemd/system, all started by
+# robot-stack.target. Each service runs as its own system user (named like its unit), so a
+# compromised service can read neither another's env file nor its /proc/<pid>/environ.
 #
 # DESTDIR=/some/dir installs into a throwaway root instead (used by tests/deploy): no root
 # needed, and user/ownership/systemctl commands are written to $DESTDIR/install-actions.log
@@ -16,9 +18,20 @@
 set -euo pipefail
 
 APP=robot-stack
-USER_NAME=robot
-UNITS=(robot-mcp-perception mcp-skill-control mcp-perception-buffer robot-mcp-memory
-       robot-mcp-navigation robot-voice-chat)
+# One entry per service: "<unit> <env files it reads>". The unit runs as a system user named
+# like the unit; deploy/<unit>.service must name the same user and the same env files. Adding
+# a service = its unit file + one line here (+ its keys in write_env_files).
+SERVICES=(
+  "robot-mcp-perception ros vision"
+  "mcp-skill-control ros skill-control"
+  "mcp-perception-buffer ros perception-buffer"
+  "robot-mcp-memory memory"
+  "robot-mcp-navigation navigation"
+  "robot-voice-chat brain"
+)
+UNITS=()
+for entry in "${SERVICES[@]}"; do UNITS+=("${entry%% *}"); done
+LEGACY_USER=robot  # every unit ran as this one user before 0.x; removed by --purge
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DESTDIR="${DESTDIR:-}"
 DESTDIR="${DESTDIR%/}"
@@ -74,22 +87,20 @@ ensure_key() {
 env_file() {  # name, then KEY=VALUE pairs
   local file="$ETC/$1.env" pair
   shift
-  [[ -f "$file" ]] || { printf '# %s — read by the robot-stack units (deploy/RUNBOOK.md)\n' \
+  [[ -f "$file" ]] || { printf '# %s — read by systemd (as root) for the units that name it\n' \
     "$(basename "$file")" >"$file"; }
   for pair in "$@"; do ensure_key "$file" "${pair%%=*}" "${pair#*=}"; done
-  chmod 0640 "$file"
-  system chown "root:$USER_NAME" "${file#"$DESTDIR"}"
+  # root only: systemd reads EnvironmentFile= before it drops to the service's user
+  chmod 0600 "$file"
+  system chown root:root "${file#"$DESTDIR"}"
 }
 
-install_user() {
-  if [[ -n "$DESTDIR" ]] || ! getent passwd "$USER_NAME" >/dev/null; then
-    system useradd --system --user-group --home-dir /var/lib/$APP --no-create-home \
-      --shell /usr/sbin/nologin "$USER_NAME"
-  fi
-  local group
-  for group in video audio; do  # cameras (vision node), speaker (espeak)
-    if [[ -n "$DESTDIR" ]] || getent group "$group" >/dev/null; then
-      system usermod --append --groups "$group" "$USER_NAME"
+install_users() {  # one system user per service (cameras/speaker: SupplementaryGroups= in units)
+  local unit
+  for unit in "${UNITS[@]}"; do
+    if [[ -n "$DESTDIR" ]] || ! getent passwd "$unit" >/dev/null; then
+      system useradd --system --user-group --home-dir "/var/lib/$unit" --no-create-home \
+        --shell /usr/sbin/nologin "$unit"
     fi
   done
 }
@@ -141,8 +152,9 @@ build_tree() {
 }
 
 write_env_files() {
-  install -d -m 0750 "$ETC"
-  system chown "root:$USER_NAME" "${ETC#"$DESTDIR"}"
+  install -d -m 0700 "$ETC"
+  chmod 0700 "$ETC"  # also when an older install made it 0750 root:robot
+  system chown root:root "${ETC#"$DESTDIR"}"
   # One HMAC secret per event-posting server (navigation, perception buffer), shared with the
   # brain; generated once. skill_control posts no events.
   local nav perc admin_key
@@ -166,14 +178,31 @@ write_env_files() {
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
-    "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY=
+    "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
+    ROBOT_HOSTNAME=robot.local
   if [[ -z "$(env_value ADMIN_PASSWORD_HASH "$ETC/brain.env")" ]]; then
     say "set the operator password: /opt/$APP/.venv/bin/robot-voice-chat hash-password," \
       "then put it in /etc/$APP/brain.env as ADMIN_PASSWORD_HASH='<hash>' (single quotes)"
   fi
 }
 
+# Each unit runs as its own user and reads exactly the env files its SERVICES entry lists.
+check_units() {
+  local entry unit files listed named
+  for entry in "${SERVICES[@]}"; do
+    unit="${entry%% *}" files="${entry#* }"
+    local path="$OPT/deploy/$unit.service"
+    [[ -f "$path" ]] || die "$unit: no deploy/$unit.service"
+    grep -qx "User=$unit" "$path" || die "$unit: deploy/$unit.service must set User=$unit"
+    listed="$(for f in $files; do echo "/etc/$APP/$f.env"; done | sort)"
+    named="$(sed -n 's/^EnvironmentFile=//p' "$path" | sort)"
+    [[ "$listed" == "$named" ]] \
+      || die "$unit: its EnvironmentFile= lines ($(echo $named)) are not its SERVICES entry's"
+  done
+}
+
 install_units() {
+  check_units
   install -d -m 0755 "$SYSTEMD"
   local unit
   for unit in "${UNITS[@]}"; do
@@ -201,9 +230,11 @@ uninstall() {
   if ((purge)); then
     rm -rf "$ETC"
     for unit in "${UNITS[@]}"; do rm -rf "$DESTDIR/var/lib/$unit"; done
-    if [[ -n "$DESTDIR" ]] || getent passwd "$USER_NAME" >/dev/null; then
-      system userdel "$USER_NAME"
-    fi
+    for unit in "${UNITS[@]}" "$LEGACY_USER"; do
+      if [[ -n "$DESTDIR" ]] || getent passwd "$unit" >/dev/null; then
+        system userdel "$unit"
+      fi
+    done
   fi
   say "uninstalled$( ((purge)) && echo ' (config, state and user purged)' || echo \
     "; kept /etc/$APP and /var/lib state (--purge removes them)")"
@@ -213,7 +244,7 @@ if [[ "$mode" == uninstall ]]; then
   uninstall
   exit 0
 fi
-install_user
+install_users
 copy_tree
 if ((build)); then build_tree; else say "--skip-build: no venv/UI build"; fi
 write_env_files

@@ -1,5 +1,6 @@
 """deploy/install.sh in a throwaway root (DESTDIR): files, permissions, secrets made once,
-consistent units that `systemd-analyze verify` passes cleanly, and --uninstall/--purge.
+consistent units that `systemd-analyze verify` passes cleanly, one user per service that gets
+only its own secrets, and --uninstall/--purge.
 
 Not run here: real useradd/chown/systemctl (recorded in install-actions.log instead) and the
 venv/UI build (--skip-build; it is `make setup`'s uv sync + build-interfaces + npm build)."""
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import configparser
 import os
+import re
 import shutil
 import stat
 import subprocess
@@ -31,7 +33,15 @@ HARDENING = {
     "ProtectSystem": "strict",
     "PrivateTmp": "yes",
     "ProtectHome": "yes",
-    "User": "robot",
+}
+# The secrets each service needs (keys of its env files); nobody else may read them.
+SECRETS_OF = {
+    "robot-voice-chat": {"NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "ADMIN_SECRET_KEY"},
+    "robot-mcp-navigation": {"RVC_EVENT_SECRET@navigation"},
+    "mcp-perception-buffer": {"RVC_EVENT_SECRET@perception-buffer"},
+    "robot-mcp-perception": set(),
+    "mcp-skill-control": set(),
+    "robot-mcp-memory": set(),
 }
 
 
@@ -87,9 +97,9 @@ def test_code_is_installed_under_opt_robot_stack(installed: Path) -> None:
     assert not (opt / ".venv").exists()  # --skip-build
 
 
-def test_env_files_are_private_to_root_and_the_robot_group(installed: Path) -> None:
+def test_env_files_are_readable_by_root_only(installed: Path) -> None:
     etc = installed / "etc/robot-stack"
-    assert stat.S_IMODE(etc.stat().st_mode) == 0o750
+    assert stat.S_IMODE(etc.stat().st_mode) == 0o700
     files = sorted(p.name for p in etc.glob("*.env"))
     assert files == [
         "brain.env",
@@ -102,9 +112,42 @@ def test_env_files_are_private_to_root_and_the_robot_group(installed: Path) -> N
     ]
     actions = (installed / "install-actions.log").read_text().splitlines()
     for name in files:
-        assert stat.S_IMODE((etc / name).stat().st_mode) == 0o640, name
-        assert f"chown root:robot /etc/robot-stack/{name}" in actions
-    assert "chown root:robot /etc/robot-stack" in actions
+        assert stat.S_IMODE((etc / name).stat().st_mode) == 0o600, name
+        assert f"chown root:root /etc/robot-stack/{name}" in actions
+    assert "chown root:root /etc/robot-stack" in actions
+    assert not [a for a in actions if "robot:" in a or ":robot " in a]
+
+
+def secrets_readable_by(installed: Path, name: str) -> set[str]:
+    """The secret values unit ``name`` can get: the env files systemd hands it (as root) —
+    its own user can open no file under /etc/robot-stack (0700 root, files 0600 root)."""
+    path = installed / "etc/systemd/system" / f"{name}.service"
+    values: set[str] = set()
+    for env in unit_values(path, "EnvironmentFile"):
+        for key, value in env_file(installed / env.lstrip("/")).items():
+            if value and re.search(r"SECRET|KEY|HASH|TOKEN", key):
+                values.add(value)
+    return values
+
+
+def test_each_unit_runs_as_its_own_user_and_gets_only_its_own_secrets(installed: Path) -> None:
+    etc = installed / "etc/robot-stack"
+    brain, nav = env_file(etc / "brain.env"), env_file(etc / "navigation.env")
+    buffer = env_file(etc / "perception-buffer.env")
+    value_of = {
+        **{k: v for k, v in brain.items() if v},
+        "RVC_EVENT_SECRET@navigation": nav["RVC_EVENT_SECRET"],
+        "RVC_EVENT_SECRET@perception-buffer": buffer["RVC_EVENT_SECRET"],
+    }
+    users = {}
+    for name in UNITS:
+        service = unit(installed / "etc/systemd/system" / f"{name}.service")["Service"]
+        users[name] = service["User"]
+        assert service["User"] == service["Group"] == name
+        assert secrets_readable_by(installed, name) == {value_of[k] for k in SECRETS_OF[name]}, name
+    assert len(set(users.values())) == len(UNITS)  # nobody shares a user
+    # the vision node cannot read the operator's session key or the event secrets
+    assert not secrets_readable_by(installed, "robot-mcp-perception") & set(value_of.values())
 
 
 def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) -> None:
@@ -125,12 +168,37 @@ def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) 
     assert brain["ADMIN_PASSWORD_HASH"] == ""  # the operator sets it (RUNBOOK step 3)
 
 
-def test_user_and_units_are_created_and_enabled(installed: Path) -> None:
+def test_users_and_units_are_created_and_enabled(installed: Path) -> None:
     actions = (installed / "install-actions.log").read_text().splitlines()
-    assert actions[0].startswith("useradd --system --user-group")
-    assert actions[0].endswith(" robot")
+    useradds = [a for a in actions if a.startswith("useradd ")]
+    assert [a.split()[-1] for a in useradds] == UNITS
+    assert all(a.startswith("useradd --system --user-group") for a in useradds)
+    assert not [a for a in actions if a.startswith("usermod")]  # groups: SupplementaryGroups=
     enable = next(a for a in actions if a.startswith("systemctl enable "))
     assert enable.split()[2:] == ["robot-stack.target", *[f"{u}.service" for u in UNITS]]
+
+
+def test_a_unit_that_does_not_match_its_service_entry_is_refused(tmp_path: Path) -> None:
+    """install.sh's SERVICES list and the unit files agree (user, env files), or no install."""
+    source = tmp_path / "source"
+    shutil.copytree(ROOT / "deploy", source / "deploy")
+    brain = source / "deploy/robot-voice-chat.service"
+    brain.write_text(
+        brain.read_text().replace(
+            "EnvironmentFile=/etc/robot-stack/brain.env",
+            "EnvironmentFile=/etc/robot-stack/brain.env\nEnvironmentFile=/etc/robot-stack/vision.env",
+        )
+    )
+    result = subprocess.run(
+        ["bash", str(source / "deploy/install.sh"), "--skip-build"],
+        env={**os.environ, "DESTDIR": str(tmp_path / "root")},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "robot-voice-chat: its EnvironmentFile= lines" in result.stderr
 
 
 def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
@@ -245,7 +313,10 @@ def test_uninstall_removes_units_and_code_and_purge_removes_the_rest(tmp_path: P
     run_install(tmp_path, "--uninstall", "--purge")
     assert not (tmp_path / "etc/robot-stack").exists()
     assert not (tmp_path / "var/lib/robot-mcp-memory").exists()
-    assert (tmp_path / "install-actions.log").read_text().splitlines()[-1] == "userdel robot"
+    userdels = [
+        a for a in (tmp_path / "install-actions.log").read_text().splitlines() if "userdel" in a
+    ]
+    assert userdels == [f"userdel {u}" for u in [*UNITS, "robot"]]
 
 
 def test_unknown_arguments_are_refused(tmp_path: Path) -> None:

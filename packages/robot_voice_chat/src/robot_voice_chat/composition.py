@@ -219,12 +219,13 @@ def assemble(
 
 
 def bootstrap(config: AppConfig) -> Container:
+    auth = build_auth(config)  # first: a refused login setup is the only line printed
     sio = socketio.AsyncServer(
         async_mode="asgi", cors_allowed_origins=origin_policy(config.api.cors_origins)
     )
     emitter = SocketIOEventEmitter(sio)
     container = assemble(config, build_adapters(config, emitter), emitter, sio)
-    container.auth = build_auth(config)
+    container.auth = auth
     return container
 
 

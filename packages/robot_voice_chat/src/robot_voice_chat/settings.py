@@ -107,7 +107,8 @@ class ApiConfig(BaseModel):
 
     event_rate_limit: str = "120/minute"
     unsigned_rate_limit: str = "30/minute"
-    default_rate_limit: str = "600/minute"
+    # per client address, every HTTP route but the signed ingress; one open UI polls ~400/min
+    default_rate_limit: str = "3000/minute"
     max_event_body_bytes: int = Field(65536, gt=0)
     # deeper events are refused (400): nothing legitimate nests this far, and deep nesting
     # overflows the stack of whatever walks the payload later (json, pydantic, the trace)

@@ -206,3 +206,36 @@ def test_a_drive_held_by_a_stop_waits_for_the_answer_and_abort_ends_it() -> None
     act = program.send(Observation(results=[ok], paused_reply="abort"))
     assert [c.name for c in act.calls] == ["finish_mission"]
     assert act.calls[0].arguments["outcome"] == "failed"
+
+
+async def test_a_busy_base_is_never_stopped_for_a_drive_this_mission_did_not_start(
+    tmp_path: Path,
+) -> None:
+    o = office(tmp_path, drive_s=30.0)
+    o.world.navigate_to({"location": "reception"})  # a drive someone else started
+    foreign = o.world.driving
+    mission = await o.run("go to the kitchen")
+    assert mission.state == "failed"
+    assert "already driving on a task this mission did not start" in mission.summary
+    assert o.tools.called("navigation.stop_navigation") == []
+    assert o.tools.called("navigation.cancel_task") == []
+    assert foreign is not None
+    assert not foreign.done()
+    foreign.cancel()
+
+
+def test_a_drive_begun_by_the_planner_taken_over_is_replaced_by_cancelling_that_task() -> None:
+    tools = [ToolDefinition(name=n) for n in ("navigation.navigate_to", "navigation.cancel_task")]
+    program = MissionProgram(parse("go to the kitchen"), tools, resumed=True, own_drives={"nav-7"})
+    busy = '{"error": "NAVIGATION_BUSY", "detail": "a navigation is running"}'
+    drive = program._drive("kitchen", "s1", prepare=None)
+    first = next(drive)
+    assert [c.name for c in first.calls][-1] == "navigation.navigate_to"
+    answers = [ToolResult(tool_call_id="a", content="ok")] * (len(first.calls) - 1)
+    answers.append(ToolResult(tool_call_id="b", content=busy, is_error=True))
+    second = drive.send(Observation(results=answers))
+    assert [(c.name, c.arguments) for c in second.calls] == [
+        ("navigation.cancel_task", {"task_id": "nav-7"})
+    ]
+    third = drive.send(Observation(results=[ToolResult(tool_call_id="c", content="{}")]))
+    assert [c.name for c in third.calls] == ["navigation.navigate_to"]

@@ -29,7 +29,7 @@ from robot_voice_chat.services.llm.rules.surface import (
 NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"
 GET_TASK = "navigation.get_task"
-STOP_NAVIGATION = "navigation.stop_navigation"
+CANCEL_TASK = "navigation.cancel_task"
 INSTANTIATE = "skill_control.instantiate_skill"
 PREWARM = "skill_control.prewarm_skill"
 STOP_SKILL = "skill_control.stop_skill"
@@ -39,9 +39,10 @@ UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
     "fetch <thing> from <place>"
 )
-_EVENT = re.compile(
+TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
+USER_TURN = "[user] "  # a mid-mission turn as the executor posts it
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
 _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
@@ -97,7 +98,8 @@ class _Step:
 
 
 class MissionProgram:
-    """One mission's program; ``resumed`` = taking over a conversation another planner began."""
+    """One mission's program; ``resumed`` = taking over a conversation another planner began,
+    ``own_drives`` = the drives that conversation started and that may still run."""
 
     def __init__(
         self,
@@ -105,6 +107,7 @@ class MissionProgram:
         tools: list[ToolDefinition],
         settings: Settings | None = None,
         resumed: bool = False,
+        own_drives: set[str] | None = None,
     ) -> None:
         self.command = command
         self.tools = tools
@@ -117,6 +120,10 @@ class MissionProgram:
         self.reactions_fired: list[str] = []
         self.planned = False
         self.extra_steps = 0
+        # drives this mission started (also those of a planner it took over from)
+        self.own_drives: set[str] = set(own_drives or ())
+        self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
+        self.doing = ""  # what the robot is busy with, for those answers
 
     # --- plumbing --------------------------------------------------------------------------
     def run(self) -> Program:
@@ -132,15 +139,29 @@ class MissionProgram:
                 yield Act(calls)
 
     def act(self, *calls: Call, text: str = "") -> Steps:
-        observation: Observation = yield Act(list(calls), text)
+        """One planner step; a person who spoke since the last one is answered with it (a
+        brief ``say``, spec §5.1), and the callers see the results of their own calls only."""
+        answer = [Call("say", {"text": self.busy_answer()})] if self.user_turns else []
+        self.user_turns.clear()
+        observation: Observation = yield Act([*answer, *calls], text)
         self.absorb(observation)
-        return observation.results
+        return observation.results[len(answer) :]
+
+    def busy_answer(self) -> str:
+        heard = self.user_turns[-1]
+        doing = self.doing or f"working on: {self.command.text.strip()}"
+        return (
+            f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
+            "mission: say stop to halt me, then give me the new task."
+        )
 
     def absorb(self, observation: Observation) -> None:
         for line in observation.lines:
-            match = _EVENT.match(line.strip())
+            match = TASK_EVENT.match(line.strip())
             if match is not None:
                 self.terminal[match["id"]] = Outcome(match["kind"], line.strip())
+            elif line.startswith(USER_TURN):
+                self.user_turns.append(line.removeprefix(USER_TURN).strip())
             elif line.startswith("[reaction]"):
                 self.reactions_fired.append(line)
         if observation.paused_reply is not None:
@@ -238,13 +259,8 @@ class MissionProgram:
                 current = self._add_step(current, f"Resume the drive to the {leg}")
                 before = [self.plan_call()]
                 continue
-            if (
-                result.is_error
-                and "BUSY" in result.content
-                and has_tool(self.tools, STOP_NAVIGATION)
-            ):
-                yield from self.act(Call(STOP_NAVIGATION))  # a drive begun by another planner
-                result = (yield from self.act(Call(NAVIGATE, args)))[0]
+            if result.is_error and "BUSY" in result.content:
+                result = yield from self._replace_own_drive(leg, args)
             if result.is_error:
                 raise _Finished(
                     "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
@@ -252,6 +268,7 @@ class MissionProgram:
             task_id = task_id_of(result.content)
             if task_id is None:
                 raise _Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+            self.own_drives.add(task_id)
             outcome = yield from self._await(task_id, f"driving to the {leg}")
             if outcome.kind == "done":
                 route.pop(0)
@@ -285,6 +302,21 @@ class MissionProgram:
             said = f"{failure.message or failure.code} I'll {suggestion}."
             before = [self.plan_call(), Call("say", {"text": said})]
 
+    def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
+        """The base is busy. Only a drive of this mission (begun before a planner takeover)
+        is cancelled and replaced; a drive someone else started is never stopped here."""
+        mine = sorted(t for t in self.own_drives if t not in self.terminal)
+        if not mine or not has_tool(self.tools, CANCEL_TASK):
+            raise _Finished(
+                "failed",
+                f"I couldn't drive to the {leg}: the robot is already driving on a task this "
+                "mission did not start, and I won't stop someone else's drive. Say stop to "
+                "halt it, then ask me again.",
+            )
+        yield from self.act(*(Call(CANCEL_TASK, {"task_id": t}) for t in mine))
+        self.own_drives.difference_update(mine)
+        return (yield from self.act(Call(NAVIGATE, args)))[0]
+
     def _add_step(self, after: str, title: str) -> str:
         """A new drive step right after ``after``: s1 → s1b, s1c, … (ids never reused)."""
         index = next(i for i, s in enumerate(self.steps) if s.id == after)
@@ -310,6 +342,7 @@ class MissionProgram:
         )
 
     def _await(self, task_id: str, reason: str) -> Steps:
+        self.doing = reason
         while True:
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
@@ -356,6 +389,7 @@ class MissionProgram:
 
     def _look_for(self, obj: str, step_id: str) -> Steps:
         """instantiate find_object → wait_for_result → stop; the labels found ('' if none)."""
+        self.doing = f"looking for the {obj}"
         index = next(i for i, s in enumerate(self.steps) if s.id == step_id)
         read, stop = self.steps[index + 1].id, self.steps[index + 2].id
         [started] = yield from self.act(
@@ -388,6 +422,7 @@ class MissionProgram:
 
     def _see(self) -> Steps:
         self.needs(WHAT_DO_YOU_SEE)
+        self.doing = "looking around"
         self.steps = [
             _Step(self.step_id(1), "Check what the camera sees", WHAT_DO_YOU_SEE),
             _Step(self.step_id(2), "Tell the user", None),

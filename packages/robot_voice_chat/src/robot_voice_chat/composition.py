@@ -149,6 +149,7 @@ class Container:
 
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
+        await self.executor.recover()  # before any server connects and reconciles
         self.adapters.tools.add_connect_listener(self.executor.reconcile)
         await self.adapters.tools.start()
         logger.info(

@@ -82,6 +82,8 @@ class TaskDispatcher:
         self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
         # steps whose motion tool call has not answered yet (a safety stop fails them too)
         self.motion_steps_in_flight: set[str] = set()
+        # tasks of missions a previous process life left live (closed at start-up)
+        self.interrupted: set[str] = set()
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -226,6 +228,14 @@ class TaskDispatcher:
                 "agent_event_rejected", reason="task_of_another_server", task_id=event.task_id
             )
             return False
+        if handle is None and event.task_id in self.interrupted:
+            logger.info(
+                "agent_event_interrupted_mission",
+                task_id=event.task_id,
+                server=event.server,
+                type=event.type,
+            )
+            return False
         if handle is None or run is None or handle.mission_id != run.mission.id:
             logger.info(
                 "agent_event_orphan", task_id=event.task_id, server=event.server, type=event.type
@@ -336,8 +346,14 @@ class TaskDispatcher:
             if handle.task_id not in running:
                 logger.warning("task_lost_on_restart", server=server, task_id=handle.task_id)
                 await self.on_task_event(server_restarted_event(handle))
-        if self.current_run() is None:
-            for task_id in sorted(running):
-                if self.registry.get(task_id) is None:
-                    logger.warning("orphan_task_cancelled", server=server, task_id=task_id)
-                    await self.cancel_task(server, task_id)
+        idle = self.current_run() is None
+        for task_id in sorted(running):
+            # an interrupted mission's task is cancelled even while a new mission runs
+            if self.registry.get(task_id) is None and (idle or task_id in self.interrupted):
+                logger.warning(
+                    "orphan_task_cancelled",
+                    server=server,
+                    task_id=task_id,
+                    interrupted=task_id in self.interrupted,
+                )
+                await self.cancel_task(server, task_id)

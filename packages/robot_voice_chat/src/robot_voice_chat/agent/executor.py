@@ -17,6 +17,7 @@ from robot_voice_chat.agent.mission import Mission, MissionStore
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.plan_tools import DEFINITIONS, PlanTools, inject_step_id
 from robot_voice_chat.agent.prompt import load_prompt, system_prompt
+from robot_voice_chat.agent.recovery import close_interrupted
 from robot_voice_chat.agent.run import (
     MissionBusyError,
     MissionFailure,
@@ -361,6 +362,14 @@ class MissionExecutor:
         if mission.teaching and self.planner is not None:
             records = await self.trace.read(mission.id)
             await self.teaching.distill_and_save(self.planner, run.prompt, records)
+
+    async def recover(self) -> None:
+        """At start-up: close the missions a crashed process life left live; the tasks they
+        owned are cancelled when their servers connect (reconcile) and their late events
+        acknowledged, never taken for live ones."""
+        if self.archive is not None:
+            owned = await close_interrupted(self.archive, self.trace, self.emitter, self.speech)
+            self.dispatcher.interrupted |= owned
 
     async def wait_idle(self, timeout_s: float) -> None:
         """Wait for the running mission task (tests, shutdown)."""

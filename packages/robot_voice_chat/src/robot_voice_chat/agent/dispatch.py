@@ -125,7 +125,7 @@ class TaskDispatcher:
             await self.output.log_line(run, "tool_call", f"{call.name}({_short(args)})")
             if motion and held_by_stop(run):  # the stop came during the awaits above
                 return await self._refuse_held(run, call, step_id, args)
-            started = time.monotonic()
+            started, sent_at = time.monotonic(), time.time()
             # no await between the check above and the send: a stop cannot slip in between
             outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
         finally:
@@ -148,7 +148,7 @@ class TaskDispatcher:
         )
         info = None if outcome.is_error else parse_task_info(outcome.text)
         if info is not None:
-            await self._register_task(run, call.name, step_id, info)
+            await self._register_task(run, call.name, step_id, info, sent_at)
         elif step is not None:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
             await self.output.emit_plan(run)
@@ -175,6 +175,7 @@ class TaskDispatcher:
         dotted: str,
         step_id: str | None,
         info: dict[str, Any],
+        sent_at: float,
     ) -> None:
         server, _, tool = dotted.partition(".")
         # A watcher is started on skill_control but owned (events, cancel) by perception.
@@ -190,6 +191,7 @@ class TaskDispatcher:
             mission_id=run.mission.id,
             skill_id=skill_id if isinstance(skill_id, str) else None,
             skill_server=server if isinstance(skill_id, str) else None,
+            since=sent_at,
         )
         step = run.mission.step(step_id)
         if step is not None:
@@ -215,6 +217,7 @@ class TaskDispatcher:
             if e.task_id == handle.task_id
             and e.server == handle.server
             and now - t < ORPHAN_GRACE_S
+            and not handle.predates(e)  # a previous instance's, e.g. a reused watcher id
         ]
         for event in sorted(early, key=lambda e: e.seq):
             await self.on_task_event(event)
@@ -226,6 +229,15 @@ class TaskDispatcher:
         if handle is not None and handle.server != event.server:
             logger.warning(
                 "agent_event_rejected", reason="task_of_another_server", task_id=event.task_id
+            )
+            return False
+        if handle is not None and handle.predates(event):
+            logger.info(
+                "agent_event_stale_instance",
+                task_id=event.task_id,
+                server=event.server,
+                type=event.type,
+                event_ts=event.ts,
             )
             return False
         if handle is None and event.task_id in self.interrupted:

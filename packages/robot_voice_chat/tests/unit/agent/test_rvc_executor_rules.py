@@ -4,6 +4,7 @@ same executor, registry, reactions and trace, driven by typed commands over a si
 
 from __future__ import annotations
 
+import asyncio
 import json
 from pathlib import Path
 
@@ -11,9 +12,9 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
-from robot_voice_chat.socket_events import MissionPlan
+from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 from robot_voice_chat.testing import task_info
-from robot_voice_chat.testing_office import office
+from robot_voice_chat.testing_office import Office, office
 
 
 async def test_go_to_a_place_by_name_resolved_through_list_locations(tmp_path: Path) -> None:
@@ -239,3 +240,42 @@ def test_a_drive_begun_by_the_planner_taken_over_is_replaced_by_cancelling_that_
     ]
     third = drive.send(Observation(results=[ToolResult(tool_call_id="c", content="{}")]))
     assert [c.name for c in third.calls] == ["navigation.navigate_to"]
+
+
+async def restart_navigation(o: Office) -> None:
+    """The navigation server restarts: its drive and its task table are gone; the brain's
+    reconciliation turns the lost task into SERVER_RESTARTED (recoverable, "retry")."""
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    assert o.world.driving is not None
+    o.world.driving.cancel()
+    o.world.tasks.clear()
+    await o.executor.reconcile("navigation")
+
+
+async def test_a_drive_lost_to_a_server_restart_is_retried_once(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await restart_navigation(o)
+    mission = await running
+    assert mission.state == "succeeded", mission.summary
+    assert [a["location"] for a in o.tools.called("navigation.navigate_to")] == [
+        "kitchen",
+        "kitchen",
+    ]
+    assert mission.steps[0].detail.startswith("SERVER_RESTARTED")
+    said = [e.text for e in o.emitter.events if isinstance(e, MissionEventLine) and e.kind == "say"]
+    assert any("try the drive once more" in s for s in said)
+
+
+async def test_a_second_server_restart_is_not_retried_again(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await restart_navigation(o)
+    await async_wait_until(
+        lambda: len(o.tools.called("navigation.navigate_to")) == 2, 5, "the retry"
+    )
+    await restart_navigation(o)
+    mission = await running
+    assert mission.state == "failed"
+    assert "SERVER_RESTARTED" in mission.summary
+    assert len(o.tools.called("navigation.navigate_to")) == 2

@@ -239,7 +239,7 @@ class MissionProgram:
 
     def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
         """Drive to ``place``; on a failure try its suggestions in order, then give up."""
-        route, tried, legs = [place], set[str](), 0
+        route, tried, retried, legs = [place], set[str](), set[str](), 0
         current, before = step_id, [self.plan_call()] if not self.planned else []
         while route:
             leg = route[0]
@@ -289,6 +289,14 @@ class MissionProgram:
                 ),
                 None,
             )
+            if detour is None and failure.retry_suggested and leg not in retried:
+                # once per leg: the same drive again is what the server advises, and the base
+                # is not busy (its task ended); a second such failure gives up below
+                retried.add(leg)
+                current = self._add_step(current, f"Retry the drive to the {leg}")
+                said = f"{failure.message or failure.code}. I'll try the drive once more."
+                before = [self.plan_call(), Call("say", {"text": said})]
+                continue
             if detour is None:
                 advice = "; ".join(failure.suggestions)
                 raise _Finished(
@@ -385,7 +393,8 @@ class MissionProgram:
         match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: (.*))?$", line)
         if match is None:
             return Failure("FAILED", line, [])
-        return Failure(match[1], match[2], [match[3]] if match[3] else [])
+        suggestions = [match[3]] if match[3] else []
+        return Failure(match[1], match[2], suggestions, recoverable="(recoverable)" in line)
 
     def _look_for(self, obj: str, step_id: str) -> Steps:
         """instantiate find_object → wait_for_result → stop; the labels found ('' if none)."""

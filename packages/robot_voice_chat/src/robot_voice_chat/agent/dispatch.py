@@ -84,6 +84,7 @@ class TaskDispatcher:
         self.motion_steps_in_flight: set[str] = set()
         # tasks of missions a previous process life left live (closed at start-up)
         self.interrupted: set[str] = set()
+        self.lost_servers: set[str] = set()  # servers the running mission was told are gone
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -343,8 +344,45 @@ class TaskDispatcher:
             is_error=outcome.is_error,
         )
 
+    async def on_server_lost(self, server: str) -> None:
+        """A server the running mission has live tasks on went away (issue 23 item 4): the
+        steps show it, the person is told and the planner woken. Bound: the backend notices
+        within ``tools.health_interval_s`` + ``tools.connect_timeout_s`` of the loss."""
+        run = self.current_run()
+        if run is None:
+            return
+        handles = self.registry.live(run.mission.id, server=server)
+        if not handles:
+            return
+        self.lost_servers.add(server)
+        ids = ", ".join(h.task_id for h in handles)
+        logger.warning("mission_server_lost", server=server, tasks=ids)
+        for handle in handles:
+            step = run.mission.step(handle.step_id)
+            if step is not None and step.status == "running":
+                step.detail = f"{server} server unreachable: waiting for it to come back"
+        await self.output.emit_plan(run)
+        line = (
+            f"[server {server}] unreachable: tasks {ids} cannot report until it is back "
+            "(if it restarted, its lost tasks come back as SERVER_RESTARTED)"
+        )
+        self.trace.record(run.mission.id, "server_lost", server=server, tasks=ids, text=line)
+        await self.output.log_line(run, "task_event", line)
+        await self.output.say(
+            run,
+            f"I lost contact with the {server} server and am waiting for it to come back. "
+            "Say stop to halt me.",
+        )
+        run.post(line)
+
     async def reconcile(self, server: str) -> None:
         """Hook for (re)connects: lost tasks → SERVER_RESTARTED; orphans cancelled when idle."""
+        run = self.current_run()
+        if server in self.lost_servers and run is not None:
+            self.lost_servers.discard(server)
+            line = f"[server {server}] back: reconnected"
+            await self.output.log_line(run, "task_event", line)
+            run.post(line)
         if not self.tools.has_tool(f"{server}.list_tasks"):
             return
         outcome = await self.tools.call_tool(

@@ -422,6 +422,9 @@ class MissionExecutor:
     async def reconcile(self, server: str) -> None:
         await self.dispatcher.reconcile(server)
 
+    async def on_server_lost(self, server: str) -> None:
+        await self.dispatcher.on_server_lost(server)
+
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)
 

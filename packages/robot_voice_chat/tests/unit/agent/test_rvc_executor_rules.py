@@ -279,3 +279,52 @@ async def test_a_second_server_restart_is_not_retried_again(tmp_path: Path) -> N
     assert mission.state == "failed"
     assert "SERVER_RESTARTED" in mission.summary
     assert len(o.tools.called("navigation.navigate_to")) == 2
+
+
+def lines_said(o: Office) -> list[str]:
+    return [e.text for e in o.emitter.events if isinstance(e, MissionEventLine) and e.kind == "say"]
+
+
+async def test_a_mission_is_told_when_its_server_dies_and_gives_up_if_it_stays_away(
+    tmp_path: Path,
+) -> None:
+    """Issue 23 item 4: navigation killed mid-drive and not restarted."""
+    o = office(tmp_path, drive_s=30.0, wakeup_timeout_s=0.5)
+    o.tools.add_disconnect_listener(o.executor.on_server_lost)
+    running = asyncio.create_task(o.run("go to the kitchen", timeout_s=20))
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    steps_before = o.executor.run.llm_steps if o.executor.run else 0
+    assert o.world.driving is not None
+    o.world.driving.cancel()  # the server and its drive are gone
+    await o.tools.disconnected("navigation")
+
+    mission = o.executor.active
+    assert mission is not None
+    assert mission.steps[0].detail == "navigation server unreachable: waiting for it to come back"
+    assert any("I lost contact with the navigation server" in s for s in lines_said(o))
+    await async_wait_until(
+        lambda: o.executor.run is None or o.executor.run.llm_steps > steps_before,
+        5,
+        "the planner woken",
+    )
+    mission = await running
+    assert mission.state == "failed"
+    assert "lost contact with the navigation server while driving to the kitchen" in (
+        mission.summary
+    )
+
+
+async def test_a_server_that_comes_back_restarted_gets_the_drive_again(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5, wakeup_timeout_s=30.0)
+    o.tools.add_disconnect_listener(o.executor.on_server_lost)
+    o.tools.add_connect_listener(o.executor.reconcile)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    assert o.world.driving is not None
+    o.world.driving.cancel()
+    o.world.tasks.clear()
+    await o.tools.disconnected("navigation")
+    await o.tools.reconnected("navigation")  # restarted: nav-1 unknown → SERVER_RESTARTED
+    mission = await running
+    assert mission.state == "succeeded", mission.summary
+    assert len(o.tools.called("navigation.navigate_to")) == 2

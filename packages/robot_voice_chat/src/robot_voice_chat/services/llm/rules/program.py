@@ -43,6 +43,8 @@ TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
 USER_TURN = "[user] "  # a mid-mission turn as the executor posts it
+_SERVER_LOST = re.compile(r"^\[server (?P<server>\S+)\] unreachable: tasks (?P<ids>.+?) cannot")
+_SERVER_BACK = re.compile(r"^\[server (?P<server>\S+)\] back\b")
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
 _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
@@ -124,6 +126,8 @@ class MissionProgram:
         self.own_drives: set[str] = set(own_drives or ())
         self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
         self.doing = ""  # what the robot is busy with, for those answers
+        self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
+        self.timeouts = 0  # "[timeout] still waiting" wakeups seen
 
     # --- plumbing --------------------------------------------------------------------------
     def run(self) -> Program:
@@ -162,6 +166,12 @@ class MissionProgram:
                 self.terminal[match["id"]] = Outcome(match["kind"], line.strip())
             elif line.startswith(USER_TURN):
                 self.user_turns.append(line.removeprefix(USER_TURN).strip())
+            elif (lost := _SERVER_LOST.match(line.strip())) is not None:
+                self.unreachable[lost["server"]] = set(lost["ids"].split(", "))
+            elif (back := _SERVER_BACK.match(line.strip())) is not None:
+                self.unreachable.pop(back["server"], None)
+            elif line.startswith("[timeout]"):
+                self.timeouts += 1
             elif line.startswith("[reaction]"):
                 self.reactions_fired.append(line)
         if observation.paused_reply is not None:
@@ -351,7 +361,18 @@ class MissionProgram:
 
     def _await(self, task_id: str, reason: str) -> Steps:
         self.doing = reason
+        timeouts = self.timeouts
         while True:
+            lost = next((srv for srv, ids in self.unreachable.items() if task_id in ids), None)
+            if lost is None:
+                timeouts = self.timeouts
+            elif self.timeouts > timeouts:  # a whole wakeup period and it is still gone
+                raise _Finished(
+                    "failed",
+                    f"I lost contact with the {lost} server while {reason} and it has not "
+                    "come back, so I can't tell or control what that task does; I stopped "
+                    "waiting. Check that server, then ask me again.",
+                )
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
             answer = self._take_pause_answer()

@@ -328,3 +328,44 @@ async def test_a_server_that_comes_back_restarted_gets_the_drive_again(tmp_path:
     mission = await running
     assert mission.state == "succeeded", mission.summary
     assert len(o.tools.called("navigation.navigate_to")) == 2
+
+
+async def test_a_dead_vision_node_is_reported_as_unavailable_not_as_nothing_seen(
+    tmp_path: Path,
+) -> None:
+    """Issue 23 item 5: the vision node killed during "find the scissors"."""
+    o = office(tmp_path)
+    o.tools.add(
+        "perception.wait_for_result",
+        lambda a: (_ for _ in ()).throw(
+            ValueError('{"error": "timeout", "detail": "no result for skill find_object"}')
+        ),
+        skill="string",
+        timeout_s="number",
+    )
+    o.tools.add(
+        "skill_control.list_running_skills",
+        lambda a: (_ for _ in ()).throw(
+            ValueError('{"error": "service_unavailable", "detail": "the vision node is down"}')
+        ),
+    )
+    mission = await o.run("find the scissors in the kitchen")
+    assert mission.state == "failed"
+    assert mission.summary == (
+        "I couldn't look for the scissors: the camera/vision is unavailable "
+        "(service_unavailable: the vision node is down)."
+    )
+    assert o.tools.called("skill_control.stop_skill")  # the skill is still stopped
+
+
+async def test_a_running_vision_node_that_saw_nothing_still_says_so(tmp_path: Path) -> None:
+    o = office(tmp_path)
+    o.tools.add(
+        "perception.wait_for_result",
+        lambda a: (_ for _ in ()).throw(ValueError('{"error": "timeout", "detail": "none"}')),
+        skill="string",
+        timeout_s="number",
+    )
+    o.tools.add("skill_control.list_running_skills", lambda a: {"skills": []})
+    mission = await o.run("find the scissors in the kitchen")
+    assert mission.summary == "I couldn't see the scissors in the kitchen."

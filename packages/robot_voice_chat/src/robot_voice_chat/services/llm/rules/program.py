@@ -33,6 +33,7 @@ CANCEL_TASK = "navigation.cancel_task"
 INSTANTIATE = "skill_control.instantiate_skill"
 PREWARM = "skill_control.prewarm_skill"
 STOP_SKILL = "skill_control.stop_skill"
+LIST_SKILLS = "skill_control.list_running_skills"
 WAIT_RESULT = "perception.wait_for_result"
 WHAT_DO_YOU_SEE = "perception.what_do_you_see"
 UNDERSTOOD = (
@@ -442,13 +443,27 @@ class MissionProgram:
                 {"step_id": read, "skill": skill, "timeout_s": self.settings.find_timeout_s},
             )
         )
+        down = (yield from self._vision_down()) if seen.is_error else None
         stops = [Call(STOP_SKILL, {"step_id": stop, "skill_id": skill})]
         if any(PREWARM in line for line in self.reactions_fired):
             stops.append(Call(STOP_SKILL, {"skill_id": "prewarm_find_object"}))
         yield from self.act(*stops)
+        if down is not None:  # not "I couldn't see it": the camera could not look at all
+            raise _Finished(
+                "failed",
+                f"I couldn't look for the {obj}: the camera/vision is unavailable ({down}).",
+            )
         if seen.is_error:
             return ""
         return _labels(as_json(seen.content))
+
+    def _vision_down(self) -> Steps:
+        """After a wait with no result: is the vision node reachable at all? The reason if
+        not (skill_control cannot reach it), else None (it runs: nothing was seen)."""
+        if not has_tool(self.tools, LIST_SKILLS):
+            return None
+        [listed] = yield from self.act(Call(LIST_SKILLS))
+        return error_of(listed.content) if listed.is_error else None
 
     def _see(self) -> Steps:
         self.needs(WHAT_DO_YOU_SEE)
@@ -499,6 +514,12 @@ class MissionProgram:
                 yield from self.act(Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}))
                 fresh_data = as_json(fresh.content) if not fresh.is_error else None
                 text = _scene_text(fresh_data) if isinstance(fresh_data, dict) else ""
+                down = (yield from self._vision_down()) if fresh.is_error else None
+                if down is not None:
+                    raise _Finished(
+                        "failed",
+                        f"I can't look right now: the camera/vision is unavailable ({down}).",
+                    )
         if not text:
             raise _Finished(
                 "failed", "I can't tell what I see right now: the camera gave me nothing."

@@ -3,8 +3,6 @@ brain ``degraded`` and says why, as a dead MCP server does."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import httpx
 import respx
 

@@ -100,6 +100,8 @@ class ChatPipeline:
         mission = self._executor.active
         if mission is not None:
             note = await self._executor.on_user_turn(text)
+            # shown at once (not spoken: the planner may answer with its own say)
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=note))
             return TurnResult(turn_id, note, "mission", mission.id)
         turn = asyncio.create_task(self._fast_turn(text, turn_id), name=f"turn-{turn_id}")
         self._fast_turns.add(turn)

@@ -22,7 +22,7 @@ from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import AppConfig
-from robot_voice_chat.socket_events import MissionEventLine, MissionStarted
+from robot_voice_chat.socket_events import ChatMessage, MissionEventLine, MissionStarted
 from robot_voice_chat.testing import nav_servers
 from robot_voice_chat.testing_office import OfficeWorld
 
@@ -120,7 +120,13 @@ async def test_every_turn_during_a_mission_is_answered_and_the_planner_says_so(
     turns = [f"what are you doing {i}?" for i in range(20)]
     answers = await asyncio.gather(*(brain.chat(t) for t in turns))
 
+    shown = {
+        e.turn_id: e.text
+        for e in brain.emitter.events
+        if isinstance(e, ChatMessage) and e.role == "assistant"
+    }
     for answer in answers:
+        assert shown[answer["turn_id"]] == answer["reply"]  # the UI shows every answer too
         assert answer["route"] == "mission"
         assert "kitchen" in answer["reply"], answer
         assert "stop" in answer["reply"], answer

@@ -51,6 +51,10 @@ class SkillControl:
         self._reconciler = reconciler or CreateReconciler(tasks, confirm_s=5.0, sweep_s=60.0)
         self._origins: dict[str, _Origin] = {}
         self._create_lock = asyncio.Lock()
+        # Watcher skill ids are never reused in this process life: the task id is
+        # "watch-<skill_id>" (ARCHITECTURE §4.4), so a new watcher never shares it with a
+        # finished one whose late events may still be on their way (issue 23 item 6).
+        self._watcher_ids: set[str] = set()
 
     # -- discovery -----------------------------------------------------------------------
     def templates(self) -> dict[str, Any]:
@@ -114,6 +118,9 @@ class SkillControl:
         base = str(skill["name"])
         async with self._create_lock:
             taken = {str(s.get("name")) for s in await self._tasks.list()}
+            watcher = isinstance(skill.get("watch"), dict)
+            if watcher:
+                taken |= self._watcher_ids
             for _attempt in range(3):
                 skill_id = _free_name(base, taken)
                 try:
@@ -126,6 +133,8 @@ class SkillControl:
             else:
                 raise CatalogError("name_collision", f"could not find a free name for {base!r}")
             self._origins[skill_id] = origin
+            if watcher:
+                self._watcher_ids.add(skill_id)
         logger.info("skill_instantiated", skill_id=skill_id, template=origin.template)
         result: dict[str, Any] = {
             "skill_id": skill_id,

@@ -63,6 +63,24 @@ async def test_a_watcher_template_returns_a_running_watch_task(
     assert running[0]["task_id"] == "watch-watch_for"
 
 
+async def test_a_new_watcher_never_reuses_a_finished_watchers_task_id(
+    control: SkillControl, tasks: FakeVisionTasks
+) -> None:
+    """Issue 23 item 6: the previous watcher's late events must not match the new one."""
+    first = await control.instantiate("watch_for", {"condition": "scissors"})
+    await control.stop(first["skill_id"])
+    second = await control.instantiate("watch_for", {"condition": "a dog"})
+    assert first["task_id"] == "watch-watch_for"
+    assert second["skill_id"] == "watch_for_2"
+    assert second["task_id"] == "watch-watch_for_2"
+    assert tasks.skills["watch_for_2"]["watch"] == {"output": "triggered", "equals": True}
+    # other skills still take a freed name again
+    found = await control.instantiate("find_object", {"query": "cup"})
+    await control.stop(found["skill_id"])
+    again = await control.instantiate("find_object", {"query": "box"})
+    assert again["skill_id"] == found["skill_id"] == "find_object"
+
+
 async def test_stop_deletes_and_set_enabled_pauses_the_skill(
     control: SkillControl, tasks: FakeVisionTasks
 ) -> None:

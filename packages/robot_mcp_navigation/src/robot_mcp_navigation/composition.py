@@ -18,7 +18,7 @@ from robot_mcp_navigation.events.log_only import LogOnlyEventSink
 from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.map import NavMap, load_map
 from robot_mcp_navigation.motion.base import MotionBase
-from robot_mcp_navigation.motion.simulated import SimulatedBase
+from robot_mcp_navigation.motion.simulated import PoseFile, SimulatedBase
 from robot_mcp_navigation.navigator import Navigator, NavigatorSettings
 from robot_mcp_navigation.tools import SERVER_NAME, build_mcp_server
 
@@ -70,13 +70,15 @@ def build_event_sink(settings: NavigationSettings) -> EventSink:
 
 
 def build_motion_base(settings: NavigationSettings, nav_map: NavMap) -> MotionBase:
-    """The simulated base; a real base adapter is wired in here instead."""
+    """The simulated base (its pose kept across restarts); a real base adapter is wired in
+    here instead."""
     return SimulatedBase(
         start=nav_map.locations[nav_map.start].pose(),
         speed_mps=nav_map.speed_mps,
         time_scale=settings.time_scale,
         failures=nav_map.failures,
         tick_s=settings.tick_s,
+        pose_file=PoseFile(settings.pose_path, nav_map.name),
     )
 
 

@@ -20,6 +20,11 @@ def default_outbox_path() -> Path:
     return platformdirs.user_data_path(APP_NAME) / "outbox.sqlite3"
 
 
+def default_pose_path() -> Path:
+    """The simulated base's last pose (kept across restarts), beside the outbox."""
+    return platformdirs.user_data_path(APP_NAME) / "pose.json"
+
+
 def default_map_path() -> Path:
     """The office map shipped with the package (``config/maps/office.yaml``)."""
     return Path(__file__).resolve().parents[2] / "config" / "maps" / "office.yaml"
@@ -41,6 +46,7 @@ class NavigationSettings(BaseModel):
     events_url: str = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
     event_secret: SecretStr | None = Field(default=None, alias="RVC_EVENT_SECRET")
     outbox_path: Path = Field(default_factory=default_outbox_path, alias="NAV_OUTBOX")
+    pose_path: Path = Field(default_factory=default_pose_path, alias="NAV_POSE_PATH")
     transport: Literal["stdio", "sse", "streamable-http"] = Field(
         default="stdio", alias="MCP_TRANSPORT"
     )
@@ -55,7 +61,7 @@ class NavigationSettings(BaseModel):
     def _empty_secret_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
 
-    @field_validator("outbox_path")
+    @field_validator("outbox_path", "pose_path")
     @classmethod
     def _absolute(cls, value: Path) -> Path:
         if not value.is_absolute():

@@ -4,6 +4,9 @@ events to a local receiver that verifies every HMAC."""
 from __future__ import annotations
 
 import json
+import math
+import os
+import signal
 import sys
 import threading
 from collections.abc import Iterator
@@ -116,6 +119,7 @@ def start_navigation(
         "RVC_EVENTS_URL": receiver.url,
         "RVC_EVENT_SECRET": SECRET,
         "NAV_OUTBOX": str(tmp_path / "outbox.sqlite3"),
+        "NAV_POSE_PATH": str(tmp_path / "pose.json"),
         "NAV_TIME_SCALE": "40",
         "NAV_TICK_S": "0.02",
         "NAV_PROGRESS_INTERVAL_S": "1.0",
@@ -248,3 +252,33 @@ async def test_stop_navigation_mid_drive_cancels_the_task_and_ends_its_events(
     assert [e.type for e in events].count("task_failed") == 1
     assert_ordered(receiver, task_id)
     assert [t["task_id"] for t in listing["tasks"]] == [task_id]
+
+
+async def test_a_navigation_server_killed_mid_drive_restarts_where_the_robot_was(
+    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+) -> None:
+    """Issue 23 item 7: kill -9 mid-drive and a restart must not teleport the base to the
+    dock; it reports the pose it had reached (kept in NAV_POSE_PATH)."""
+    port = free_tcp_port()
+    process = start_navigation(
+        launcher, receiver, port, tmp_path, "streamable-http", NAV_TIME_SCALE="2"
+    )
+    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+        dock = payload(await client.call_tool("get_pose", {}))
+        assert dock["at_location"] == "dock"
+        await client.call_tool("navigate_to", {"location": "kitchen"})
+
+        async def under_way() -> bool:
+            pose = payload(await client.call_tool("get_pose", {}))
+            return bool(math.hypot(pose["x"] - dock["x"], pose["y"] - dock["y"]) > 1.0)
+
+        await async_wait_until(under_way, 30, "the robot a metre from the dock", interval_s=0.1)
+    os.kill(process.pid, signal.SIGKILL)
+    process.popen.wait(timeout=10)
+
+    start_navigation(launcher, receiver, port, tmp_path, "streamable-http")
+    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+        pose = payload(await client.call_tool("get_pose", {}))
+    assert pose["at_location"] is None, pose  # neither the dock nor the kitchen
+    assert math.hypot(pose["x"] - dock["x"], pose["y"] - dock["y"]) > 0.5, pose
+    assert pose["moving"] is False

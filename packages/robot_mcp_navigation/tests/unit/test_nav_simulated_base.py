@@ -1,11 +1,12 @@
 import asyncio
 import math
+from pathlib import Path
 
 import pytest
 
 from robot_mcp_navigation.map import FailureSpec
 from robot_mcp_navigation.motion.base import DriveGoal, DriveProgress, MotionBusyError, Pose
-from robot_mcp_navigation.motion.simulated import SimulatedBase
+from robot_mcp_navigation.motion.simulated import PoseFile, SimulatedBase
 
 
 class StepClock:
@@ -163,3 +164,69 @@ async def test_a_coarse_tick_that_jumps_past_the_goal_still_reports_the_arrival(
     assert result.status == "arrived"
     assert [p.eta_s for p in seen] == [10.0, 0.0]
     assert seen[-1].distance_remaining_m == 0.0
+
+
+async def test_the_pose_survives_a_restart_instead_of_teleporting_to_the_start(
+    tmp_path: Path,
+) -> None:
+    """Issue 23 item 7: a restarted base starts where the robot was, not at the dock."""
+    clock = StepClock()
+    pose_file = PoseFile(tmp_path / "pose.json", "office", min_interval_s=0.0, clock=clock)
+    base = SimulatedBase(
+        Pose(0.0, 0.0),
+        speed_mps=1.0,
+        time_scale=2.0,
+        tick_s=0.001,
+        clock=clock,
+        pose_file=pose_file,
+    )
+
+    async def on_progress(progress: DriveProgress) -> None:
+        clock.now += 1.0  # 2 m per report
+        if progress.pose.x >= 4.0:
+            raise RuntimeError("killed mid-drive")  # the process dies: no stop, no arrival
+
+    with pytest.raises(RuntimeError):
+        await base.drive_to(GOAL, on_progress)
+
+    fresh = PoseFile(tmp_path / "pose.json", "office")
+    restarted = SimulatedBase(Pose(0.0, 0.0), speed_mps=1.0, pose_file=fresh)
+    assert restarted.current_pose().x == pytest.approx(4.0)
+    assert restarted.current_pose().y == pytest.approx(0.0)
+    # another map's pose is not used; an unreadable file is reported and ignored
+    assert PoseFile(tmp_path / "pose.json", "warehouse").load() is None
+    (tmp_path / "bad.json").write_text("{not json")
+    assert PoseFile(tmp_path / "bad.json", "office").load() is None
+
+
+async def test_a_stop_and_an_arrival_are_kept_at_once_and_a_write_failure_never_fails_a_drive(
+    tmp_path: Path,
+) -> None:
+    clock = StepClock()
+    path = tmp_path / "pose.json"
+    base = SimulatedBase(
+        Pose(0.0, 0.0),
+        speed_mps=1.0,
+        time_scale=2.0,
+        tick_s=0.001,
+        clock=clock,
+        pose_file=PoseFile(path, "office", min_interval_s=3600.0, clock=clock),
+    )
+
+    async def advance(progress: DriveProgress) -> None:
+        clock.now += 1.0
+
+    result = await base.drive_to(GOAL, advance)
+    assert result.status == "arrived"
+    assert PoseFile(path, "office").load() == GOAL.pose
+    blocked = tmp_path / "file-not-dir"
+    blocked.write_text("")
+    broken = SimulatedBase(
+        Pose(0.0, 0.0),
+        speed_mps=1.0,
+        time_scale=2.0,
+        tick_s=0.001,
+        clock=clock,
+        pose_file=PoseFile(blocked / "pose.json", "office", clock=clock),
+    )
+    assert (await broken.drive_to(GOAL, advance)).status == "arrived"

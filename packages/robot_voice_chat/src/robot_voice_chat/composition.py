@@ -161,7 +161,9 @@ class Container:
 
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
+        await self.executor.recover()  # before any server connects and reconciles
         self.adapters.tools.add_connect_listener(self.executor.reconcile)
+        self.adapters.tools.add_disconnect_listener(self.executor.on_server_lost)
         await self.adapters.tools.start()
         logger.info(
             "app_started",

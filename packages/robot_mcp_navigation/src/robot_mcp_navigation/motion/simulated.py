@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import math
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import structlog
 
@@ -25,12 +27,63 @@ from robot_mcp_navigation.motion.base import (
 logger = structlog.get_logger(__name__)
 
 
+class PoseFile:
+    """Where the simulated base keeps its pose across restarts, so a restarted server does not
+    teleport the robot back to the dock (issue 23 item 7). JSON, replaced atomically; written
+    at most every ``min_interval_s`` while driving and always when a drive ends or stops."""
+
+    def __init__(
+        self,
+        path: Path,
+        map_name: str,
+        min_interval_s: float = 0.25,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.path = path
+        self.map_name = map_name
+        self._min_interval_s = min_interval_s
+        self._clock = clock
+        self._saved_at: float | None = None
+        self._failed = False
+
+    def load(self) -> Pose | None:
+        """The saved pose on this map; None when there is none (or it is unreadable)."""
+        try:
+            data = json.loads(self.path.read_text())
+            if data.get("map") != self.map_name:
+                logger.warning("pose_file_other_map", path=str(self.path), map=data.get("map"))
+                return None
+            return Pose(float(data["x"]), float(data["y"]), float(data.get("theta", 0.0)))
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError, TypeError, KeyError, AttributeError) as exc:
+            logger.warning("pose_file_unreadable", path=str(self.path), error=str(exc))
+            return None
+
+    def save(self, pose: Pose, force: bool = False) -> None:
+        now = self._clock()
+        if not force and self._saved_at is not None and now - self._saved_at < self._min_interval_s:
+            return
+        self._saved_at = now
+        body = json.dumps({"map": self.map_name, **pose.as_dict(), "ts": round(time.time(), 3)})
+        tmp = self.path.with_name(f".{self.path.name}.tmp")
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(body)
+            tmp.replace(self.path)
+        except OSError as exc:
+            if not self._failed:  # once: a drive never fails because its pose can't be kept
+                logger.error("pose_file_write_failed", path=str(self.path), error=str(exc))
+            self._failed = True
+
+
 class SimulatedBase(MotionBase):
     """Moves a virtual robot along the straight line to the goal.
 
     ``time_scale`` simulated seconds pass per wall-clock second (20 → a 30 s drive takes
     1.5 s). A map failure for the goal's location halts the robot at ``at_fraction`` of the
     route and ends the drive as ``failed``; ``once`` failures are used up when they fire.
+    With a :class:`PoseFile` the pose survives a restart (the saved one replaces ``start``).
     """
 
     def __init__(
@@ -41,10 +94,15 @@ class SimulatedBase(MotionBase):
         failures: Sequence[FailureSpec] = (),
         tick_s: float = 0.05,
         clock: Callable[[], float] = time.monotonic,
+        pose_file: PoseFile | None = None,
     ) -> None:
         if speed_mps <= 0 or time_scale <= 0 or tick_s <= 0:
             raise ValueError("speed_mps, time_scale and tick_s must be positive")
-        self._pose = start
+        self._pose_file = pose_file
+        restored = pose_file.load() if pose_file is not None else None
+        if restored is not None:
+            logger.info("pose_restored", pose=restored.as_dict())
+        self._pose = restored or start
         self._speed = speed_mps
         self._time_scale = time_scale
         self._failures = list(failures)
@@ -71,6 +129,7 @@ class SimulatedBase(MotionBase):
         if self._route is not None:
             self._pose, _, self._stopped_after_s = self._pose_now()
             self._route = None
+            self._keep(self._pose, force=True)
         self._stop.set()
 
     async def drive_to(self, goal: DriveGoal, on_progress: ProgressCallback) -> DriveResult:
@@ -97,7 +156,9 @@ class SimulatedBase(MotionBase):
                     await on_progress(DriveProgress(goal.pose, total, 0.0, 0.0, elapsed))
                     self._pose = goal.pose
                     self._route = None
+                    self._keep(goal.pose, force=True)
                     return DriveResult("arrived", goal.pose, elapsed)
+                self._keep(pose)
                 remaining = max(0.0, total - fraction * total)
                 await on_progress(
                     DriveProgress(pose, total, remaining, remaining / self._speed, elapsed)
@@ -107,6 +168,10 @@ class SimulatedBase(MotionBase):
                         await self._stop.wait()
         finally:
             self._driving = False
+
+    def _keep(self, pose: Pose, force: bool = False) -> None:
+        if self._pose_file is not None:
+            self._pose_file.save(pose, force)
 
     def _pose_now(self) -> tuple[Pose, float, float]:
         """Pose, fraction of the route done and simulated seconds since the drive began."""
@@ -122,6 +187,7 @@ class SimulatedBase(MotionBase):
     ) -> DriveResult:
         self._pose = _interpolate(origin, goal.pose, failure.at_fraction)
         self._route = None
+        self._keep(self._pose, force=True)
         logger.info("drive_failure_injected", goal=goal.name, error_code=failure.error_code)
         return DriveResult(
             "failed",

@@ -12,7 +12,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from robot_voice_chat.agent.mission import Mission, PlanStep
+from robot_voice_chat.agent.mission import ACTIVE_STATES, Mission, PlanStep
 from robot_voice_chat.private_files import private_file
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.socket_events import MissionEventLine
@@ -46,6 +46,10 @@ class MissionArchive(abc.ABC):
 
     @abc.abstractmethod
     async def recent(self, limit: int) -> list[Mission]: ...
+
+    @abc.abstractmethod
+    async def live(self) -> list[Mission]:
+        """Missions saved as planning/running/paused (after a crash: interrupted ones)."""
 
 
 class SqliteMissionArchive(MissionArchive):
@@ -103,6 +107,14 @@ class SqliteMissionArchive(MissionArchive):
     async def recent(self, limit: int) -> list[Mission]:
         rows = await self._run(
             "SELECT body FROM mission ORDER BY created_at DESC LIMIT ?", (limit,)
+        )
+        return [from_record(json.loads(r[0])) for r in rows]
+
+    async def live(self) -> list[Mission]:
+        rows = await self._run(
+            "SELECT body FROM mission WHERE json_extract(body, '$.state') IN (?, ?, ?) "
+            "ORDER BY created_at",
+            tuple(sorted(ACTIVE_STATES)),
         )
         return [from_record(json.loads(r[0])) for r in rows]
 

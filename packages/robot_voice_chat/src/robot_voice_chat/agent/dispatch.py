@@ -82,6 +82,9 @@ class TaskDispatcher:
         self.early_events: deque[tuple[float, TaskEvent]] = deque(maxlen=256)
         # steps whose motion tool call has not answered yet (a safety stop fails them too)
         self.motion_steps_in_flight: set[str] = set()
+        # tasks of missions a previous process life left live (closed at start-up)
+        self.interrupted: set[str] = set()
+        self.lost_servers: set[str] = set()  # servers the running mission was told are gone
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -123,7 +126,7 @@ class TaskDispatcher:
             await self.output.log_line(run, "tool_call", f"{call.name}({_short(args)})")
             if motion and held_by_stop(run):  # the stop came during the awaits above
                 return await self._refuse_held(run, call, step_id, args)
-            started = time.monotonic()
+            started, sent_at = time.monotonic(), time.time()
             # no await between the check above and the send: a stop cannot slip in between
             outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
         finally:
@@ -146,7 +149,7 @@ class TaskDispatcher:
         )
         info = None if outcome.is_error else parse_task_info(outcome.text)
         if info is not None:
-            await self._register_task(run, call.name, step_id, info)
+            await self._register_task(run, call.name, step_id, info, sent_at)
         elif step is not None:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
             await self.output.emit_plan(run)
@@ -173,6 +176,7 @@ class TaskDispatcher:
         dotted: str,
         step_id: str | None,
         info: dict[str, Any],
+        sent_at: float,
     ) -> None:
         server, _, tool = dotted.partition(".")
         # A watcher is started on skill_control but owned (events, cancel) by perception.
@@ -188,6 +192,7 @@ class TaskDispatcher:
             mission_id=run.mission.id,
             skill_id=skill_id if isinstance(skill_id, str) else None,
             skill_server=server if isinstance(skill_id, str) else None,
+            since=sent_at,
         )
         step = run.mission.step(step_id)
         if step is not None:
@@ -213,6 +218,7 @@ class TaskDispatcher:
             if e.task_id == handle.task_id
             and e.server == handle.server
             and now - t < ORPHAN_GRACE_S
+            and not handle.predates(e)  # a previous instance's, e.g. a reused watcher id
         ]
         for event in sorted(early, key=lambda e: e.seq):
             await self.on_task_event(event)
@@ -224,6 +230,23 @@ class TaskDispatcher:
         if handle is not None and handle.server != event.server:
             logger.warning(
                 "agent_event_rejected", reason="task_of_another_server", task_id=event.task_id
+            )
+            return False
+        if handle is not None and handle.predates(event):
+            logger.info(
+                "agent_event_stale_instance",
+                task_id=event.task_id,
+                server=event.server,
+                type=event.type,
+                event_ts=event.ts,
+            )
+            return False
+        if handle is None and event.task_id in self.interrupted:
+            logger.info(
+                "agent_event_interrupted_mission",
+                task_id=event.task_id,
+                server=event.server,
+                type=event.type,
             )
             return False
         if handle is None or run is None or handle.mission_id != run.mission.id:
@@ -321,8 +344,45 @@ class TaskDispatcher:
             is_error=outcome.is_error,
         )
 
+    async def on_server_lost(self, server: str) -> None:
+        """A server the running mission has live tasks on went away (issue 23 item 4): the
+        steps show it, the person is told and the planner woken. Bound: the backend notices
+        within ``tools.health_interval_s`` + ``tools.connect_timeout_s`` of the loss."""
+        run = self.current_run()
+        if run is None:
+            return
+        handles = self.registry.live(run.mission.id, server=server)
+        if not handles:
+            return
+        self.lost_servers.add(server)
+        ids = ", ".join(h.task_id for h in handles)
+        logger.warning("mission_server_lost", server=server, tasks=ids)
+        for handle in handles:
+            step = run.mission.step(handle.step_id)
+            if step is not None and step.status == "running":
+                step.detail = f"{server} server unreachable: waiting for it to come back"
+        await self.output.emit_plan(run)
+        line = (
+            f"[server {server}] unreachable: tasks {ids} cannot report until it is back "
+            "(if it restarted, its lost tasks come back as SERVER_RESTARTED)"
+        )
+        self.trace.record(run.mission.id, "server_lost", server=server, tasks=ids, text=line)
+        await self.output.log_line(run, "task_event", line)
+        await self.output.say(
+            run,
+            f"I lost contact with the {server} server and am waiting for it to come back. "
+            "Say stop to halt me.",
+        )
+        run.post(line)
+
     async def reconcile(self, server: str) -> None:
         """Hook for (re)connects: lost tasks → SERVER_RESTARTED; orphans cancelled when idle."""
+        run = self.current_run()
+        if server in self.lost_servers and run is not None:
+            self.lost_servers.discard(server)
+            line = f"[server {server}] back: reconnected"
+            await self.output.log_line(run, "task_event", line)
+            run.post(line)
         if not self.tools.has_tool(f"{server}.list_tasks"):
             return
         outcome = await self.tools.call_tool(
@@ -336,8 +396,14 @@ class TaskDispatcher:
             if handle.task_id not in running:
                 logger.warning("task_lost_on_restart", server=server, task_id=handle.task_id)
                 await self.on_task_event(server_restarted_event(handle))
-        if self.current_run() is None:
-            for task_id in sorted(running):
-                if self.registry.get(task_id) is None:
-                    logger.warning("orphan_task_cancelled", server=server, task_id=task_id)
-                    await self.cancel_task(server, task_id)
+        idle = self.current_run() is None
+        for task_id in sorted(running):
+            # an interrupted mission's task is cancelled even while a new mission runs
+            if self.registry.get(task_id) is None and (idle or task_id in self.interrupted):
+                logger.warning(
+                    "orphan_task_cancelled",
+                    server=server,
+                    task_id=task_id,
+                    interrupted=task_id in self.interrupted,
+                )
+                await self.cancel_task(server, task_id)

@@ -17,6 +17,7 @@ from robot_voice_chat.agent.mission import Mission, MissionStore
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.plan_tools import DEFINITIONS, PlanTools, inject_step_id
 from robot_voice_chat.agent.prompt import load_prompt, system_prompt
+from robot_voice_chat.agent.recovery import close_interrupted
 from robot_voice_chat.agent.run import (
     MissionBusyError,
     MissionFailure,
@@ -79,6 +80,7 @@ class MissionExecutor:
         self.output = MissionOutput(emitter, speech, trace, archive)
         self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
         self.run: MissionRun | None = None
+        self._starting = asyncio.Lock()
         self.dispatcher = TaskDispatcher(
             tools=tools,
             registry=self.registry,
@@ -111,16 +113,17 @@ class MissionExecutor:
     async def start(self, instruction: str) -> Mission:
         if not self.enabled:
             raise MissionsDisabledError("missions are disabled (no planner configured)")
-        if self.run is not None:
-            raise MissionBusyError(self.run.mission)
-        prompt = await load_prompt(self.prompt_path)
-        if self.run is not None:  # another start won the race while the prompt loaded
-            raise MissionBusyError(self.run.mission)
-        mission = Mission.new(instruction, teaching=await self.teaching.take())
-        self.store.add(mission)
-        await self.output.save(mission)
-        run = MissionRun(mission=mission, prompt=prompt)
-        self.run = run
+        # One mission at a time (§4) also under concurrent starts: the check and the
+        # ``self.run = run`` below are one critical section, awaits in between included.
+        async with self._starting:
+            if self.run is not None:
+                raise MissionBusyError(self.run.mission)
+            prompt = await load_prompt(self.prompt_path)
+            mission = Mission.new(instruction, teaching=await self.teaching.take())
+            self.store.add(mission)
+            await self.output.save(mission)
+            run = MissionRun(mission=mission, prompt=prompt)
+            self.run = run
         self.trace.record(
             mission.id, "instruction", instruction=instruction, teaching=mission.teaching
         )
@@ -137,20 +140,27 @@ class MissionExecutor:
             run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
         return mission
 
-    async def on_user_turn(self, text: str) -> None:
+    async def on_user_turn(self, text: str) -> str:
+        """Route a turn into the mission (§5.1); returns the immediate answer for the
+        person (the planner may add its own with ``say``)."""
         run = self.run
         if run is None:
             raise RuntimeError("no active mission")
+        mission = run.mission
         if self.is_stop(text):
             await self.safety_stop(reason=f"user said {text!r}")
-            return
+            return "Stopped. Should I continue or abort?"
         await self.output.log_line(run, "user_turn", text)
-        self.trace.record(run.mission.id, "user_turn", text=text)
+        self.trace.record(mission.id, "user_turn", text=text)
         run.awaiting_user = False
-        if run.mission.state == "paused":
+        if mission.state == "paused":
             run.post(f"{run.prompt.paused_note}\nUser: {text}")
-        else:
-            run.post(f"[user] {text}")
+            return f"Your answer went to the paused mission ({mission.instruction})."
+        run.post(f"[user] {text}")
+        return (
+            f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
+            "message went to it. Say stop to halt me."
+        )
 
     # --- the loop (§5.2) ------------------------------------------------------------------
     async def _run(self, run: MissionRun) -> None:
@@ -353,6 +363,14 @@ class MissionExecutor:
             records = await self.trace.read(mission.id)
             await self.teaching.distill_and_save(self.planner, run.prompt, records)
 
+    async def recover(self) -> None:
+        """At start-up: close the missions a crashed process life left live; the tasks they
+        owned are cancelled when their servers connect (reconcile) and their late events
+        acknowledged, never taken for live ones."""
+        if self.archive is not None:
+            owned = await close_interrupted(self.archive, self.trace, self.emitter, self.speech)
+            self.dispatcher.interrupted |= owned
+
     async def wait_idle(self, timeout_s: float) -> None:
         """Wait for the running mission task (tests, shutdown)."""
         run = self.run
@@ -403,6 +421,9 @@ class MissionExecutor:
 
     async def reconcile(self, server: str) -> None:
         await self.dispatcher.reconcile(server)
+
+    async def on_server_lost(self, server: str) -> None:
+        await self.dispatcher.on_server_lost(server)
 
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)

@@ -25,6 +25,13 @@ class TaskHandle:
     skill_id: str | None = None  # a watcher's skill, stopped with the task
     skill_server: str | None = None
     last_progress_at: float = 0.0  # monotonic time of the latest progress event
+    # Wall-clock time the starting call was sent. Task ids can be reused (a watcher is
+    # "watch-<skill_id>"); an event the server stamped before this instance existed belongs
+    # to an earlier one. Servers share the brain's clock (loopback, ARCHITECTURE §1).
+    since: float = 0.0
+
+    def predates(self, event: TaskEvent) -> bool:
+        return event.ts < self.since
 
     @property
     def label(self) -> str:

@@ -15,6 +15,7 @@ from typing import Literal
 import structlog
 
 from robot_voice_chat.agent.executor import MissionExecutor
+from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.agent.run import MissionBusyError, MissionsDisabledError
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.emitter.base import EventEmitter
@@ -44,9 +45,7 @@ class TurnResult:
     mission_id: str | None = None
 
 
-def busy_message(executor: MissionExecutor) -> str:
-    mission = executor.active
-    assert mission is not None
+def busy_message(mission: Mission) -> str:
     return (
         f"I'm busy with a mission right now ({mission.instruction}; it is {mission.state}). "
         "Say stop if you want me to halt."
@@ -100,8 +99,10 @@ class ChatPipeline:
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
         if mission is not None:
-            await self._executor.on_user_turn(text)
-            return TurnResult(turn_id, "", "mission", mission.id)
+            note = await self._executor.on_user_turn(text)
+            # shown at once (not spoken: the planner may answer with its own say)
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=note))
+            return TurnResult(turn_id, note, "mission", mission.id)
         turn = asyncio.create_task(self._fast_turn(text, turn_id), name=f"turn-{turn_id}")
         self._fast_turns.add(turn)
         try:
@@ -201,8 +202,8 @@ class ChatPipeline:
             if not instruction:
                 raise ValueError("start_mission needs an instruction")
             mission = await self._executor.start(instruction)
-        except MissionBusyError:
-            reply = busy_message(self._executor)
+        except MissionBusyError as exc:
+            reply = busy_message(exc.mission)
             route: Route = "error"
             mission_id = None
         except (MissionsDisabledError, ValueError) as exc:

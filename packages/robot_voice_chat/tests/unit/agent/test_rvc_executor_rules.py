@@ -4,6 +4,7 @@ same executor, registry, reactions and trace, driven by typed commands over a si
 
 from __future__ import annotations
 
+import asyncio
 import json
 from pathlib import Path
 
@@ -11,9 +12,9 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
-from robot_voice_chat.socket_events import MissionPlan
+from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 from robot_voice_chat.testing import task_info
-from robot_voice_chat.testing_office import office
+from robot_voice_chat.testing_office import Office, office
 
 
 async def test_go_to_a_place_by_name_resolved_through_list_locations(tmp_path: Path) -> None:
@@ -206,3 +207,165 @@ def test_a_drive_held_by_a_stop_waits_for_the_answer_and_abort_ends_it() -> None
     act = program.send(Observation(results=[ok], paused_reply="abort"))
     assert [c.name for c in act.calls] == ["finish_mission"]
     assert act.calls[0].arguments["outcome"] == "failed"
+
+
+async def test_a_busy_base_is_never_stopped_for_a_drive_this_mission_did_not_start(
+    tmp_path: Path,
+) -> None:
+    o = office(tmp_path, drive_s=30.0)
+    o.world.navigate_to({"location": "reception"})  # a drive someone else started
+    foreign = o.world.driving
+    mission = await o.run("go to the kitchen")
+    assert mission.state == "failed"
+    assert "already driving on a task this mission did not start" in mission.summary
+    assert o.tools.called("navigation.stop_navigation") == []
+    assert o.tools.called("navigation.cancel_task") == []
+    assert foreign is not None
+    assert not foreign.done()
+    foreign.cancel()
+
+
+def test_a_drive_begun_by_the_planner_taken_over_is_replaced_by_cancelling_that_task() -> None:
+    tools = [ToolDefinition(name=n) for n in ("navigation.navigate_to", "navigation.cancel_task")]
+    program = MissionProgram(parse("go to the kitchen"), tools, resumed=True, own_drives={"nav-7"})
+    busy = '{"error": "NAVIGATION_BUSY", "detail": "a navigation is running"}'
+    drive = program._drive("kitchen", "s1", prepare=None)
+    first = next(drive)
+    assert [c.name for c in first.calls][-1] == "navigation.navigate_to"
+    answers = [ToolResult(tool_call_id="a", content="ok")] * (len(first.calls) - 1)
+    answers.append(ToolResult(tool_call_id="b", content=busy, is_error=True))
+    second = drive.send(Observation(results=answers))
+    assert [(c.name, c.arguments) for c in second.calls] == [
+        ("navigation.cancel_task", {"task_id": "nav-7"})
+    ]
+    third = drive.send(Observation(results=[ToolResult(tool_call_id="c", content="{}")]))
+    assert [c.name for c in third.calls] == ["navigation.navigate_to"]
+
+
+async def restart_navigation(o: Office) -> None:
+    """The navigation server restarts: its drive and its task table are gone; the brain's
+    reconciliation turns the lost task into SERVER_RESTARTED (recoverable, "retry")."""
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    assert o.world.driving is not None
+    o.world.driving.cancel()
+    o.world.tasks.clear()
+    await o.executor.reconcile("navigation")
+
+
+async def test_a_drive_lost_to_a_server_restart_is_retried_once(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await restart_navigation(o)
+    mission = await running
+    assert mission.state == "succeeded", mission.summary
+    assert [a["location"] for a in o.tools.called("navigation.navigate_to")] == [
+        "kitchen",
+        "kitchen",
+    ]
+    assert mission.steps[0].detail.startswith("SERVER_RESTARTED")
+    said = [e.text for e in o.emitter.events if isinstance(e, MissionEventLine) and e.kind == "say"]
+    assert any("try the drive once more" in s for s in said)
+
+
+async def test_a_second_server_restart_is_not_retried_again(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await restart_navigation(o)
+    await async_wait_until(
+        lambda: len(o.tools.called("navigation.navigate_to")) == 2, 5, "the retry"
+    )
+    await restart_navigation(o)
+    mission = await running
+    assert mission.state == "failed"
+    assert "SERVER_RESTARTED" in mission.summary
+    assert len(o.tools.called("navigation.navigate_to")) == 2
+
+
+def lines_said(o: Office) -> list[str]:
+    return [e.text for e in o.emitter.events if isinstance(e, MissionEventLine) and e.kind == "say"]
+
+
+async def test_a_mission_is_told_when_its_server_dies_and_gives_up_if_it_stays_away(
+    tmp_path: Path,
+) -> None:
+    """Issue 23 item 4: navigation killed mid-drive and not restarted."""
+    o = office(tmp_path, drive_s=30.0, wakeup_timeout_s=0.5)
+    o.tools.add_disconnect_listener(o.executor.on_server_lost)
+    running = asyncio.create_task(o.run("go to the kitchen", timeout_s=20))
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    steps_before = o.executor.run.llm_steps if o.executor.run else 0
+    assert o.world.driving is not None
+    o.world.driving.cancel()  # the server and its drive are gone
+    await o.tools.disconnected("navigation")
+
+    mission = o.executor.active
+    assert mission is not None
+    assert mission.steps[0].detail == "navigation server unreachable: waiting for it to come back"
+    assert any("I lost contact with the navigation server" in s for s in lines_said(o))
+    await async_wait_until(
+        lambda: o.executor.run is None or o.executor.run.llm_steps > steps_before,
+        5,
+        "the planner woken",
+    )
+    mission = await running
+    assert mission.state == "failed"
+    assert "lost contact with the navigation server while driving to the kitchen" in (
+        mission.summary
+    )
+
+
+async def test_a_server_that_comes_back_restarted_gets_the_drive_again(tmp_path: Path) -> None:
+    o = office(tmp_path, drive_s=0.5, wakeup_timeout_s=30.0)
+    o.tools.add_disconnect_listener(o.executor.on_server_lost)
+    o.tools.add_connect_listener(o.executor.reconcile)
+    running = asyncio.create_task(o.run("go to the kitchen"))
+    await async_wait_until(lambda: o.executor.registry.live(), 5, "driving")
+    assert o.world.driving is not None
+    o.world.driving.cancel()
+    o.world.tasks.clear()
+    await o.tools.disconnected("navigation")
+    await o.tools.reconnected("navigation")  # restarted: nav-1 unknown → SERVER_RESTARTED
+    mission = await running
+    assert mission.state == "succeeded", mission.summary
+    assert len(o.tools.called("navigation.navigate_to")) == 2
+
+
+async def test_a_dead_vision_node_is_reported_as_unavailable_not_as_nothing_seen(
+    tmp_path: Path,
+) -> None:
+    """Issue 23 item 5: the vision node killed during "find the scissors"."""
+    o = office(tmp_path)
+    o.tools.add(
+        "perception.wait_for_result",
+        lambda a: (_ for _ in ()).throw(
+            ValueError('{"error": "timeout", "detail": "no result for skill find_object"}')
+        ),
+        skill="string",
+        timeout_s="number",
+    )
+    o.tools.add(
+        "skill_control.list_running_skills",
+        lambda a: (_ for _ in ()).throw(
+            ValueError('{"error": "service_unavailable", "detail": "the vision node is down"}')
+        ),
+    )
+    mission = await o.run("find the scissors in the kitchen")
+    assert mission.state == "failed"
+    assert mission.summary == (
+        "I couldn't look for the scissors: the camera/vision is unavailable "
+        "(service_unavailable: the vision node is down)."
+    )
+    assert o.tools.called("skill_control.stop_skill")  # the skill is still stopped
+
+
+async def test_a_running_vision_node_that_saw_nothing_still_says_so(tmp_path: Path) -> None:
+    o = office(tmp_path)
+    o.tools.add(
+        "perception.wait_for_result",
+        lambda a: (_ for _ in ()).throw(ValueError('{"error": "timeout", "detail": "none"}')),
+        skill="string",
+        timeout_s="number",
+    )
+    o.tools.add("skill_control.list_running_skills", lambda a: {"skills": []})
+    mission = await o.run("find the scissors in the kitchen")
+    assert mission.summary == "I couldn't see the scissors in the kitchen."

@@ -22,7 +22,14 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
     planner = container.adapters.planner
     # a planner chain running on its fallback (the cloud planner failed) is degraded
     planner_degraded = bool(getattr(planner, "degraded", False))
-    ready = all(s == "connected" for s in states.values()) and not planner_degraded
+    camera = container.adapters.camera
+    # the camera / vision node counts: a mission that looks needs it (issue 23 item 5)
+    vision = await camera.health() if camera is not None else None
+    ready = (
+        all(s == "connected" for s in states.values())
+        and not planner_degraded
+        and (vision is None or vision.state == "ok")
+    )
     return {
         "status": "ready" if ready else "degraded",
         "data": {
@@ -32,6 +39,7 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "planner": planner.name if planner else None,
             "planner_state": None if planner is None else "degraded" if planner_degraded else "ok",
             "deployment": container.config.deployment,
+            "vision": None if vision is None else {"state": vision.state, "detail": vision.detail},
             # these servers' events are refused (401) until they get a secret
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
         },

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
+from typing import Literal
 
 # What a camera frame may be: the brain serves it on the operator's origin, never anything else.
 IMAGE_TYPES = frozenset({"image/jpeg", "image/png", "image/webp"})
@@ -19,10 +20,29 @@ class CameraFrame:
     media_type: str
 
 
+VisionState = Literal["ok", "degraded", "unreachable"]
+
+
+@dataclass(frozen=True)
+class VisionHealth:
+    """Whether the camera / vision node can see now (readyz, issue 23 item 5)."""
+
+    state: VisionState
+    detail: str = ""
+
+
 class CameraFeed(abc.ABC):
     @abc.abstractmethod
     async def latest_frame(self) -> CameraFrame:
         """The newest frame with the overlays of running skills; raises CameraOfflineError."""
+
+    async def health(self) -> VisionHealth:
+        """Default: the camera is up when it can deliver a frame."""
+        try:
+            await self.latest_frame()
+        except CameraOfflineError as exc:
+            return VisionHealth("unreachable", str(exc))
+        return VisionHealth("ok")
 
     async def aclose(self) -> None:  # noqa: B027 - optional hook
         """Release connections."""

@@ -13,9 +13,11 @@ from robot_voice_chat.services.camera.base import (
     CameraFeed,
     CameraFrame,
     CameraOfflineError,
+    VisionHealth,
 )
 
 FRAME_PATH = "/frames/latest.jpg"
+HEALTH_PATH = "/healthz"
 DEFAULT_MAX_BYTES = 8 * 1024 * 1024
 
 
@@ -25,6 +27,7 @@ class HttpCameraFeed(CameraFeed):
     ) -> None:
         self.url = base_url.rstrip("/") + FRAME_PATH
         self.max_bytes = max_bytes
+        self.health_url = base_url.rstrip("/") + HEALTH_PATH
         self._client = httpx.AsyncClient(timeout=timeout_s)
 
     async def latest_frame(self) -> CameraFrame:
@@ -61,6 +64,21 @@ class HttpCameraFeed(CameraFeed):
 
     def _too_large(self) -> str:
         return f"the vision node's frame is larger than {self.max_bytes} bytes ({self.url})"
+
+    async def health(self) -> VisionHealth:
+        """The vision node's own ``/healthz`` (503 = degraded, e.g. no frames)."""
+        try:
+            response = await self._client.get(self.health_url)
+        except httpx.HTTPError as exc:
+            return VisionHealth(
+                "unreachable", f"the vision node is not reachable ({self.health_url}): {exc}"
+            )
+        if response.status_code == 200:
+            return VisionHealth("ok")
+        return VisionHealth(
+            "degraded",
+            f"the vision node reports {response.status_code}: {response.text[:200]}",
+        )
 
     async def aclose(self) -> None:
         await self._client.aclose()

@@ -77,6 +77,11 @@ class ToolBackend(abc.ABC):
     def add_connect_listener(self, listener: ServerListener) -> None:
         """``listener(server)`` runs whenever a server (re)connects (§5.4 reconciliation)."""
 
+    @abc.abstractmethod
+    def add_disconnect_listener(self, listener: ServerListener) -> None:
+        """``listener(server)`` runs when a connected server is lost (its health check or a
+        call failed): live tasks there cannot report until it is back."""
+
     def has_tool(self, name: str) -> bool:
         return any(tool.name == name for tool in self.list_tools())
 

@@ -25,6 +25,7 @@ class FakeToolBackend(ToolBackend):
         self._definitions: dict[str, ToolDefinition] = {}
         self.calls: list[tuple[str, dict[str, Any]]] = []
         self.listeners: list[ServerListener] = []
+        self.lost_listeners: list[ServerListener] = []
         self.states: dict[str, ConnectionState] = dict.fromkeys(self._servers, "connected")
 
     def add(self, name: str, handler: Handler, description: str = "", **props: Any) -> None:
@@ -71,5 +72,14 @@ class FakeToolBackend(ToolBackend):
         self.listeners.append(listener)
 
     async def reconnected(self, server: str) -> None:
+        self.states[server] = "connected"
         for listener in self.listeners:
+            await listener(server)
+
+    def add_disconnect_listener(self, listener: ServerListener) -> None:
+        self.lost_listeners.append(listener)
+
+    async def disconnected(self, server: str) -> None:
+        self.states[server] = "disconnected"
+        for listener in self.lost_listeners:
             await listener(server)

@@ -3,7 +3,8 @@
 One supervisor task per server owns its ClientSession (anyio contexts are entered and left in
 the same task). It connects, lists tools, health-checks with ``list_tools`` and, when a
 connection fails or drops, retries every ``reconnect_interval_s`` — servers may start in any
-order and restart at any time. Every (re)connect runs the connect listeners (§5.4).
+order and restart at any time. Every (re)connect runs the connect listeners (§5.4), every
+loss of a connected server the disconnect listeners (a mission told its server is gone).
 """
 
 from __future__ import annotations
@@ -73,6 +74,7 @@ class McpToolBackend(ToolBackend):
         self._reconnect_interval_s = reconnect_interval_s
         self._health_interval_s = health_interval_s
         self._listeners: list[ServerListener] = []
+        self._lost_listeners: list[ServerListener] = []
         self._closing = False
         self._listener_tasks: set[asyncio.Task[None]] = set()
 
@@ -88,6 +90,9 @@ class McpToolBackend(ToolBackend):
 
     def add_connect_listener(self, listener: ServerListener) -> None:
         self._listeners.append(listener)
+
+    def add_disconnect_listener(self, listener: ServerListener) -> None:
+        self._lost_listeners.append(listener)
 
     async def call_tool(
         self, name: str, arguments: dict[str, object], timeout_s: float | None = None
@@ -179,16 +184,18 @@ class McpToolBackend(ToolBackend):
                     ]
                     conn.session, conn.state = session, "connected"
                     logger.info("mcp_server_connected", server=name, tools=len(conn.tools))
-                    self._notify(name)
+                    self._notify(name, self._listeners)
                     await self._health_loop(conn, session)
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
                 logger.warning("mcp_server_unavailable", server=name, error=_describe(exc))
             finally:
-                if conn.state == "connected":
-                    logger.warning("mcp_server_disconnected", server=name)
+                lost = conn.state == "connected"
                 conn.session, conn.state = None, "disconnected"
+                if lost and not self._closing:
+                    logger.warning("mcp_server_disconnected", server=name)
+                    self._notify(name, self._lost_listeners)
             if self._closing:
                 break
             conn.wake.clear()
@@ -205,8 +212,8 @@ class McpToolBackend(ToolBackend):
             async with asyncio.timeout(self._connect_timeout_s):
                 await session.list_tools()
 
-    def _notify(self, server: str) -> None:
-        for listener in self._listeners:
+    def _notify(self, server: str, listeners: list[ServerListener]) -> None:
+        for listener in listeners:
             task = asyncio.create_task(self._run_listener(listener, server))
             self._listener_tasks.add(task)
             task.add_done_callback(self._listener_tasks.discard)

@@ -29,6 +29,8 @@ from robot_voice_chat.services.llm.base import (
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.program import (
+    NAVIGATE,
+    TASK_EVENT,
     Act,
     Call,
     MissionProgram,
@@ -36,6 +38,7 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
+from robot_voice_chat.services.llm.rules.surface import task_id_of
 
 logger = structlog.get_logger(__name__)
 PAUSED_MARK = "mission is paused"
@@ -127,7 +130,9 @@ class RulesPlanner(LLMProvider):
         resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
         command = parse(instruction.content)
         logger.info("rules_planner_mission", understood=command.describe(), resumed=resumed)
-        program = MissionProgram(command, tools, self.settings, resumed=resumed).run()
+        program = MissionProgram(
+            command, tools, self.settings, resumed=resumed, own_drives=_drives_started(messages)
+        ).run()
         self._serial += 1
         session = _Session(program=program, seen=len(messages), serial=self._serial)
         self._sessions[key] = session
@@ -147,6 +152,27 @@ class RulesPlanner(LLMProvider):
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> AsyncIterator[StreamEvent]:
         yield StreamEvent(response=await self.chat(messages, tools))
+
+
+def _drives_started(messages: list[Message]) -> set[str]:
+    """Task ids of the drives this conversation started (by any planner) and not seen end."""
+    calls = {
+        c.id for m in messages if m.role == "assistant" for c in m.tool_calls if c.name == NAVIGATE
+    }
+    started = {
+        task_id
+        for m in messages
+        for r in m.tool_results
+        if r.tool_call_id in calls and not r.is_error and (task_id := task_id_of(r.content))
+    }
+    ended = {
+        match["id"]
+        for m in messages
+        if m.role == "user"
+        for line in m.content.splitlines()
+        if (match := TASK_EVENT.match(line.strip())) is not None and match["kind"] != "watch_event"
+    }
+    return started - ended
 
 
 def _tool_call(call: Call, call_id: str) -> ToolCall:

@@ -29,19 +29,23 @@ from robot_voice_chat.services.llm.rules.surface import (
 NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"
 GET_TASK = "navigation.get_task"
-STOP_NAVIGATION = "navigation.stop_navigation"
+CANCEL_TASK = "navigation.cancel_task"
 INSTANTIATE = "skill_control.instantiate_skill"
 PREWARM = "skill_control.prewarm_skill"
 STOP_SKILL = "skill_control.stop_skill"
+LIST_SKILLS = "skill_control.list_running_skills"
 WAIT_RESULT = "perception.wait_for_result"
 WHAT_DO_YOU_SEE = "perception.what_do_you_see"
 UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
     "fetch <thing> from <place>"
 )
-_EVENT = re.compile(
+TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
+USER_TURN = "[user] "  # a mid-mission turn as the executor posts it
+_SERVER_LOST = re.compile(r"^\[server (?P<server>\S+)\] unreachable: tasks (?P<ids>.+?) cannot")
+_SERVER_BACK = re.compile(r"^\[server (?P<server>\S+)\] back\b")
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")
 _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
@@ -97,7 +101,8 @@ class _Step:
 
 
 class MissionProgram:
-    """One mission's program; ``resumed`` = taking over a conversation another planner began."""
+    """One mission's program; ``resumed`` = taking over a conversation another planner began,
+    ``own_drives`` = the drives that conversation started and that may still run."""
 
     def __init__(
         self,
@@ -105,6 +110,7 @@ class MissionProgram:
         tools: list[ToolDefinition],
         settings: Settings | None = None,
         resumed: bool = False,
+        own_drives: set[str] | None = None,
     ) -> None:
         self.command = command
         self.tools = tools
@@ -117,6 +123,12 @@ class MissionProgram:
         self.reactions_fired: list[str] = []
         self.planned = False
         self.extra_steps = 0
+        # drives this mission started (also those of a planner it took over from)
+        self.own_drives: set[str] = set(own_drives or ())
+        self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
+        self.doing = ""  # what the robot is busy with, for those answers
+        self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
+        self.timeouts = 0  # "[timeout] still waiting" wakeups seen
 
     # --- plumbing --------------------------------------------------------------------------
     def run(self) -> Program:
@@ -132,15 +144,35 @@ class MissionProgram:
                 yield Act(calls)
 
     def act(self, *calls: Call, text: str = "") -> Steps:
-        observation: Observation = yield Act(list(calls), text)
+        """One planner step; a person who spoke since the last one is answered with it (a
+        brief ``say``, spec §5.1), and the callers see the results of their own calls only."""
+        answer = [Call("say", {"text": self.busy_answer()})] if self.user_turns else []
+        self.user_turns.clear()
+        observation: Observation = yield Act([*answer, *calls], text)
         self.absorb(observation)
-        return observation.results
+        return observation.results[len(answer) :]
+
+    def busy_answer(self) -> str:
+        heard = self.user_turns[-1]
+        doing = self.doing or f"working on: {self.command.text.strip()}"
+        return (
+            f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
+            "mission: say stop to halt me, then give me the new task."
+        )
 
     def absorb(self, observation: Observation) -> None:
         for line in observation.lines:
-            match = _EVENT.match(line.strip())
+            match = TASK_EVENT.match(line.strip())
             if match is not None:
                 self.terminal[match["id"]] = Outcome(match["kind"], line.strip())
+            elif line.startswith(USER_TURN):
+                self.user_turns.append(line.removeprefix(USER_TURN).strip())
+            elif (lost := _SERVER_LOST.match(line.strip())) is not None:
+                self.unreachable[lost["server"]] = set(lost["ids"].split(", "))
+            elif (back := _SERVER_BACK.match(line.strip())) is not None:
+                self.unreachable.pop(back["server"], None)
+            elif line.startswith("[timeout]"):
+                self.timeouts += 1
             elif line.startswith("[reaction]"):
                 self.reactions_fired.append(line)
         if observation.paused_reply is not None:
@@ -218,7 +250,7 @@ class MissionProgram:
 
     def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
         """Drive to ``place``; on a failure try its suggestions in order, then give up."""
-        route, tried, legs = [place], set[str](), 0
+        route, tried, retried, legs = [place], set[str](), set[str](), 0
         current, before = step_id, [self.plan_call()] if not self.planned else []
         while route:
             leg = route[0]
@@ -238,13 +270,8 @@ class MissionProgram:
                 current = self._add_step(current, f"Resume the drive to the {leg}")
                 before = [self.plan_call()]
                 continue
-            if (
-                result.is_error
-                and "BUSY" in result.content
-                and has_tool(self.tools, STOP_NAVIGATION)
-            ):
-                yield from self.act(Call(STOP_NAVIGATION))  # a drive begun by another planner
-                result = (yield from self.act(Call(NAVIGATE, args)))[0]
+            if result.is_error and "BUSY" in result.content:
+                result = yield from self._replace_own_drive(leg, args)
             if result.is_error:
                 raise _Finished(
                     "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
@@ -252,6 +279,7 @@ class MissionProgram:
             task_id = task_id_of(result.content)
             if task_id is None:
                 raise _Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+            self.own_drives.add(task_id)
             outcome = yield from self._await(task_id, f"driving to the {leg}")
             if outcome.kind == "done":
                 route.pop(0)
@@ -272,6 +300,14 @@ class MissionProgram:
                 ),
                 None,
             )
+            if detour is None and failure.retry_suggested and leg not in retried:
+                # once per leg: the same drive again is what the server advises, and the base
+                # is not busy (its task ended); a second such failure gives up below
+                retried.add(leg)
+                current = self._add_step(current, f"Retry the drive to the {leg}")
+                said = f"{failure.message or failure.code}. I'll try the drive once more."
+                before = [self.plan_call(), Call("say", {"text": said})]
+                continue
             if detour is None:
                 advice = "; ".join(failure.suggestions)
                 raise _Finished(
@@ -284,6 +320,21 @@ class MissionProgram:
             current = self._add_step(current, f"Detour via the {route[0]}")
             said = f"{failure.message or failure.code} I'll {suggestion}."
             before = [self.plan_call(), Call("say", {"text": said})]
+
+    def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
+        """The base is busy. Only a drive of this mission (begun before a planner takeover)
+        is cancelled and replaced; a drive someone else started is never stopped here."""
+        mine = sorted(t for t in self.own_drives if t not in self.terminal)
+        if not mine or not has_tool(self.tools, CANCEL_TASK):
+            raise _Finished(
+                "failed",
+                f"I couldn't drive to the {leg}: the robot is already driving on a task this "
+                "mission did not start, and I won't stop someone else's drive. Say stop to "
+                "halt it, then ask me again.",
+            )
+        yield from self.act(*(Call(CANCEL_TASK, {"task_id": t}) for t in mine))
+        self.own_drives.difference_update(mine)
+        return (yield from self.act(Call(NAVIGATE, args)))[0]
 
     def _add_step(self, after: str, title: str) -> str:
         """A new drive step right after ``after``: s1 → s1b, s1c, … (ids never reused)."""
@@ -310,7 +361,19 @@ class MissionProgram:
         )
 
     def _await(self, task_id: str, reason: str) -> Steps:
+        self.doing = reason
+        timeouts = self.timeouts
         while True:
+            lost = next((srv for srv, ids in self.unreachable.items() if task_id in ids), None)
+            if lost is None:
+                timeouts = self.timeouts
+            elif self.timeouts > timeouts:  # a whole wakeup period and it is still gone
+                raise _Finished(
+                    "failed",
+                    f"I lost contact with the {lost} server while {reason} and it has not "
+                    "come back, so I can't tell or control what that task does; I stopped "
+                    "waiting. Check that server, then ask me again.",
+                )
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
             answer = self._take_pause_answer()
@@ -352,10 +415,12 @@ class MissionProgram:
         match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: (.*))?$", line)
         if match is None:
             return Failure("FAILED", line, [])
-        return Failure(match[1], match[2], [match[3]] if match[3] else [])
+        suggestions = [match[3]] if match[3] else []
+        return Failure(match[1], match[2], suggestions, recoverable="(recoverable)" in line)
 
     def _look_for(self, obj: str, step_id: str) -> Steps:
         """instantiate find_object → wait_for_result → stop; the labels found ('' if none)."""
+        self.doing = f"looking for the {obj}"
         index = next(i for i, s in enumerate(self.steps) if s.id == step_id)
         read, stop = self.steps[index + 1].id, self.steps[index + 2].id
         [started] = yield from self.act(
@@ -378,16 +443,31 @@ class MissionProgram:
                 {"step_id": read, "skill": skill, "timeout_s": self.settings.find_timeout_s},
             )
         )
+        down = (yield from self._vision_down()) if seen.is_error else None
         stops = [Call(STOP_SKILL, {"step_id": stop, "skill_id": skill})]
         if any(PREWARM in line for line in self.reactions_fired):
             stops.append(Call(STOP_SKILL, {"skill_id": "prewarm_find_object"}))
         yield from self.act(*stops)
+        if down is not None:  # not "I couldn't see it": the camera could not look at all
+            raise _Finished(
+                "failed",
+                f"I couldn't look for the {obj}: the camera/vision is unavailable ({down}).",
+            )
         if seen.is_error:
             return ""
         return _labels(as_json(seen.content))
 
+    def _vision_down(self) -> Steps:
+        """After a wait with no result: is the vision node reachable at all? The reason if
+        not (skill_control cannot reach it), else None (it runs: nothing was seen)."""
+        if not has_tool(self.tools, LIST_SKILLS):
+            return None
+        [listed] = yield from self.act(Call(LIST_SKILLS))
+        return error_of(listed.content) if listed.is_error else None
+
     def _see(self) -> Steps:
         self.needs(WHAT_DO_YOU_SEE)
+        self.doing = "looking around"
         self.steps = [
             _Step(self.step_id(1), "Check what the camera sees", WHAT_DO_YOU_SEE),
             _Step(self.step_id(2), "Tell the user", None),
@@ -434,6 +514,12 @@ class MissionProgram:
                 yield from self.act(Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}))
                 fresh_data = as_json(fresh.content) if not fresh.is_error else None
                 text = _scene_text(fresh_data) if isinstance(fresh_data, dict) else ""
+                down = (yield from self._vision_down()) if fresh.is_error else None
+                if down is not None:
+                    raise _Finished(
+                        "failed",
+                        f"I can't look right now: the camera/vision is unavailable ({down}).",
+                    )
         if not text:
             raise _Finished(
                 "failed", "I can't tell what I see right now: the camera gave me nothing."

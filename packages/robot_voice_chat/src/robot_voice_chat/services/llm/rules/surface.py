@@ -75,11 +75,20 @@ def error_of(text: str) -> str:
     return text[:300]
 
 
+_RETRY = re.compile(r"^retry(?:[\s,(]|$)")  # "retry", "retry (…)": not "retry_after_s:300"
+
+
 @dataclass
 class Failure:
     code: str
     message: str
     suggestions: list[str]
+    recoverable: bool = False
+
+    @property
+    def retry_suggested(self) -> bool:
+        """The server says the same call may simply be made again (e.g. SERVER_RESTARTED)."""
+        return self.recoverable and any(_RETRY.match(s.strip().lower()) for s in self.suggestions)
 
     @classmethod
     def from_task_info(cls, text: str) -> Failure | None:
@@ -93,6 +102,7 @@ class Failure:
             code=str(error.get("error_code", "FAILED")),
             message=str(error.get("message", "")),
             suggestions=[str(s) for s in suggestions] if isinstance(suggestions, list) else [],
+            recoverable=error.get("recoverable") is True,
         )
 
 

@@ -24,7 +24,11 @@ OFFICE_LOCATIONS = [
         "description": "Reception desk, usually staffed during office hours.",
         "aliases": ["front_desk", "reception_desk"],
     },
-    {"name": "kitchen", "description": "Kitchen with the coffee machine and the fridge.", "aliases": []},
+    {
+        "name": "kitchen",
+        "description": "Kitchen with the coffee machine and the fridge.",
+        "aliases": [],
+    },
     {
         "name": "corridor_b",
         "description": "East corridor; leads to the mailroom's east entrance.",
@@ -46,7 +50,10 @@ Reader = Callable[[str], list[str]]
 
 
 def load_set(path: Path) -> list[tuple[str, list[str]]]:
-    return [(str(text), [str(e) for e in expected]) for text, expected in yaml.safe_load(path.read_text())]
+    return [
+        (str(text), [str(e) for e in expected])
+        for text, expected in yaml.safe_load(path.read_text())
+    ]
 
 
 def intent_of(expected: list[str]) -> str:

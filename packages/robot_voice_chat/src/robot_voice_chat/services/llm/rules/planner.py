@@ -26,7 +26,6 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     ToolResult,
 )
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.program import (
     Act,
@@ -36,6 +35,9 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
+from robot_voice_chat.services.llm.rules.commands import parse
+from robot_voice_chat.services.llm.understanding.legs import legs_of
+from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 logger = structlog.get_logger(__name__)
 PAUSED_MARK = "mission is paused"
@@ -87,7 +89,9 @@ class RulesPlanner(LLMProvider):
         find_timeout_s: float = 20.0,
         max_legs: int = 6,
         max_sessions: int = 16,
+        understanding: Understanding | None = None,
     ) -> None:
+        self.understanding = understanding or Understanding()
         self.settings = Settings(prewarm, eta_trigger_s, find_timeout_s, max_legs)
         self._sessions: OrderedDict[str, _Session] = OrderedDict()
         self._max_sessions = max_sessions
@@ -125,9 +129,17 @@ class RulesPlanner(LLMProvider):
         if session is not None and session.seen <= len(messages) + 1:
             return session
         resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
-        command = parse(instruction.content)
-        logger.info("rules_planner_mission", understood=command.describe(), resumed=resumed)
-        program = MissionProgram(command, tools, self.settings, resumed=resumed).run()
+        reading = self.understanding.understand(instruction.content)
+        legs, refusal = legs_of(reading, instruction.content)
+        logger.info(
+            "rules_planner_mission",
+            understood=[leg.describe() for leg in legs] or reading.code(),
+            stage=reading.stage,
+            resumed=resumed,
+        )
+        program = MissionProgram(
+            legs or [parse(instruction.content)], tools, self.settings, resumed, refusal
+        ).run()
         self._serial += 1
         session = _Session(program=program, seen=len(messages), serial=self._serial)
         self._sessions[key] = session

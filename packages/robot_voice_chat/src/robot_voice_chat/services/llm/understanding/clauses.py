@@ -57,7 +57,9 @@ def without_verb(text: str, verbs: list[str]) -> tuple[str, bool]:
     return text, False
 
 
-_SEARCH_IN = re.compile(r"^(?:search|check|look\s+in|look\s+through|go\s+through)\s+(?P<place>.+?)\s+for\s+(?P<obj>.+)$")
+_SEARCH_IN = re.compile(
+    r"^(?:search|check|look\s+in|look\s+through|go\s+through)\s+(?P<place>.+?)\s+for\s+(?P<obj>.+)$"
+)
 _OBJ_IN = re.compile(r"^(?P<obj>.+?)\s+(?:is\s+|are\s+)?(?:in|at|inside|on)\s+(?P<place>.+)$")
 _FETCH = re.compile(
     r"^(?P<obj>.+?)\s+(?:from|at|in|out\s+of)\s+(?P<place>.+?)"

@@ -50,7 +50,7 @@ class WordLlamaEmbedder(Embedder):
             )
         except Exception as exc:  # noqa: BLE001 - the library raises plain Exceptions
             raise EmbedderUnavailable(f"can't load the wordllama weights: {exc}") from exc
-        logger.info(
+        logger.debug(
             "understanding_model_loaded",
             model=self.name,
             duration_ms=round((time.monotonic() - started) * 1000, 1),

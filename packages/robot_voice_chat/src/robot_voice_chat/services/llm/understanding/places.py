@@ -123,7 +123,5 @@ class PlaceIndex:
         spelled = set(" ".join(place.spellings()).split())
         bag = place.bag()
         rest = [w for w in words(phrase) if w not in _STOP and w not in spelled]
-        fits = [
-            stem(w) in bag or any(x in bag for x in self.place_words.get(w, [])) for w in rest
-        ]
+        fits = [stem(w) in bag or any(x in bag for x in self.place_words.get(w, [])) for w in rest]
         return all(fits) and len(rest) <= 2

@@ -236,7 +236,9 @@ class Understanding:
             previous = actions[-1] if actions else None
             if leg.status == "bare" and previous is not None and previous.kind != "goto":
                 leg.status = "unclear"
-            if leg.status == "deliver" or (leg.status != "ok" and leg.slot == "to" and leg.intent == "deliver"):
+            if leg.status == "deliver" or (
+                leg.status != "ok" and leg.slot == "to" and leg.intent == "deliver"
+            ):
                 if previous is None or previous.kind != "fetch" or previous.to is not None:
                     leg.status = "unclear"
                     problems.append((len(actions), leg))
@@ -271,12 +273,20 @@ class Understanding:
         base = Reading("act", actions, intent=intent, score=score, stage=stage)
         if not problems:
             return base
-        return replace(self._problem(text, actions, problems, places), intent=intent, score=score, stage=stage)
+        return replace(
+            self._problem(text, actions, problems, places), intent=intent, score=score, stage=stage
+        )
 
     def _problem(
-        self, text: str, actions: list[Action], problems: list[tuple[int, _Leg]], places: PlaceIndex | None
+        self,
+        text: str,
+        actions: list[Action],
+        problems: list[tuple[int, _Leg]],
+        places: PlaceIndex | None,
     ) -> Reading:
-        hard = [(i, leg) for i, leg in problems if leg.status in ("unclear", "unknown_place", "deliver")]
+        hard = [
+            (i, leg) for i, leg in problems if leg.status in ("unclear", "unknown_place", "deliver")
+        ]
         if len(problems) == 1:
             index, leg = problems[0]
             if leg.status == "ambiguous":
@@ -302,7 +312,11 @@ class Understanding:
             else f"I didn't understand {leg.text!r}."
             for _, leg in hard
         )
-        sure_actions = [a for a in actions if a.place is None or places is None or places.get(a.place) or a.kind != "goto"]
+        sure_actions = [
+            a
+            for a in actions
+            if a.place is None or places is None or places.get(a.place) or a.kind != "goto"
+        ]
         plan = spoken_of(actions)
         if hard:
             question = (
@@ -315,7 +329,9 @@ class Understanding:
             question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
         )
 
-    def _choose(self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None) -> Question:
+    def _choose(
+        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
+    ) -> Question:
         labels = [_label(n, places) for n in leg.options]
         listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
         what = f"'{leg.phrase}'" if leg.phrase else "that"
@@ -329,13 +345,25 @@ class Understanding:
             slot=leg.slot,
         )
 
-    def _fill(self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None) -> Question:
+    def _fill(
+        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
+    ) -> Question:
         action = actions[index]
         if leg.slot == "obj":
-            verb = "watch for" if action.kind == "watch" else "look for" if action.kind == "find" else "get"
+            verb = (
+                "watch for"
+                if action.kind == "watch"
+                else "look for"
+                if action.kind == "find"
+                else "get"
+            )
             return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
         known = f" I know: {', '.join(places.known())}." if places and places.places else ""
-        ask = "Where should I go?" if action.kind == "goto" else f"Where should I get the {action.obj} from?"
+        ask = (
+            "Where should I go?"
+            if action.kind == "goto"
+            else f"Where should I get the {action.obj} from?"
+        )
         return Question(ask + known, "fill", actions, index=index, slot="place")
 
     def _unknown_place(self, phrase: str, places: PlaceIndex | None) -> str:
@@ -343,10 +371,18 @@ class Understanding:
         return f"I don't know a place called {phrase!r}. I know: {known}."
 
     def _unclear(self, text: str) -> Reading:
-        return Reading("refuse", text=f"I didn't understand {text.strip()!r}.", intent="unclear", score=0.0, stage="semantic")
+        return Reading(
+            "refuse",
+            text=f"I didn't understand {text.strip()!r}.",
+            intent="unclear",
+            score=0.0,
+            stage="semantic",
+        )
 
     # --- the answer to a question we asked --------------------------------------------------
-    def follow_up(self, question: Question, answer: str, places: PlaceIndex | None) -> Reading | None:
+    def follow_up(
+        self, question: Question, answer: str, places: PlaceIndex | None
+    ) -> Reading | None:
         """The request completed by ``answer``; a cancel; or None (not an answer: read it as a
         new request)."""
         text = cl.tidy(cl.normalise(answer))
@@ -368,7 +404,11 @@ class Understanding:
         if places is None:
             return Reading("act", question.complete(cl.strip_article(text)), stage="answer")
         match = places.resolve(cl.strip_article(re.sub(r"^(?:to|go to)\s+", "", text)))
-        return Reading("act", question.complete(match.names[0]), stage="answer") if match.sure else None
+        return (
+            Reading("act", question.complete(match.names[0]), stage="answer")
+            if match.sure
+            else None
+        )
 
 
 def _ordinal(text: str, options: list[str]) -> str | None:
@@ -385,7 +425,19 @@ def _label(name: str, places: PlaceIndex | None) -> str:
 
 def _has_verb(part: str, intents: dict[str, object]) -> bool:
     first = key(part).split(" ", 1)[0]
-    return first in {"go", "drive", "find", "look", "search", "bring", "fetch", "get", "take", "watch", "check"}
+    return first in {
+        "go",
+        "drive",
+        "find",
+        "look",
+        "search",
+        "bring",
+        "fetch",
+        "get",
+        "take",
+        "watch",
+        "check",
+    }
 
 
 def codes(actions: list[Action]) -> list[str]:

@@ -29,7 +29,9 @@ async def _turn(chat: RulesChat, history: list[Message], text: str) -> LLMRespon
         first.as_message(),
         Message(
             role="user",
-            tool_results=[ToolResult(tool_call_id=first.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)],
+            tool_results=[
+                ToolResult(tool_call_id=first.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)
+            ],
         ),
     ]
     reply = await chat.chat(messages, TOOLS)
@@ -37,7 +39,9 @@ async def _turn(chat: RulesChat, history: list[Message], text: str) -> LLMRespon
     return reply
 
 
-async def test_a_sequence_goes_to_the_planner_with_every_leg_in_order(understanding: Understanding) -> None:
+async def test_a_sequence_goes_to_the_planner_with_every_leg_in_order(
+    understanding: Understanding,
+) -> None:
     reply = await _turn(RulesChat(understanding), [], "Go to the kitchen and then to reception")
     [call] = reply.tool_calls
     assert call.name == "start_mission"
@@ -47,7 +51,9 @@ async def test_a_sequence_goes_to_the_planner_with_every_leg_in_order(understand
 async def test_ask_then_answer_then_act(understanding: Understanding) -> None:
     chat, history = RulesChat(understanding), []
     question = await _turn(chat, history, "go to the desk")
-    assert not question.tool_calls and "desk alice" in question.text and "desk bob" in question.text
+    assert not question.tool_calls
+    assert "desk alice" in question.text
+    assert "desk bob" in question.text
     reply = await _turn(chat, history, "Bob's")
     [call] = reply.tool_calls
     assert call.arguments["instruction"] == "go to desk_bob"
@@ -56,9 +62,11 @@ async def test_ask_then_answer_then_act(understanding: Understanding) -> None:
 async def test_never_mind_cancels_the_question(understanding: Understanding) -> None:
     chat, history = RulesChat(understanding), []
     question = await _turn(chat, history, "go to the kitchen then sing a song")
-    assert not question.tool_calls and "(yes or no)" in question.text
+    assert not question.tool_calls
+    assert "(yes or no)" in question.text
     reply = await _turn(chat, history, "never mind")
-    assert not reply.tool_calls and "won't do anything" in reply.text
+    assert not reply.tool_calls
+    assert "won't do anything" in reply.text
     after = await _turn(chat, history, "yes")  # nothing pending any more: no action
     assert not after.tool_calls
 
@@ -66,14 +74,19 @@ async def test_never_mind_cancels_the_question(understanding: Understanding) -> 
 async def test_a_partial_sequence_is_confirmed_as_a_whole(understanding: Understanding) -> None:
     chat, history = RulesChat(understanding), []
     question = await _turn(chat, history, "go to the kitchen and then to the garage")
-    assert "garage" in question.text and not question.tool_calls
+    assert "garage" in question.text
+    assert not question.tool_calls
     reply = await _turn(chat, history, "yes")
     assert reply.tool_calls[0].arguments["instruction"] == "go to kitchen"
 
 
-async def test_an_unknown_place_is_refused_naming_the_known_ones(understanding: Understanding) -> None:
+async def test_an_unknown_place_is_refused_naming_the_known_ones(
+    understanding: Understanding,
+) -> None:
     reply = await _turn(RulesChat(understanding), [], "go to the garage")
-    assert not reply.tool_calls and "garage" in reply.text and "mailroom" in reply.text
+    assert not reply.tool_calls
+    assert "garage" in reply.text
+    assert "mailroom" in reply.text
 
 
 async def test_questions_are_answered_from_the_tools(understanding: Understanding) -> None:

@@ -50,10 +50,15 @@ def test_set_a_per_intent_floors(understanding: Understanding) -> None:
 
 def test_sets_are_big_enough_and_the_grammar_alone_acted_wrongly() -> None:
     set_a, set_b = load_set(DATA / "set_a.yaml"), load_set(DATA / "set_b.yaml")
-    assert len(set_a) >= 150 and len(set_b) >= 60
+    assert len(set_a) >= 150
+    assert len(set_b) >= 60
     before = score(set_a, grammar_reader)
     assert before.wrong  # e.g. "go to the kitchen and then to reception" drove to reception only
-    assert ("Go to the kitchen and then to reception", ["goto:kitchen", "goto:reception"], ["goto:reception"]) in before.wrong
+    assert (
+        "Go to the kitchen and then to reception",
+        ["goto:kitchen", "goto:reception"],
+        ["goto:reception"],
+    ) in before.wrong
 
 
 def test_wrong_action_definition() -> None:

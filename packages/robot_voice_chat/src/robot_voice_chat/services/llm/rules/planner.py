@@ -26,6 +26,7 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     ToolResult,
 )
+from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.program import (
     Act,
@@ -35,7 +36,6 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.understanding.legs import legs_of
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 

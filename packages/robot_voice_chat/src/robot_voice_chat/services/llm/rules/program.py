@@ -16,7 +16,6 @@ from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
     Locations,
@@ -26,6 +25,7 @@ from robot_voice_chat.services.llm.rules.surface import (
     has_tool,
     task_id_of,
 )
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 
 NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"

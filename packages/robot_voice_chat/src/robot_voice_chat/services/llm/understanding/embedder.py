@@ -38,7 +38,7 @@ class WordLlamaEmbedder(Embedder):
     def __init__(self) -> None:
         started = time.monotonic()
         try:
-            import wordllama
+            import wordllama  # type: ignore[import-untyped]
             from wordllama import WordLlama
         except ImportError as exc:  # pragma: no cover - a declared dependency
             raise EmbedderUnavailable(
@@ -48,7 +48,7 @@ class WordLlamaEmbedder(Embedder):
             self._model = WordLlama.load(
                 cache_dir=Path(wordllama.__file__).parent, disable_download=True
             )
-        except Exception as exc:  # noqa: BLE001 - the library raises plain Exceptions
+        except Exception as exc:
             raise EmbedderUnavailable(f"can't load the wordllama weights: {exc}") from exc
         logger.debug(
             "understanding_model_loaded",

@@ -87,7 +87,7 @@ class Question:
 
     def complete(self, value: str) -> list[Action]:
         actions = list(self.actions)
-        actions[self.index] = replace(actions[self.index], **{self.slot: value})
+        actions[self.index] = _with(actions[self.index], self.slot, value)
         return actions
 
 
@@ -108,3 +108,11 @@ class Reading:
         if self.kind == "answer":
             return [f"answer:{self.topic}"]
         return [self.kind]
+
+
+def _with(action: Action, slot: str, value: str) -> Action:
+    if slot == "obj":
+        return replace(action, obj=value)
+    if slot == "to":
+        return replace(action, to=value)
+    return replace(action, place=value)

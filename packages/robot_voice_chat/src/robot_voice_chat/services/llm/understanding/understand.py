@@ -10,7 +10,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
-import numpy as np
 import structlog
 
 from robot_voice_chat.services.llm.rules.commands import parse
@@ -20,8 +19,10 @@ from robot_voice_chat.services.llm.understanding.intents import load_intents
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, key
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
+    ActionKind,
     Question,
     Reading,
+    _with,
     spoken_of,
 )
 
@@ -121,7 +122,7 @@ class Understanding:
             return replace(self._unclear(part), intent=intent, score=score, stage="semantic")
         if info.kind == "stop":
             return Reading("stop", intent=intent, score=score, stage="semantic")
-        kind = "greet" if intent == "greet" else "answer"
+        kind: Literal["greet", "answer"] = "greet" if intent == "greet" else "answer"
         return Reading(kind, topic=intent, intent=intent, score=score, stage="answer")
 
     def _scores(self, part: str) -> dict[str, float]:
@@ -150,7 +151,8 @@ class Understanding:
     def _leg(self, part: str, places: PlaceIndex | None) -> _Leg:
         command = parse(part)
         if command.kind != "unknown":
-            action = Action(command.kind, command.place, command.obj)  # type: ignore[arg-type]
+            kind: ActionKind = command.kind
+            action = Action(kind, command.place, command.obj)
             if command.kind == "fetch":
                 obj, source, to = cl.fetch_slots(part, self.intents.intents["fetch"].verbs)
                 action = Action("fetch", source or command.place, obj or command.obj, to)
@@ -219,9 +221,10 @@ class Understanding:
                 continue
             match = places.resolve(phrase)
             if match.sure:
-                action = replace(action, **{slot: match.names[0]})
+                action = _with(action, slot, match.names[0])
                 continue
-            leg.slot, leg.phrase = slot, cl.strip_article(phrase)  # type: ignore[assignment]
+            leg.slot = "place" if slot == "place" else "to"
+            leg.phrase = cl.strip_article(phrase)
             leg.status = "ambiguous" if match.names else "unknown_place"
             leg.options = match.names
             break
@@ -268,7 +271,9 @@ class Understanding:
             else:
                 problems.append((len(actions), leg))
         score = min((leg.score for leg in legs), default=1.0)
-        stage = "grammar" if all(leg.stage == "grammar" for leg in legs) else "semantic"
+        stage: Literal["grammar", "semantic"] = (
+            "grammar" if all(leg.stage == "grammar" for leg in legs) else "semantic"
+        )
         intent = "+".join(leg.intent or "?" for leg in legs)
         base = Reading("act", actions, intent=intent, score=score, stage=stage)
         if not problems:
@@ -438,11 +443,3 @@ def _has_verb(part: str, intents: dict[str, object]) -> bool:
         "watch",
         "check",
     }
-
-
-def codes(actions: list[Action]) -> list[str]:
-    return [a.code() for a in actions]
-
-
-def _unused(_: np.ndarray) -> None:  # pragma: no cover
-    pass

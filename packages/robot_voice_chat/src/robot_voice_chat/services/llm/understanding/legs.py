@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.program import UNDERSTOOD
 from robot_voice_chat.services.llm.understanding.reading import Reading
 
 
@@ -13,6 +14,6 @@ def legs_of(reading: Reading, text: str) -> tuple[list[Command], str | None]:
         return legs, None
     if reading.kind == "ask" and reading.question is not None:
         return [], f"I won't act on a guess: {reading.question.text}"
-    if reading.kind == "refuse" and reading.text:
-        return [], f"I can't do that offline: {reading.text}"
-    return [], f"I can't do that offline: I didn't understand {text.strip()!r}."
+    said = reading.text if reading.kind == "refuse" and reading.text else ""
+    said = said or f"I didn't understand {text.strip()!r}."
+    return [], f"I can't do that offline: {said} Offline I understand: {UNDERSTOOD}."

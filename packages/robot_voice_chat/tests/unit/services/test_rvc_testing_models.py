@@ -29,7 +29,7 @@ def test_the_rules_chat_answers_an_openai_request_with_wire_names() -> None:
     answer = respond(body)
     assert answer["content"] is None
     assert answer["tool_calls"][0]["name"] == "start_mission"
-    assert answer["tool_calls"][0]["arguments"]["ack"] == "On my way to the kitchen."
+    assert answer["tool_calls"][0]["arguments"]["ack"] == "OK, I'll go to the kitchen."
 
 
 def test_openai_tool_messages_become_one_user_turn_of_results() -> None:

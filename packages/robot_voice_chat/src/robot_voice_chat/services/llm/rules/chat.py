@@ -124,7 +124,10 @@ class RulesChat(LLMProvider):
                 if reading.kind == "cancel" or "I know:" in reading.text
                 else f" I can {UNDERSTOOD}."
             )
-            return LLMResponse(text=reading.text + more)
+            offline = (
+                "I can't do that offline: " if reading.intent in ("unclear", "out_of_scope") else ""
+            )
+            return LLMResponse(text=offline + reading.text + more)
         return LLMResponse(
             text=f"I can't do that offline: I didn't understand {text.strip()!r}. {INTRO}"
         )

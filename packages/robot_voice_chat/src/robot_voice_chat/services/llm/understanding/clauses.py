@@ -74,11 +74,11 @@ def find_slots(text: str, verbs: list[str]) -> tuple[str | None, str | None]:
     """(object, place phrase) of a find/search leg."""
     match = _SEARCH_IN.match(text)
     if match is not None:
-        return strip_article(match["obj"]) or None, match["place"]
+        return strip_article(match["obj"]) or None, strip_article(match["place"])
     rest, _ = without_verb(text, verbs)
     match = _OBJ_IN.match(rest)
     if match is not None:
-        return strip_article(match["obj"]) or None, match["place"]
+        return strip_article(match["obj"]) or None, strip_article(match["place"])
     return strip_article(rest) or None, None
 
 
@@ -89,7 +89,8 @@ def fetch_slots(text: str, verbs: list[str]) -> tuple[str | None, str | None, st
     match = _FETCH.match(rest)
     if match is None:
         return strip_article(rest) or None, None, None
-    return strip_article(match["obj"]) or None, match["place"], match["to"]
+    to = strip_article(match["to"]) if match["to"] else None
+    return strip_article(match["obj"]) or None, strip_article(match["place"]), to
 
 
 def deliver_slot(text: str, verbs: list[str]) -> str | None:

@@ -4,7 +4,9 @@ Deterministic and honestly named: it understands the commands of :mod:`.commands
 them over the tools it is given and drives the executor with the same local tools an LLM
 uses (set_plan / update_plan / say / wait_for_events / finish_mission). Each conversation
 (one mission) gets a :class:`MissionProgram`; a conversation begun by another planner (the
-cloud one failed, :mod:`..chain`) is taken over from where it is. A distillation request
+cloud one failed, :mod:`..chain`) is taken over from where it is. The request is read against the
+live places: the first step lists them (``navigation.list_locations``), so "go to the kitchen
+and then to reception" or "your charger" resolve before the plan is made. A distillation request
 (teaching, no tools, "Mission transcript:") is answered by the template distiller.
 """
 
@@ -29,6 +31,7 @@ from robot_voice_chat.services.llm.base import (
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.program import (
+    LIST_LOCATIONS,
     Act,
     Call,
     MissionProgram,
@@ -36,7 +39,9 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
+from robot_voice_chat.services.llm.rules.surface import has_tool
 from robot_voice_chat.services.llm.understanding.legs import legs_of
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 logger = structlog.get_logger(__name__)
@@ -45,11 +50,13 @@ PAUSED_MARK = "mission is paused"
 
 @dataclass
 class _Session:
-    program: Program
+    instruction: str
+    tools: list[ToolDefinition]
+    resumed: bool
     seen: int
+    program: Program | None = None  # made once the live places are read
     pending: list[ToolCall] = field(default_factory=list)
     calls: int = 0
-    started: bool = False
     serial: int = 0
 
 
@@ -108,9 +115,7 @@ class RulesPlanner(LLMProvider):
             return LLMResponse(text="I need an instruction to plan.")
         session = self._session(instruction, messages, list(tools or []))
         observation = _observe(session, messages[session.seen :])
-        act: Act = (
-            next(session.program) if session.calls == 0 else session.program.send(observation)
-        )
+        act = self._next(session, observation)
         response = self._respond(session, act)
         session.seen = len(messages) + 1  # the executor appends this answer next
         logger.debug(
@@ -129,23 +134,47 @@ class RulesPlanner(LLMProvider):
         if session is not None and session.seen <= len(messages) + 1:
             return session
         resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
-        reading = self.understanding.understand(instruction.content)
-        legs, refusal = legs_of(reading, instruction.content)
-        logger.info(
-            "rules_planner_mission",
-            understood=[leg.describe() for leg in legs] or reading.code(),
-            stage=reading.stage,
-            resumed=resumed,
-        )
-        program = MissionProgram(
-            legs or [parse(instruction.content)], tools, self.settings, resumed, refusal
-        ).run()
         self._serial += 1
-        session = _Session(program=program, seen=len(messages), serial=self._serial)
+        session = _Session(key, tools, resumed, seen=len(messages), serial=self._serial)
         self._sessions[key] = session
         while len(self._sessions) > self._max_sessions:
             self._sessions.popitem(last=False)
         return session
+
+    def _next(self, session: _Session, observation: Observation) -> Act:
+        """The program's next step; before the first, the live places are listed and read."""
+        if session.program is not None:
+            return session.program.send(observation)
+        listing = has_tool(session.tools, LIST_LOCATIONS)
+        if listing and session.calls == 0:
+            return Act([Call(LIST_LOCATIONS)])
+        listed = observation.results[0] if listing and observation.results else None
+        places = None
+        if listed is not None and not listed.is_error:
+            places = self.understanding.places(listed.content)
+        session.program = self._program(session, places, listed)
+        return next(session.program)
+
+    def _program(
+        self, session: _Session, places: PlaceIndex | None, listed: ToolResult | None
+    ) -> Program:
+        reading = self.understanding.understand(session.instruction, places)
+        legs, refusal = legs_of(reading, session.instruction)
+        logger.info(
+            "rules_planner_mission",
+            understood=[leg.describe() for leg in legs] or reading.code(),
+            stage=reading.stage,
+            resumed=session.resumed,
+            places=places is not None,
+        )
+        return MissionProgram(
+            legs or [parse(session.instruction)],
+            session.tools,
+            self.settings,
+            session.resumed,
+            refusal,
+            listed=None if listed is None or listed.is_error else listed.content,
+        ).run()
 
     def _respond(self, session: _Session, act: Act) -> LLMResponse:
         calls = []

@@ -107,11 +107,13 @@ class MissionProgram:
         settings: Settings | None = None,
         resumed: bool = False,
         refusal: str | None = None,
+        listed: str | None = None,
     ) -> None:
         # a request of several legs (drive, then drive; fetch, then deliver) runs them in order
         self.legs = command if isinstance(command, list) else [command]
         self.command = self.legs[0]
         self.refusal = refusal
+        self.listed = listed  # list_locations' answer when the planner already has it
         self.tools = tools
         self.settings = settings or Settings()
         self.resumed = resumed
@@ -224,7 +226,9 @@ class MissionProgram:
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
         names: dict[str, str] = {}
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
-        if phrases:
+        if phrases and self.listed is not None:
+            names = self._places(self.listed, phrases)  # the plan goes out with the first drive
+        elif phrases:
             results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
             names = self._places(results[1].content, phrases)
         else:
@@ -236,6 +240,8 @@ class MissionProgram:
                 place = names[leg.place]
                 yield from self._drive(place, drive, prepare=leg.obj)
             if look is not None and leg.obj is not None:
+                if not self.planned:
+                    yield from self.act(self.plan_call())
                 found = yield from self._look_for(leg.obj, look)
                 where = f" in the {place}" if place and leg.place else ""
                 if not found:

@@ -96,7 +96,7 @@ def fetch_slots(text: str, verbs: list[str]) -> tuple[str | None, str | None, st
 def deliver_slot(text: str, verbs: list[str]) -> str | None:
     rest, _ = without_verb(text, verbs)
     match = _DELIVER.match(rest)
-    return match["to"] if match is not None else None
+    return strip_article(match["to"]) or None if match is not None else None
 
 
 def watch_slot(text: str, verbs: list[str]) -> str | None:

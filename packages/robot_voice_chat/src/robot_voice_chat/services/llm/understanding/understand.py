@@ -104,8 +104,22 @@ class Understanding:
             single = self._non_action(parts[0])
             if single is not None:
                 return single
-        legs = [self._leg(part, places) for part in parts]
+        legs: list[_Leg] = []
+        for part in parts:
+            legs.append(self._delivery(part, legs, places) or self._leg(part, places))
         return self._compose(text, legs, places)
+
+    def _delivery(self, part: str, before: list[_Leg], places: PlaceIndex | None) -> _Leg | None:
+        """ "bring it to Q" right after a fetch is that fetch's delivery (the verbs "bring",
+        "take" also start a fetch: the pronoun after a fetch decides)."""
+        previous = before[-1].action if before else None
+        if previous is None or previous.kind != "fetch" or previous.to is not None:
+            return None
+        to = cl.deliver_slot(part, self.intents.intents["deliver"].verbs)
+        if to is None:
+            return None
+        leg = _Leg(part, "deliver", Action("fetch", None, None, to), "deliver")
+        return self._resolve(leg, places)
 
     def _non_action(self, part: str) -> Reading | None:
         """A question, greeting, stop or out-of-scope request, when it beats every action
@@ -317,16 +331,15 @@ class Understanding:
             else f"I didn't understand {leg.text!r}."
             for _, leg in hard
         )
-        sure_actions = [
-            a
-            for a in actions
-            if a.place is None or places is None or places.get(a.place) or a.kind != "goto"
-        ]
+        sure_actions = _known_only(actions, places)
         plan = spoken_of(actions)
         if hard:
+            if not sure_actions:
+                return Reading("refuse", text=missed)
+            sure = spoken_of(sure_actions)
             question = (
                 f"I understood only part of that: {plan}. {missed} "
-                f"Shall I do just that ({plan})? (yes or no)"
+                f"Shall I do just that ({sure})? (yes or no)"
             )
             return Reading("ask", question=Question(question, "confirm", sure_actions))
         return Reading(
@@ -414,6 +427,19 @@ class Understanding:
             if match.sure
             else None
         )
+
+
+def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action]:
+    """The actions without what names an unknown place (a delivery to it is dropped)."""
+    if places is None:
+        return list(actions)
+    kept = []
+    for action in actions:
+        if action.to is not None and places.get(action.to) is None:
+            action = replace(action, to=None)
+        if action.place is None or places.get(action.place) is not None:
+            kept.append(action)
+    return kept
 
 
 def _ordinal(text: str, options: list[str]) -> str | None:

@@ -114,6 +114,10 @@ class OpenAICompatLLM(LLMProvider):
             max_retries=max_retries,
         )
 
+    @property
+    def understanding_label(self) -> str:
+        return f"{self.name} ({self.model})"
+
     def request(
         self,
         messages: list[Message],

@@ -65,6 +65,10 @@ class RulesChat(LLMProvider):
         self._calls: dict[str, str] = {}  # our tool call id → why we made it
         self._pending: Question | None = None
 
+    @property
+    def understanding_label(self) -> str:
+        return "rules + embedded matcher"
+
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:

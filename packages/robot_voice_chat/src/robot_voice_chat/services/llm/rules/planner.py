@@ -104,6 +104,10 @@ class RulesPlanner(LLMProvider):
         self._max_sessions = max_sessions
         self._serial = 0
 
+    @property
+    def understanding_label(self) -> str:
+        return "rules + embedded matcher"
+
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:

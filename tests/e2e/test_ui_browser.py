@@ -351,3 +351,43 @@ def test_push_to_talk_sends_the_microphone_to_speech_input_and_esc_stops(
     page.keyboard.press("Escape")
     expect(page.get_by_text("Emergency stop sent")).to_be_visible()
     shoot(page, "10-voice-and-stop")
+
+
+def test_a_typed_multi_step_request_drives_every_leg_in_order(
+    browser: Browser, rules_stack: RunningStack
+) -> None:
+    """Issue 22 on the dev preset as shipped (rules chat + rules planner, no keys): the status
+    bar names the understanding; an ambiguous place gets one question, shown as a robot reply,
+    and "never mind" moves nothing; "go to the kitchen and then to reception" drives both legs,
+    the second only after the first arrived."""
+    stack = rules_stack
+    page, errors = open_ui(browser, stack.brain_url)
+    expect(page.get_by_test_id("understanding")).to_contain_text(
+        "planner rules + embedded matcher", timeout=20_000
+    )
+    conversation = page.get_by_role("log", name="Conversation")
+    send(page, "go to the desk")
+    expect(conversation).to_contain_text("Which place do you mean by 'desk'", timeout=20_000)
+    expect(conversation).to_contain_text("Alice's desk")
+    shoot(page, "10-clarifying-question")
+    send(page, "never mind")
+    expect(conversation).to_contain_text("I won't do anything", timeout=20_000)
+    assert httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()["moving"] is False
+
+    send(page, "Go to the kitchen and then to reception")
+    expect(step(page, "s1")).to_contain_text("Drive to the kitchen", timeout=STEP_TIMEOUT_MS)
+    expect(step(page, "s2")).to_contain_text("Drive to the reception")
+    expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
+    expect(step(page, "s2")).to_have_attribute("data-status", "pending")
+    shoot(page, "11-first-leg")
+    expect(step(page, "s2")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
+    expect(step(page, "s1")).to_have_attribute("data-status", "succeeded")  # arrived first
+    summary = conversation.get_by_role("article")
+    expect(summary).to_contain_text(
+        "I'm at the kitchen. I'm at the reception.", timeout=STEP_TIMEOUT_MS
+    )
+    expect(summary).to_contain_text("succeeded")
+    pose = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()
+    assert pose["moving"] is False, pose
+    shoot(page, "12-both-legs-driven")
+    assert errors == [], errors

@@ -4,6 +4,8 @@ export interface UiConfig {
   deployment: string;
   llm: string;
   planner: string | null;
+  planner_understanding?: string | null;
+  llm_understanding?: string;
   speech_input: boolean;
   speech_input_reason: string | null;
   speech_output_browser: boolean;

@@ -11,6 +11,8 @@ API's shape ``{"error": {"message", "type", "param", "code"}}``.
 
 A ``responder`` gets the request body and returns ``{"content": str | None, "tool_calls":
 [{"name", "arguments": {...}}]}``; streaming (``stream: true``) is served as SSE chunks.
+``null_content=False`` answers like Ollama's OpenAI-compatible endpoint, which also rejects an
+assistant turn's ``content: null`` (400 "invalid message content type: <nil>").
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ def _check_name(name: Any, param: str) -> None:
         )
 
 
-def _check_message(i: int, m: Any) -> None:
+def _check_message(i: int, m: Any, null_content: bool = True) -> None:
     if not isinstance(m, dict) or m.get("role") not in ROLES:
         role = m.get("role") if isinstance(m, dict) else m
         raise Invalid(
@@ -59,6 +61,8 @@ def _check_message(i: int, m: Any) -> None:
             "invalid_value",
         )
     calls = m.get("tool_calls") or []
+    if m.get("content") is None and not null_content:
+        raise Invalid("invalid message content type: <nil>")
     if m.get("content") is None and not (m["role"] == "assistant" and calls):
         raise Invalid(
             "Invalid value for 'content': expected a string, got null.",
@@ -101,7 +105,7 @@ def _check_pairing(messages: list[dict[str, Any]]) -> None:
         )
 
 
-def validate_chat(body: dict[str, Any]) -> None:
+def validate_chat(body: dict[str, Any], null_content: bool = True) -> None:
     """Raise :class:`Invalid` for the first rule the request breaks."""
     if not isinstance(body.get("model"), str) or not body["model"]:
         raise Invalid("you must provide a model parameter", "model")
@@ -113,7 +117,7 @@ def validate_chat(body: dict[str, Any]) -> None:
     for i, tool in enumerate(body.get("tools") or []):
         _check_name((tool.get("function") or {}).get("name"), f"tools[{i}].function.name")
     for i, m in enumerate(messages):
-        _check_message(i, m)
+        _check_message(i, m, null_content)
     _check_pairing(messages)
 
 
@@ -136,8 +140,14 @@ def tokens(value: Any) -> int:
 class FakeOpenAIApi:
     """Chat completions + transcriptions on loopback; ``app()`` for :func:`serve_in_thread`."""
 
-    def __init__(self, responder: ChatResponder, transcriber: Transcriber | None = None) -> None:
+    def __init__(
+        self,
+        responder: ChatResponder,
+        transcriber: Transcriber | None = None,
+        null_content: bool = True,
+    ) -> None:
         self.responder = responder
+        self.null_content = null_content
         self.transcriber = transcriber or (lambda audio, name: "hello robot")
         self.requests: list[dict[str, Any]] = []
         self.transcriptions: list[dict[str, Any]] = []
@@ -166,7 +176,7 @@ class FakeOpenAIApi:
             return self._reject(401, Invalid("Incorrect API key provided", None, "invalid_api_key"))
         try:
             body = await request.json()
-            validate_chat(body)
+            validate_chat(body, self.null_content)
         except ValueError:
             return self._reject(400, Invalid("We could not parse the JSON body of your request."))
         except Invalid as exc:

@@ -27,7 +27,12 @@ KEYS = {
     "ADMIN_PASSWORD_HASH": hash_password("dummy operator password"),
     "ADMIN_SECRET_KEY": "dummy-session-signing-key-of-32-bytes",
 }
-PLANNERS = {"dev": "rules", "robot": "chain[anthropic,rules]", "test": "replay"}
+PLANNERS = {
+    "dev": "rules",
+    "robot": "chain[anthropic,rules]",
+    "test": "replay",
+    "local_llm": "chain[openai_compat,rules]",
+}
 
 
 def base_env(tmp_path: Path, deployment: str) -> dict[str, str]:
@@ -77,7 +82,7 @@ def run_refused(env: dict[str, str]) -> str:
     return json.loads(lines[0])["error"]  # type: ignore[no-any-return]
 
 
-@pytest.mark.parametrize("deployment", ["dev", "robot", "test"])
+@pytest.mark.parametrize("deployment", ["dev", "robot", "test", "local_llm"])
 def test_each_preset_boots_as_shipped_and_reports_ready(
     deployment: str, tmp_path: Path, brain: list[subprocess.Popen[str]]
 ) -> None:
@@ -109,6 +114,10 @@ def test_each_preset_boots_as_shipped_and_reports_ready(
     assert data["deployment"] == deployment
     assert data["missions_enabled"] is True
     assert data["planner"] == PLANNERS[deployment]
+    if deployment == "local_llm":  # no key, nothing listening: boots, names its fallback
+        assert data["planner_understanding"] == (
+            "openai_compat (qwen2.5:7b-instruct), fallback rules + embedded matcher"
+        )
     assert set(data["mcp_servers"]) == {"navigation", "memory", "skill_control", "perception"}
     process.terminate()
     assert process.wait(15) in (0, -15)

@@ -7,6 +7,10 @@ export interface Readiness {
     mcp_servers: Record<string, 'connected' | 'connecting' | 'disconnected'>;
     llm: string;
     planner: string | null;
+    /** What reads the operator's words, e.g. "rules + embedded matcher" (older brains: absent). */
+    planner_understanding?: string | null;
+    llm_understanding?: string;
+    planner_state?: 'ok' | 'degraded' | null;
     deployment: string;
   };
 }

@@ -48,10 +48,19 @@ export function StatusBar() {
             </span>
           ))}
         {ready && (
-          <span className="ml-auto text-muted">
-            planner <strong className="text-fg">{ready.data.planner ?? 'off'}</strong> · chat{' '}
-            <strong className="text-fg">{ready.data.llm}</strong> · deployment{' '}
-            <strong className="text-fg">{ready.data.deployment}</strong>
+          <span className="ml-auto text-muted" data-testid="understanding">
+            planner{' '}
+            <strong
+              className={ready.data.planner_state === 'degraded' ? 'text-status-failed' : 'text-fg'}
+              title={ready.data.planner ?? undefined}
+            >
+              {ready.data.planner_understanding ?? ready.data.planner ?? 'off'}
+            </strong>{' '}
+            · chat{' '}
+            <strong className="text-fg" title={ready.data.llm}>
+              {ready.data.llm_understanding ?? ready.data.llm}
+            </strong>{' '}
+            · deployment <strong className="text-fg">{ready.data.deployment}</strong>
           </span>
         )}
       </section>

@@ -42,6 +42,10 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
         await async_wait_until(navigation_down, 10, "navigation reported disconnected")
         ready = (await c.get("/api/readyz")).json()
         assert ready["data"]["missions_enabled"] is True
+        assert ready["data"]["planner_understanding"] == "rules + embedded matcher"
+        assert ready["data"]["llm_understanding"] == "rules + embedded matcher"
+        config = (await c.get("/api/ui/config")).json()
+        assert config["planner_understanding"] == "rules + embedded matcher"
         greeting = (await c.post("/api/chat", json={"text": "hello"})).json()
         assert "offline voice" in greeting["reply"]
 

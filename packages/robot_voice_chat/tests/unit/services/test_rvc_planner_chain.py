@@ -65,6 +65,7 @@ async def test_the_cloud_going_down_mid_mission_finishes_on_rules(
     fake, url = cloud
     anthropic = AnthropicLLM(api_key="k", base_url=url, max_retries=0, request_timeout_s=10)
     chain = PlannerChain([anthropic, RulesPlanner()])
+    assert chain.understanding_label == "anthropic, fallback rules + embedded matcher"
     o = office(tmp_path, drive_s=0.3)
     o.executor.planner = chain
     mission = await o.executor.start("Please fetch the package from the mailroom.")
@@ -75,6 +76,7 @@ async def test_the_cloud_going_down_mid_mission_finishes_on_rules(
     assert mission.state == "succeeded", mission.summary
     assert "yellow package" in mission.summary
     assert chain.degraded
+    assert chain.understanding_label == "rules + embedded matcher (fallback: anthropic failed)"
     assert o.speech.spoken.count(NOTICE) == 1
     assert not fake.rejections  # every request that reached the API was valid
     assert len(fake.requests) >= 2  # the cloud planned until it went down

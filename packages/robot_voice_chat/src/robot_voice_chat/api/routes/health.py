@@ -37,6 +37,9 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "missions_enabled": container.executor.enabled,
             "llm": container.adapters.llm.name,
             "planner": planner.name if planner else None,
+            # what reads the operator's words (the status bar shows it)
+            "planner_understanding": planner.understanding_label if planner else None,
+            "llm_understanding": container.adapters.llm.understanding_label,
             "planner_state": None if planner is None else "degraded" if planner_degraded else "ok",
             "deployment": container.config.deployment,
             "vision": None if vision is None else {"state": vision.state, "detail": vision.detail},

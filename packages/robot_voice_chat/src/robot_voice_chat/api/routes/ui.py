@@ -29,6 +29,8 @@ async def ui_config(request: Request, container: ContainerDep) -> dict[str, Any]
         "deployment": container.config.deployment,
         "llm": adapters.llm.name,
         "planner": adapters.planner.name if adapters.planner else None,
+        "planner_understanding": adapters.planner.understanding_label if adapters.planner else None,
+        "llm_understanding": adapters.llm.understanding_label,
         "speech_input": speech_input,
         "speech_input_reason": None
         if speech_input

@@ -102,6 +102,11 @@ class LLMProvider(abc.ABC):
 
     name: str = "llm"
 
+    @property
+    def understanding_label(self) -> str:
+        """What reads the operator's words, for the status bar ("rules + embedded matcher")."""
+        return self.name
+
     @abc.abstractmethod
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None

@@ -48,6 +48,14 @@ class PlannerChain(LLMProvider):
         self._told = False
         self._notices = 0
 
+    @property
+    def understanding_label(self) -> str:
+        """ "anthropic, fallback rules + embedded matcher"; the active one first when degraded."""
+        first, *rest = (p.understanding_label for p in self.providers)
+        if self.degraded:
+            return f"{self.providers[self._index].understanding_label} (fallback: {first} failed)"
+        return ", fallback ".join([first, *rest])
+
     def _select(self, messages: list[Message]) -> None:
         key = _conversation(messages)
         if key != self._key or len(messages) < self._length:

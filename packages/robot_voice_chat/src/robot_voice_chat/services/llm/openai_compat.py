@@ -49,13 +49,15 @@ def tool_names(tools: list[ToolDefinition] | None) -> ToolNames:
 
 
 def to_openai_messages(
-    messages: list[Message], names: ToolNames | None = None
+    messages: list[Message], names: ToolNames | None = None, empty_content: str | None = None
 ) -> list[dict[str, Any]]:
+    """``empty_content``: what a tool-calls-only assistant turn carries as content (OpenAI
+    takes null; Ollama rejects null, so local servers get "")."""
     names = names or ToolNames()
     out: list[dict[str, Any]] = []
     for m in messages:
         if m.role == "assistant":
-            item: dict[str, Any] = {"role": "assistant", "content": m.content or None}
+            item: dict[str, Any] = {"role": "assistant", "content": m.content or empty_content}
             if m.tool_calls:
                 item["tool_calls"] = [
                     {
@@ -100,8 +102,10 @@ class OpenAICompatLLM(LLMProvider):
         max_retries: int = 2,
         require_key: bool = True,
         prices: dict[str, float] | None = None,
+        empty_content: str | None = None,
     ) -> None:
         self.prices = Prices.parse(prices)
+        self.empty_content = empty_content
         key = api_key if isinstance(api_key, SecretStr) else SecretStr(api_key or "")
         if require_key and not key.get_secret_value():
             raise ValueError(f"the API key for {base_url} is empty but this adapter is selected")
@@ -114,6 +118,10 @@ class OpenAICompatLLM(LLMProvider):
             max_retries=max_retries,
         )
 
+    @property
+    def understanding_label(self) -> str:
+        return f"{self.name} ({self.model})"
+
     def request(
         self,
         messages: list[Message],
@@ -124,7 +132,7 @@ class OpenAICompatLLM(LLMProvider):
         params: dict[str, Any] = {
             "model": self.model,
             "max_tokens": self.max_tokens,
-            "messages": to_openai_messages(messages, names),
+            "messages": to_openai_messages(messages, names, self.empty_content),
         }
         if tools:
             params["tools"] = [

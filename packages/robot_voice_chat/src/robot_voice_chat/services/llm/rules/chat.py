@@ -1,9 +1,12 @@
-"""RulesChat: the offline fast path (``llm=rules``). Greetings and "what can you do" are
-answered, "stop" calls stop_mission, a command the rules planner understands is handed to
-start_mission, anything else gets an honest "I can't do that offline"."""
+"""RulesChat: the offline fast path (``llm=rules``). It reads each turn with the embedded
+understanding layer over the live places (``navigation.list_locations`` first): a request it
+is sure of goes to start_mission in the grammar's words, every leg in order; anything unsure
+becomes one clarifying question whose answer (or "never mind") it reads next turn; questions
+about the robot (where are you, which places, what can you do) are answered from its tools."""
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import AsyncIterator
 
@@ -14,20 +17,34 @@ from robot_voice_chat.services.llm.base import (
     StreamEvent,
     ToolCall,
     ToolDefinition,
+    ToolResult,
 )
-from robot_voice_chat.services.llm.rules.commands import Command, normalise, parse
-from robot_voice_chat.services.llm.rules.program import UNDERSTOOD
+from robot_voice_chat.services.llm.rules.commands import Command, normalise
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.reading import (
+    Question,
+    Reading,
+    instruction_of,
+    spoken_of,
+)
+from robot_voice_chat.services.llm.understanding.understand import Understanding
 
-_GREETING = re.compile(r"^(?:hi|hello|hey|hallo|good (?:morning|afternoon|evening)|howdy)\b")
-_HELP = re.compile(r"\b(?:what can you do|help|what do you understand|who are you)\b")
+LIST_LOCATIONS = "navigation.list_locations"
+GET_POSE = "navigation.get_pose"
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
+UNDERSTOOD = (
+    "go to a place, find something (in a place), fetch something from a place and bring it "
+    "somewhere, watch for something, tell you what I see, where I am and which places I know — "
+    "also several steps in a row ('go to the kitchen, then to reception')"
+)
 INTRO = (
-    "I'm the robot's offline voice (rules, no language model): I understand simple commands — "
-    f"{UNDERSTOOD}. Say stop to halt me."
+    "I'm the robot's offline voice (no language model: an embedded matcher over my tools). "
+    f"I can {UNDERSTOOD}. When I'm not sure what you mean, I ask. Say stop to halt me."
 )
 
 
 def ack(command: Command) -> str:
+    """What the robot says as it starts (kept for callers that hold a single command)."""
     if command.kind == "goto":
         return f"On my way to the {command.place}."
     if command.kind == "fetch":
@@ -42,36 +59,105 @@ def ack(command: Command) -> str:
 class RulesChat(LLMProvider):
     name = "rules"
 
-    def __init__(self) -> None:
+    def __init__(self, understanding: Understanding | None = None) -> None:
+        self.understanding = understanding or Understanding()
         self._ids = 0
+        self._calls: dict[str, str] = {}  # our tool call id → why we made it
+        self._pending: Question | None = None
+
+    @property
+    def understanding_label(self) -> str:
+        return "rules + embedded matcher"
 
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
     ) -> LLMResponse:
-        last = messages[-1] if messages else Message(role="user")
-        if last.tool_results:  # the answer to our own stop_mission / tool call
-            failed = [r.content for r in last.tool_results if r.is_error]
-            return LLMResponse(text=f"That didn't work: {failed[0]}" if failed else "Done.")
-        text = normalise(last.content)
         names = {t.name for t in tools or []}
+        last = messages[-1] if messages else Message(role="user")
+        if last.tool_results:
+            return self._on_result(last.tool_results[0], messages, names)
+        text = normalise(last.content)
         if _STOP.match(text) and "stop_mission" in names:
-            return self._call("stop_mission", {})
-        if _GREETING.match(text) and len(text.split()) <= 4:
+            self._pending = None
+            return self._call("stop_mission", {}, "stop")
+        if LIST_LOCATIONS in names:  # read the live places first, then the request
+            return self._call(LIST_LOCATIONS, {}, "places")
+        return self._reply(last.content, None, messages, names)
+
+    def _on_result(
+        self, result: ToolResult, messages: list[Message], names: set[str]
+    ) -> LLMResponse:
+        purpose = self._calls.pop(result.tool_call_id, "")
+        request = next(
+            (m.content for m in reversed(messages) if m.role == "user" and m.content), ""
+        )
+        if purpose == "places":
+            places = None if result.is_error else self.understanding.places(result.content)
+            return self._reply(request, places, messages, names)
+        if purpose == "pose":
+            return LLMResponse(text=_where(result))
+        if result.is_error:
+            return LLMResponse(text=f"That didn't work: {result.content}")
+        return LLMResponse(text="Done.")
+
+    def _reply(
+        self, text: str, places: PlaceIndex | None, messages: list[Message], names: set[str]
+    ) -> LLMResponse:
+        reading: Reading | None = None
+        pending, self._pending = self._pending, None
+        if pending is not None and _asked(pending, messages):
+            reading = self.understanding.follow_up(pending, text, places)
+        if reading is None:
+            reading = self.understanding.understand(text, places)
+        if reading.kind == "act" and "start_mission" in names:
+            said = spoken_of(reading.actions)
+            arguments = {"instruction": instruction_of(reading.actions), "ack": f"OK, I'll {said}."}
+            return self._call("start_mission", arguments, "mission")
+        if reading.kind == "ask" and reading.question is not None:
+            self._pending = reading.question
+            return LLMResponse(text=reading.question.text)
+        if reading.kind == "stop" and "stop_mission" in names:
+            return self._call("stop_mission", {}, "stop")
+        if reading.kind == "answer":
+            return self._answer(reading.topic, places, names)
+        if reading.kind == "greet":
             return LLMResponse(text=f"Hello! {INTRO}")
-        if _HELP.search(text):
-            return LLMResponse(text=INTRO)
-        command = parse(last.content)
-        if command.kind != "unknown" and "start_mission" in names:
-            return self._call(
-                "start_mission", {"instruction": last.content.strip(), "ack": ack(command)}
+        if reading.kind in ("refuse", "cancel") and reading.text:
+            more = (
+                ""
+                if reading.kind == "cancel" or "I know:" in reading.text
+                else f" I can {UNDERSTOOD}."
             )
+            offline = (
+                "I can't do that offline: " if reading.intent in ("unclear", "out_of_scope") else ""
+            )
+            return LLMResponse(text=offline + reading.text + more)
         return LLMResponse(
-            text=f"I can't do that offline: I didn't understand {last.content.strip()!r}. {INTRO}"
+            text=f"I can't do that offline: I didn't understand {text.strip()!r}. {INTRO}"
         )
 
-    def _call(self, name: str, arguments: dict[str, str]) -> LLMResponse:
+    def _answer(self, topic: str, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
+        if topic == "where":
+            if GET_POSE in names:
+                return self._call(GET_POSE, {}, "pose")
+            return LLMResponse(
+                text="I can't tell where I am: the navigation server is not connected."
+            )
+        if topic == "places":
+            if places is None or not places.places:
+                return LLMResponse(
+                    text="I don't know any places: the navigation server is not connected."
+                )
+            listed = "; ".join(p.label() for p in places.places)
+            return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
+        return LLMResponse(text=INTRO)
+
+    def _call(self, name: str, arguments: dict[str, str], purpose: str) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
+        self._calls[call.id] = purpose
+        while len(self._calls) > 64:  # answers that never came back
+            self._calls.pop(next(iter(self._calls)))
         return LLMResponse(tool_calls=[call], stop_reason="tool_use")
 
     async def chat_stream(
@@ -82,3 +168,28 @@ class RulesChat(LLMProvider):
         for word in words:
             yield StreamEvent(delta=word)
         yield StreamEvent(response=response)
+
+
+def _asked(question: Question, messages: list[Message]) -> bool:
+    """Our question is the conversation's last reply (or the pipeline keeps no history)."""
+    replies = [m.content for m in messages if m.role == "assistant" and m.content]
+    return not replies or replies[-1].strip().endswith(question.text)
+
+
+def _where(result: ToolResult) -> str:
+    if result.is_error:
+        return f"I can't tell where I am right now: {result.content[:200]}"
+    try:
+        pose = json.loads(result.content)
+    except ValueError:
+        pose = None
+    if not isinstance(pose, dict):
+        return "I can't tell where I am right now: the navigation server gave no pose."
+    if pose.get("moving") and pose.get("destination"):
+        return f"I'm driving to the {str(pose['destination']).replace('_', ' ')}."
+    if pose.get("at_location"):
+        return f"I'm at the {str(pose['at_location']).replace('_', ' ')}."
+    x, y = pose.get("x"), pose.get("y")
+    if isinstance(x, int | float) and isinstance(y, int | float):
+        return f"I'm between places, at x={x:.1f} m, y={y:.1f} m on the map."
+    return "I can't tell where I am right now."

@@ -61,6 +61,7 @@ class Command:
     text: str
     obj: str | None = None
     place: str | None = None
+    to: str | None = None  # fetch: where to bring it (a leg the understanding layer adds)
 
     def describe(self) -> str:
         """What was understood, in words ("find 'scissors' in 'kitchen'")."""
@@ -69,6 +70,8 @@ class Command:
             parts.append(repr(self.obj))
         if self.place:
             parts.append(f"at {self.place!r}")
+        if self.to:
+            parts.append(f"to {self.to!r}")
         return " ".join(parts)
 
 

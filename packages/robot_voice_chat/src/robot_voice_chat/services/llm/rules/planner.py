@@ -4,7 +4,9 @@ Deterministic and honestly named: it understands the commands of :mod:`.commands
 them over the tools it is given and drives the executor with the same local tools an LLM
 uses (set_plan / update_plan / say / wait_for_events / finish_mission). Each conversation
 (one mission) gets a :class:`MissionProgram`; a conversation begun by another planner (the
-cloud one failed, :mod:`..chain`) is taken over from where it is. A distillation request
+cloud one failed, :mod:`..chain`) is taken over from where it is. The request is read against the
+live places: the first step lists them (``navigation.list_locations``), so "go to the kitchen
+and then to reception" or "your charger" resolve before the plan is made. A distillation request
 (teaching, no tools, "Mission transcript:") is answered by the template distiller.
 """
 
@@ -29,6 +31,7 @@ from robot_voice_chat.services.llm.base import (
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.program import (
+    LIST_LOCATIONS,
     NAVIGATE,
     TASK_EVENT,
     Act,
@@ -38,7 +41,10 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
-from robot_voice_chat.services.llm.rules.surface import task_id_of
+from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
+from robot_voice_chat.services.llm.understanding.legs import legs_of
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 logger = structlog.get_logger(__name__)
 PAUSED_MARK = "mission is paused"
@@ -46,12 +52,16 @@ PAUSED_MARK = "mission is paused"
 
 @dataclass
 class _Session:
-    program: Program
+    instruction: str
+    tools: list[ToolDefinition]
+    resumed: bool
     seen: int
+    program: Program | None = None  # made once the live places are read
     pending: list[ToolCall] = field(default_factory=list)
     calls: int = 0
-    started: bool = False
     serial: int = 0
+    # drives this conversation started (also by a planner it took over from) still running
+    own_drives: set[str] = field(default_factory=set)
 
 
 def _instruction(messages: list[Message]) -> Message | None:
@@ -90,11 +100,17 @@ class RulesPlanner(LLMProvider):
         find_timeout_s: float = 20.0,
         max_legs: int = 6,
         max_sessions: int = 16,
+        understanding: Understanding | None = None,
     ) -> None:
+        self.understanding = understanding or Understanding()
         self.settings = Settings(prewarm, eta_trigger_s, find_timeout_s, max_legs)
         self._sessions: OrderedDict[str, _Session] = OrderedDict()
         self._max_sessions = max_sessions
         self._serial = 0
+
+    @property
+    def understanding_label(self) -> str:
+        return "rules + embedded matcher"
 
     async def chat(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
@@ -107,9 +123,7 @@ class RulesPlanner(LLMProvider):
             return LLMResponse(text="I need an instruction to plan.")
         session = self._session(instruction, messages, list(tools or []))
         observation = _observe(session, messages[session.seen :])
-        act: Act = (
-            next(session.program) if session.calls == 0 else session.program.send(observation)
-        )
+        act = self._next(session, observation)
         response = self._respond(session, act)
         session.seen = len(messages) + 1  # the executor appends this answer next
         logger.debug(
@@ -128,17 +142,55 @@ class RulesPlanner(LLMProvider):
         if session is not None and session.seen <= len(messages) + 1:
             return session
         resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
-        command = parse(instruction.content)
-        logger.info("rules_planner_mission", understood=command.describe(), resumed=resumed)
-        program = MissionProgram(
-            command, tools, self.settings, resumed=resumed, own_drives=_drives_started(messages)
-        ).run()
         self._serial += 1
-        session = _Session(program=program, seen=len(messages), serial=self._serial)
+        session = _Session(
+            key,
+            tools,
+            resumed,
+            seen=len(messages),
+            serial=self._serial,
+            own_drives=_drives_started(messages),
+        )
         self._sessions[key] = session
         while len(self._sessions) > self._max_sessions:
             self._sessions.popitem(last=False)
         return session
+
+    def _next(self, session: _Session, observation: Observation) -> Act:
+        """The program's next step; before the first, the live places are listed and read."""
+        if session.program is not None:
+            return session.program.send(observation)
+        listing = has_tool(session.tools, LIST_LOCATIONS)
+        if listing and session.calls == 0:
+            return Act([Call(LIST_LOCATIONS)])
+        listed = observation.results[0] if listing and observation.results else None
+        places = None
+        if listed is not None and not listed.is_error:
+            places = self.understanding.places(listed.content)
+        session.program = self._program(session, places, listed)
+        return next(session.program)
+
+    def _program(
+        self, session: _Session, places: PlaceIndex | None, listed: ToolResult | None
+    ) -> Program:
+        reading = self.understanding.understand(session.instruction, places)
+        legs, refusal = legs_of(reading, session.instruction)
+        logger.info(
+            "rules_planner_mission",
+            understood=[leg.describe() for leg in legs] or reading.code(),
+            stage=reading.stage,
+            resumed=session.resumed,
+            places=places is not None,
+        )
+        return MissionProgram(
+            legs or [parse(session.instruction)],
+            session.tools,
+            self.settings,
+            session.resumed,
+            refusal,
+            listed=None if listed is None or listed.is_error else listed.content,
+            own_drives=session.own_drives,
+        ).run()
 
     def _respond(self, session: _Session, act: Act) -> LLMResponse:
         calls = []

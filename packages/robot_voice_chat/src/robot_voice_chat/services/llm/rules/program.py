@@ -25,6 +25,7 @@ from robot_voice_chat.services.llm.rules.surface import (
     has_tool,
     task_id_of,
 )
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 
 NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"
@@ -106,13 +107,19 @@ class MissionProgram:
 
     def __init__(
         self,
-        command: Command,
+        command: Command | list[Command],
         tools: list[ToolDefinition],
         settings: Settings | None = None,
         resumed: bool = False,
+        refusal: str | None = None,
+        listed: str | None = None,
         own_drives: set[str] | None = None,
     ) -> None:
-        self.command = command
+        # a request of several legs (drive, then drive; fetch, then deliver) runs them in order
+        self.legs = command if isinstance(command, list) else [command]
+        self.command = self.legs[0]
+        self.refusal = refusal
+        self.listed = listed  # list_locations' answer when the planner already has it
         self.tools = tools
         self.settings = settings or Settings()
         self.resumed = resumed
@@ -203,6 +210,13 @@ class MissionProgram:
     # --- the missions ------------------------------------------------------------------------
     def _main(self) -> Steps:
         c = self.command
+        if self.refusal is not None:
+            raise _Finished("failed", self.refusal)
+        if len(self.legs) > 1 and any(leg.kind in ("see", "watch") for leg in self.legs):
+            raise _Finished(
+                "failed",
+                "Offline I chain drives, searches and fetches; ask me to look or watch on its own.",
+            )
         if c.kind == "unknown":
             raise _Finished(
                 "failed",
@@ -215,38 +229,84 @@ class MissionProgram:
         if c.kind == "watch":
             yield from self._watch(c.obj or "something")
             return
-        place: str | None = None
-        if c.place is not None:
-            self.needs(NAVIGATE, LIST_LOCATIONS)
-            self.steps.append(_Step(self.step_id(1), f"Drive to the {c.place}", NAVIGATE))
-        if c.obj is not None:
-            self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
-            n = len(self.steps)
-            self.steps += [
-                _Step(self.step_id(n + 1), f"Look for the {c.obj}", INSTANTIATE),
-                _Step(self.step_id(n + 2), "Read what the camera found", WAIT_RESULT),
-                _Step(self.step_id(n + 3), "Stop the vision skill", STOP_SKILL),
-            ]
+        yield from self._run_legs()
+
+    def _run_legs(self) -> Steps:
+        """Every leg in order: drive to its place, look for its object, bring it on. All places
+        are resolved before the first drive, so a request is never cut short halfway."""
+        plan: list[tuple[Command, str | None, str | None, str | None]] = []
+        for leg in self.legs:
+            drive = look = deliver = None
+            if leg.place is not None:
+                self.needs(NAVIGATE, LIST_LOCATIONS)
+                drive = self.step_id(len(self.steps) + 1)
+                self.steps.append(_Step(drive, f"Drive to the {leg.place}", NAVIGATE))
+            if leg.obj is not None:
+                self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
+                n = len(self.steps)
+                look = self.step_id(n + 1)
+                self.steps += [
+                    _Step(look, f"Look for the {leg.obj}", INSTANTIATE),
+                    _Step(self.step_id(n + 2), "Read what the camera found", WAIT_RESULT),
+                    _Step(self.step_id(n + 3), "Stop the vision skill", STOP_SKILL),
+                ]
+            if leg.to is not None:
+                self.needs(NAVIGATE, LIST_LOCATIONS)
+                deliver = self.step_id(len(self.steps) + 1)
+                self.steps.append(_Step(deliver, f"Bring it to the {leg.to}", NAVIGATE))
+            plan.append((leg, drive, look, deliver))
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
-        if c.place is not None:
+        names: dict[str, str] = {}
+        phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
+        if phrases and self.listed is not None:
+            names = self._places(self.listed, phrases)  # the plan goes out with the first drive
+        elif phrases:
             results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
-            locations = Locations.from_result(results[1].content)
-            place = locations.resolve(c.place)
-            if place is None:
-                known = ", ".join(locations.known()) or "none"
-                raise _Finished(
-                    "failed", f"I don't know a place called {c.place!r}. I know: {known}."
-                )
-            yield from self._drive(place, self.steps[0].id, prepare=c.obj)
+            names = self._places(results[1].content, phrases)
         else:
             yield from self.act(self.plan_call())
-        if c.obj is None:
-            raise _Finished("succeeded", f"I'm at the {place}.")
-        found = yield from self._look_for(c.obj, self.steps[-4].id)
-        where = f" in the {place}" if place else ""
-        if found:
-            raise _Finished("succeeded", f"I found the {c.obj}{where}: {found}.")
-        raise _Finished("failed", f"I couldn't see the {c.obj}{where}.")
+        said: list[str] = []
+        place: str | None = None
+        for leg, drive, look, deliver in plan:
+            if drive is not None and leg.place is not None:
+                place = names[leg.place]
+                yield from self._drive(place, drive, prepare=leg.obj)
+            if look is not None and leg.obj is not None:
+                if not self.planned:
+                    yield from self.act(self.plan_call())
+                found = yield from self._look_for(leg.obj, look)
+                where = f" in the {place}" if place and leg.place else ""
+                if not found:
+                    missed = f"I couldn't see the {leg.obj}{where}."
+                    raise _Finished("failed", " ".join([*said, missed]))
+                said.append(f"I found the {leg.obj}{where}: {found}.")
+            if deliver is not None and leg.to is not None:
+                place = names[leg.to]
+                yield from self._drive(place, deliver, prepare=None)
+                said.append(f"I brought it to the {place}.")
+            elif look is None:
+                said.append(f"I'm at the {place}.")
+        raise _Finished("succeeded", " ".join(said))
+
+    def _places(self, listed: str, phrases: list[str]) -> dict[str, str]:
+        """Each phrase's place on the live map; unknown or ambiguous ends before any drive."""
+        locations = Locations.from_result(listed)
+        index = PlaceIndex.from_result(listed)
+        names: dict[str, str] = {}
+        for phrase in phrases:
+            exact = locations.resolve(phrase)
+            match = index.resolve(phrase)
+            if exact is None and not match.sure:
+                known = ", ".join(locations.known()) or "none"
+                if match.names:
+                    options = " or ".join(n.replace("_", " ") for n in match.names)
+                    known = f"did you mean {options}? Tell me again with the place"
+                    raise _Finished("failed", f"I'm not sure which place {phrase!r} is: {known}.")
+                raise _Finished(
+                    "failed", f"I don't know a place called {phrase!r}. I know: {known}."
+                )
+            names[phrase] = exact or match.names[0]
+        return names
 
     def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
         """Drive to ``place``; on a failure try its suggestions in order, then give up."""

@@ -1,0 +1,1 @@
+"""The embedded understanding layer (intents as data, semantic matching, live slots)."""

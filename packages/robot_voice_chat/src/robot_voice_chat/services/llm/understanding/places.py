@@ -1,0 +1,127 @@
+"""Places from the live ``navigation.list_locations`` answer: names, aliases and descriptions,
+resolved from the words people use ("Alice's desk", "the post room", "your charger")."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+
+_STOP = {
+    "the", "a", "an", "to", "of", "your", "my", "our", "his", "her", "their", "yourself",
+    "please", "now", "where", "is", "are", "there", "that", "this", "it", "and", "in", "at",
+    "on", "over", "back", "into", "area", "place", "spot", "s", "for", "me", "with", "by",
+}  # fmt: skip
+
+
+def words(text: str) -> list[str]:
+    return re.findall(r"[a-z0-9]+", text.lower().replace("'s", " ").replace("’s", " "))
+
+
+def stem(word: str) -> str:
+    for suffix in ("ing", "ers", "er", "es", "ed", "s", "e"):
+        if word.endswith(suffix) and len(word) - len(suffix) >= 4:
+            return word[: -len(suffix)]
+    return word
+
+
+def key(text: str) -> str:
+    return " ".join(words(text))
+
+
+@dataclass(frozen=True)
+class Place:
+    name: str
+    aliases: tuple[str, ...] = ()
+    description: str = ""
+
+    def spellings(self) -> list[str]:
+        return [key(self.name), *[key(a) for a in self.aliases]]
+
+    def bag(self) -> set[str]:
+        text = " ".join([self.name, *self.aliases, self.description])
+        return {stem(w) for w in words(text)}
+
+    def label(self) -> str:
+        """How a person names it: "reception", "desk alice (Alice's desk …)"."""
+        spoken = self.name.replace("_", " ")
+        return f"{spoken} ({self.description.rstrip('.')})" if self.description else spoken
+
+
+@dataclass(frozen=True)
+class PlaceMatch:
+    """``names`` best first; ``sure`` when exactly one place fits every word."""
+
+    phrase: str
+    names: list[str] = field(default_factory=list)
+    sure: bool = False
+
+
+@dataclass
+class PlaceIndex:
+    places: list[Place] = field(default_factory=list)
+    place_words: dict[str, list[str]] = field(default_factory=dict)
+
+    @classmethod
+    def from_result(cls, text: str, place_words: dict[str, list[str]] | None = None) -> PlaceIndex:
+        """From ``list_locations``' answer; anything unreadable gives an empty index."""
+        try:
+            data = json.loads(text)
+        except ValueError:
+            data = None
+        items = data.get("locations", []) if isinstance(data, dict) else []
+        items = items if isinstance(items, list) else []
+        places = [
+            Place(
+                item["name"],
+                tuple(a for a in item.get("aliases") or [] if isinstance(a, str)),
+                str(item.get("description") or ""),
+            )
+            for item in items
+            if isinstance(item, dict) and isinstance(item.get("name"), str)
+        ]
+        return cls(places, dict(place_words or {}))
+
+    def known(self) -> list[str]:
+        return [p.name for p in self.places]
+
+    def get(self, name: str) -> Place | None:
+        return next((p for p in self.places if p.name == name), None)
+
+    def resolve(self, phrase: str, among: list[str] | None = None) -> PlaceMatch:
+        """Exact name or alias; else a name or alias inside the phrase (longest wins); else
+        the places whose words (name, aliases, description) hold every word of the phrase."""
+        places = [p for p in self.places if among is None or p.name in among]
+        wanted = key(phrase)
+        exact = [p.name for p in places if wanted in p.spellings()]
+        if exact:
+            return PlaceMatch(phrase, exact[:1], True)
+        inside = [
+            (len(s), p.name)
+            for p in places
+            for s in p.spellings()
+            if s and re.search(rf"(?:^| ){re.escape(s)}(?: |$)", wanted)
+        ]
+        if inside:
+            longest = max(n for n, _ in inside)
+            names = list(dict.fromkeys(name for n, name in inside if n == longest))
+            return PlaceMatch(phrase, names, len(names) == 1)
+        content = [w for w in words(phrase) if w not in _STOP]
+        if not content:
+            return PlaceMatch(phrase)
+        looks = [[stem(w), *self.place_words.get(w, [])] for w in content]
+        fits = [p.name for p in places if all(any(x in p.bag() for x in alts) for alts in looks)]
+        return PlaceMatch(phrase, fits, len(fits) == 1)
+
+    def only_place(self, phrase: str) -> bool:
+        """``phrase`` names one place and says nothing else ("the post room", "kitchen")."""
+        match = self.resolve(phrase)
+        if not match.sure:
+            return False
+        place = self.get(match.names[0])
+        assert place is not None
+        spelled = set(" ".join(place.spellings()).split())
+        bag = place.bag()
+        rest = [w for w in words(phrase) if w not in _STOP and w not in spelled]
+        fits = [stem(w) in bag or any(x in bag for x in self.place_words.get(w, [])) for w in rest]
+        return all(fits) and len(rest) <= 2

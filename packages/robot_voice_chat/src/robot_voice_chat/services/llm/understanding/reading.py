@@ -1,0 +1,118 @@
+"""What the understanding layer made of a request: actions to take, or one question to ask, or
+a refusal, or a question the robot answers from its tools."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+ActionKind = Literal["goto", "find", "fetch", "watch", "see"]
+ReadingKind = Literal["act", "ask", "refuse", "answer", "stop", "greet", "cancel"]
+
+
+@dataclass(frozen=True)
+class Action:
+    kind: ActionKind
+    place: str | None = None  # goto's destination; find/fetch's place to go first
+    obj: str | None = None
+    to: str | None = None  # fetch: where to bring it
+
+    def instruction(self) -> str:
+        """The action in the exact grammar's words (the rules planner parses it back)."""
+        if self.kind == "goto":
+            return f"go to {self.place}"
+        if self.kind == "find":
+            return f"find {self.obj}" + (f" in {self.place}" if self.place else "")
+        if self.kind == "fetch":
+            return f"fetch {self.obj} from {self.place}" + (
+                f", then bring it to {self.to}" if self.to else ""
+            )
+        if self.kind == "watch":
+            return f"watch for {self.obj}"
+        return "what do you see"
+
+    def spoken(self) -> str:
+        """The action as the robot says it back."""
+        place = (self.place or "").replace("_", " ")
+        to = (self.to or "").replace("_", " ")
+        if self.kind == "goto":
+            return f"go to the {place}"
+        if self.kind == "find":
+            return f"look for the {self.obj}" + (f" in the {place}" if self.place else "")
+        if self.kind == "fetch":
+            return f"get the {self.obj} from the {place}" + (
+                f" and bring it to the {to}" if self.to else ""
+            )
+        if self.kind == "watch":
+            return f"watch for {self.obj}"
+        return "tell you what I see"
+
+    def code(self) -> str:
+        """Compact form used by the phrasing sets: goto:kitchen, fetch:mug@kitchen>dock."""
+        if self.kind == "see":
+            return "see"
+        if self.kind == "goto":
+            return f"goto:{self.place}"
+        text = f"{self.kind}:{self.obj}"
+        if self.place:
+            text += f"@{self.place}"
+        if self.to:
+            text += f">{self.to}"
+        return text
+
+
+def instruction_of(actions: list[Action]) -> str:
+    return ", then ".join(a.instruction() for a in actions)
+
+
+def spoken_of(actions: list[Action]) -> str:
+    said = [a.spoken() for a in actions]
+    return said[0] if len(said) == 1 else ", then ".join(said[:-1]) + ", then " + said[-1]
+
+
+@dataclass(frozen=True)
+class Question:
+    """One clarifying question and how its answer completes the request.
+
+    ``choose``: the answer picks one of ``options`` (place names) for ``slot`` of action
+    ``index``; ``confirm``: yes acts ``actions`` as they are; ``fill``: the answer is the
+    missing ``slot`` (place or object) of action ``index``."""
+
+    text: str
+    mode: Literal["choose", "confirm", "fill"]
+    actions: list[Action] = field(default_factory=list)
+    options: list[str] = field(default_factory=list)
+    index: int = 0
+    slot: Literal["place", "obj", "to"] = "place"
+
+    def complete(self, value: str) -> list[Action]:
+        actions = list(self.actions)
+        actions[self.index] = _with(actions[self.index], self.slot, value)
+        return actions
+
+
+@dataclass(frozen=True)
+class Reading:
+    kind: ReadingKind
+    actions: list[Action] = field(default_factory=list)
+    question: Question | None = None
+    text: str = ""  # a refusal's sentence
+    topic: str = ""  # answer: where | places | abilities | greet | <site intent>
+    intent: str = ""
+    score: float = 1.0
+    stage: Literal["grammar", "semantic", "answer"] = "grammar"
+
+    def code(self) -> list[str]:
+        if self.kind == "act":
+            return [a.code() for a in self.actions]
+        if self.kind == "answer":
+            return [f"answer:{self.topic}"]
+        return [self.kind]
+
+
+def _with(action: Action, slot: str, value: str) -> Action:
+    if slot == "obj":
+        return replace(action, obj=value)
+    if slot == "to":
+        return replace(action, to=value)
+    return replace(action, place=value)

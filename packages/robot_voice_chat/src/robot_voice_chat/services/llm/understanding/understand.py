@@ -1,0 +1,471 @@
+"""The embedded understanding layer: the exact grammar first, then semantic intent matching
+over the examples of ``intents.yaml``; slots resolved against the live places; legs composed
+in order. Whatever it is unsure of becomes one question, never an action."""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Literal
+
+import structlog
+
+from robot_voice_chat.services.llm.rules.commands import parse
+from robot_voice_chat.services.llm.understanding import clauses as cl
+from robot_voice_chat.services.llm.understanding.embedder import Embedder, default_embedder
+from robot_voice_chat.services.llm.understanding.intents import load_intents
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, key
+from robot_voice_chat.services.llm.understanding.reading import (
+    Action,
+    ActionKind,
+    Question,
+    Reading,
+    _with,
+    spoken_of,
+)
+
+logger = structlog.get_logger(__name__)
+_CANCEL = re.compile(
+    r"^(?:never\s*mind|nevermind|cancel|forget\s+(?:it|that)|no|nope|no thanks|nothing|abort|"
+    r"don'?t|do nothing|stop|leave it)\b"
+)
+_YES = re.compile(
+    r"^(?:yes|yeah|yep|yup|sure|ok|okay|go ahead|do it|please do|correct|right|exactly|"
+    r"that's right|affirmative|please)\b"
+)
+_SEARCH_IN = re.compile(r"^(?:search|check|look\s+in|look\s+through)\s+.+?\s+for\s+.+$")
+# intents that read the same words: a verb of one and the meaning of the other agree
+_FAMILY = {"fetch": "carry", "deliver": "carry", "find": "find", "goto": "goto", "watch": "watch"}
+_ORDINALS = {"first": 0, "former": 0, "second": 1, "latter": -1, "third": 2, "last": -1}
+Status = Literal["ok", "ambiguous", "unknown_place", "missing", "unclear", "bare", "deliver"]
+
+
+@dataclass
+class _Leg:
+    text: str
+    status: Status = "ok"
+    action: Action | None = None
+    intent: str = ""
+    score: float = 1.0
+    sure: bool = True
+    stage: Literal["grammar", "semantic"] = "grammar"
+    slot: Literal["place", "obj", "to"] = "place"
+    options: list[str] = field(default_factory=list)
+    phrase: str = ""
+
+
+class Understanding:
+    """``understand(text, places)`` → :class:`Reading`; ``follow_up(question, answer, places)``
+    reads the answer to a question it asked."""
+
+    def __init__(
+        self,
+        embedder: Embedder | None = None,
+        intents_files: list[Path] | None = None,
+        act_threshold: float = 0.55,
+        ask_threshold: float = 0.35,
+        margin: float = 0.03,
+    ) -> None:
+        self.intents = load_intents(intents_files)
+        self.embedder = embedder or default_embedder()
+        self.act_threshold, self.ask_threshold, self.margin = act_threshold, ask_threshold, margin
+        self._labels = [n for n, i in self.intents.intents.items() for _ in i.examples]
+        examples = [e for i in self.intents.intents.values() for e in i.examples]
+        self._examples = self.embedder.embed([cl.normalise(e) for e in examples])
+
+    @property
+    def name(self) -> str:
+        return f"embedded matcher ({self.embedder.name})"
+
+    def places(self, list_locations_result: str) -> PlaceIndex:
+        return PlaceIndex.from_result(list_locations_result, self.intents.place_words)
+
+    # --- one request ------------------------------------------------------------------------
+    def understand(self, text: str, places: PlaceIndex | None = None) -> Reading:
+        started = time.monotonic()
+        reading = self._understand(text, places)
+        logger.debug(
+            "understanding_read",
+            reading=reading.code(),
+            intent=reading.intent,
+            stage=reading.stage,
+            score=round(reading.score, 3),
+            duration_ms=round((time.monotonic() - started) * 1000, 2),
+        )
+        return reading
+
+    def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
+        parts = cl.clauses(text)
+        if not parts:
+            return self._unclear(text)
+        if len(parts) == 1 and parse(parts[0]).kind == "unknown":
+            single = self._non_action(parts[0])
+            if single is not None:
+                return single
+        legs: list[_Leg] = []
+        for part in parts:
+            legs.append(self._delivery(part, legs, places) or self._leg(part, places))
+        return self._compose(text, legs, places)
+
+    def _delivery(self, part: str, before: list[_Leg], places: PlaceIndex | None) -> _Leg | None:
+        """ "bring it to Q" right after a fetch is that fetch's delivery (the verbs "bring",
+        "take" also start a fetch: the pronoun after a fetch decides)."""
+        previous = before[-1].action if before else None
+        if previous is None or previous.kind != "fetch" or previous.to is not None:
+            return None
+        to = cl.deliver_slot(part, self.intents.intents["deliver"].verbs)
+        if to is None:
+            return None
+        leg = _Leg(part, "deliver", Action("fetch", None, None, to), "deliver")
+        return self._resolve(leg, places)
+
+    def _non_action(self, part: str) -> Reading | None:
+        """A question, greeting, stop or out-of-scope request, when it beats every action
+        (by a margin when an action's verb starts the sentence)."""
+        scores = self._scores(part)
+        intent, score = max(scores.items(), key=lambda kv: kv[1])
+        info = self.intents.intents[intent]
+        if score < self.ask_threshold or info.kind == "action":
+            return None
+        actions = [v for k, v in scores.items() if self.intents.intents[k].kind == "action"]
+        if self._verb(part) is not None and score - max(actions, default=-1.0) < 0.1:
+            return None
+        if info.kind == "refuse":
+            return replace(self._unclear(part), intent=intent, score=score, stage="semantic")
+        if info.kind == "stop":
+            return Reading("stop", intent=intent, score=score, stage="semantic")
+        kind: Literal["greet", "answer"] = "greet" if intent == "greet" else "answer"
+        return Reading(kind, topic=intent, intent=intent, score=score, stage="answer")
+
+    def _scores(self, part: str) -> dict[str, float]:
+        """Each intent's score: its nearest example's cosine similarity."""
+        sims = self._examples @ self.embedder.embed([part])[0]
+        best: dict[str, float] = {}
+        for label, sim in zip(self._labels, sims.tolist(), strict=True):
+            best[label] = max(best.get(label, -1.0), float(sim))
+        return best
+
+    def _match(self, part: str) -> tuple[str, float, str, float]:
+        """Best intent and score, runner-up (another intent) and its score."""
+        ranked = sorted(self._scores(part).items(), key=lambda kv: kv[1], reverse=True)
+        (first, s1), (second, s2) = ranked[0], ranked[1] if len(ranked) > 1 else ("", -1.0)
+        return first, s1, second, s2
+
+    def _verb(self, part: str) -> str | None:
+        """The action intent whose verb starts ``part`` (the longest verb wins)."""
+        best, length = None, 0
+        for name, intent in self.intents.intents.items():
+            for verb in intent.verbs if intent.kind == "action" else []:
+                if (part == verb or part.startswith(verb + " ")) and len(verb) > length:
+                    best, length = name, len(verb)
+        return best
+
+    def _leg(self, part: str, places: PlaceIndex | None) -> _Leg:
+        command = parse(part)
+        if command.kind != "unknown":
+            kind: ActionKind = command.kind
+            action = Action(kind, command.place, command.obj)
+            if command.kind == "fetch":
+                obj, source, to = cl.fetch_slots(part, self.intents.intents["fetch"].verbs)
+                action = Action("fetch", source or command.place, obj or command.obj, to)
+            return self._resolve(_Leg(part, action=action, intent=command.kind), places)
+        bare = cl.strip_article(re.sub(r"^(?:to|into|at)\s+", "", part))
+        if places is not None and bare and places.only_place(bare):
+            match = places.resolve(bare)
+            return _Leg(part, "bare", Action("goto", match.names[0]), "goto")
+        scores = self._scores(part)
+        ranked = sorted(scores.items(), key=lambda kv: kv[1], reverse=True)
+        (intent, s1), s2 = ranked[0], ranked[1][1]
+        verb = self._verb(part)
+        if _SEARCH_IN.match(part):
+            verb = "find"
+        if verb is not None:
+            # the verb names the intent; the meaning must not point clearly elsewhere
+            own = scores.get(verb, -1.0)
+            sure = own >= self.act_threshold - 0.1 and own >= s1 - 0.1
+            intent, s1 = verb, max(own, s1 if verb == intent else own)
+        elif not self.intents.intents[intent].verbs:
+            sure = s1 >= self.act_threshold and s1 - s2 >= self.margin  # no slots (see)
+        else:
+            sure = False  # an action with slots but no verb we know: say it back first
+        info = self.intents.intents[intent]
+        leg = _Leg(part, intent=intent, score=s1, sure=sure, stage="semantic")
+        if s1 < self.ask_threshold or info.kind != "action":
+            leg.status = "unclear"
+            return leg
+        verbs = info.verbs
+        if intent == "goto":
+            rest, _ = cl.without_verb(part, verbs)
+            leg.action = Action("goto", cl.strip_article(rest) or None)
+        elif intent == "find":
+            obj, place = cl.find_slots(part, verbs)
+            leg.action = Action("find", place, obj)
+        elif intent == "fetch":
+            obj, source, to = cl.fetch_slots(part, verbs)
+            leg.action = Action("fetch", source, obj, to)
+        elif intent == "deliver":
+            to = cl.deliver_slot(part, verbs)
+            leg.status, leg.action = "deliver", Action("fetch", None, None, to)
+            if to is None:
+                leg.status = "unclear"
+            return self._resolve(leg, places) if to else leg
+        elif intent == "watch":
+            leg.action = Action("watch", obj=cl.watch_slot(part, verbs))
+        else:
+            leg.action = Action("see")
+        return self._resolve(leg, places)
+
+    def _resolve(self, leg: _Leg, places: PlaceIndex | None) -> _Leg:
+        """Fill missing-slot status, and turn place phrases into the live places' names."""
+        action = leg.action
+        assert action is not None
+        if action.kind in ("find", "fetch", "watch") and not action.obj and leg.status == "ok":
+            leg.status, leg.slot = "missing", "obj"
+            return leg
+        if action.kind in ("goto", "fetch") and not action.place and leg.status == "ok":
+            leg.status, leg.slot = "missing", "place"
+            return leg
+        if places is None:
+            return leg
+        for slot in ("place", "to"):
+            phrase = getattr(action, slot)
+            if not phrase:
+                continue
+            match = places.resolve(phrase)
+            if match.sure:
+                action = _with(action, slot, match.names[0])
+                continue
+            leg.slot = "place" if slot == "place" else "to"
+            leg.phrase = cl.strip_article(phrase)
+            leg.status = "ambiguous" if match.names else "unknown_place"
+            leg.options = match.names
+            break
+        leg.action = action
+        return leg
+
+    # --- putting the legs together ----------------------------------------------------------
+    def _compose(self, text: str, legs: list[_Leg], places: PlaceIndex | None) -> Reading:
+        actions: list[Action] = []
+        problems: list[tuple[int, _Leg]] = []
+        for leg in legs:
+            previous = actions[-1] if actions else None
+            if leg.status == "bare" and previous is not None and previous.kind != "goto":
+                leg.status = "unclear"
+            if leg.status == "deliver" or (
+                leg.status != "ok" and leg.slot == "to" and leg.intent == "deliver"
+            ):
+                if previous is None or previous.kind != "fetch" or previous.to is not None:
+                    leg.status = "unclear"
+                    problems.append((len(actions), leg))
+                    continue
+                assert leg.action is not None
+                actions[-1] = replace(previous, to=leg.action.to)
+                if leg.status != "deliver":
+                    problems.append((len(actions) - 1, leg))
+                continue
+            if leg.status in ("ok", "bare"):
+                assert leg.action is not None
+                if (
+                    leg.action.kind == "find"
+                    and leg.action.place is None
+                    and previous is not None
+                    and previous.kind == "goto"
+                ):
+                    actions[-1] = replace(leg.action, place=previous.place)
+                else:
+                    actions.append(leg.action)
+                if not leg.sure:
+                    problems.append((len(actions) - 1, replace(leg, status="ok")))
+                continue
+            if leg.action is not None and leg.status in ("ambiguous", "missing"):
+                actions.append(leg.action)
+                problems.append((len(actions) - 1, leg))
+            else:
+                problems.append((len(actions), leg))
+        score = min((leg.score for leg in legs), default=1.0)
+        stage: Literal["grammar", "semantic"] = (
+            "grammar" if all(leg.stage == "grammar" for leg in legs) else "semantic"
+        )
+        intent = "+".join(leg.intent or "?" for leg in legs)
+        base = Reading("act", actions, intent=intent, score=score, stage=stage)
+        if not problems:
+            return base
+        return replace(
+            self._problem(text, actions, problems, places), intent=intent, score=score, stage=stage
+        )
+
+    def _problem(
+        self,
+        text: str,
+        actions: list[Action],
+        problems: list[tuple[int, _Leg]],
+        places: PlaceIndex | None,
+    ) -> Reading:
+        hard = [
+            (i, leg) for i, leg in problems if leg.status in ("unclear", "unknown_place", "deliver")
+        ]
+        if len(problems) == 1:
+            index, leg = problems[0]
+            if leg.status == "ambiguous":
+                return Reading("ask", question=self._choose(actions, index, leg, places))
+            if leg.status == "missing":
+                return Reading("ask", question=self._fill(actions, index, leg, places))
+            if leg.status == "ok":  # understood, but not surely: say it back
+                plan = spoken_of(actions)
+                return Reading(
+                    "ask",
+                    question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
+                )
+        if hard and len(problems) == len(hard) and len(hard) == 1 and not actions:
+            _, leg = hard[0]
+            if leg.status == "unknown_place":
+                return Reading("refuse", text=self._unknown_place(leg.phrase, places))
+            return self._unclear(text)
+        if not actions:
+            return self._unclear(text)
+        missed = "; ".join(
+            self._unknown_place(leg.phrase, places)
+            if leg.status == "unknown_place"
+            else f"I didn't understand {leg.text!r}."
+            for _, leg in hard
+        )
+        sure_actions = _known_only(actions, places)
+        plan = spoken_of(actions)
+        if hard:
+            if not sure_actions:
+                return Reading("refuse", text=missed)
+            sure = spoken_of(sure_actions)
+            question = (
+                f"I understood only part of that: {plan}. {missed} "
+                f"Shall I do just that ({sure})? (yes or no)"
+            )
+            return Reading("ask", question=Question(question, "confirm", sure_actions))
+        return Reading(
+            "ask",
+            question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
+        )
+
+    def _choose(
+        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
+    ) -> Question:
+        labels = [_label(n, places) for n in leg.options]
+        listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
+        what = f"'{leg.phrase}'" if leg.phrase else "that"
+        context = f" (to {spoken_of(actions)})" if len(actions) > 1 else ""
+        return Question(
+            f"Which place do you mean by {what}{context}: {listed}?",
+            "choose",
+            actions,
+            options=leg.options,
+            index=index,
+            slot=leg.slot,
+        )
+
+    def _fill(
+        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
+    ) -> Question:
+        action = actions[index]
+        if leg.slot == "obj":
+            verb = (
+                "watch for"
+                if action.kind == "watch"
+                else "look for"
+                if action.kind == "find"
+                else "get"
+            )
+            return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
+        known = f" I know: {', '.join(places.known())}." if places and places.places else ""
+        ask = (
+            "Where should I go?"
+            if action.kind == "goto"
+            else f"Where should I get the {action.obj} from?"
+        )
+        return Question(ask + known, "fill", actions, index=index, slot="place")
+
+    def _unknown_place(self, phrase: str, places: PlaceIndex | None) -> str:
+        known = ", ".join(places.known()) if places and places.places else "none"
+        return f"I don't know a place called {phrase!r}. I know: {known}."
+
+    def _unclear(self, text: str) -> Reading:
+        return Reading(
+            "refuse",
+            text=f"I didn't understand {text.strip()!r}.",
+            intent="unclear",
+            score=0.0,
+            stage="semantic",
+        )
+
+    # --- the answer to a question we asked --------------------------------------------------
+    def follow_up(
+        self, question: Question, answer: str, places: PlaceIndex | None
+    ) -> Reading | None:
+        """The request completed by ``answer``; a cancel; or None (not an answer: read it as a
+        new request)."""
+        text = cl.tidy(cl.normalise(answer))
+        if _CANCEL.match(text):
+            return Reading("cancel", text="OK, never mind: I won't do anything.", stage="answer")
+        if question.mode == "confirm":
+            return Reading("act", question.actions, stage="answer") if _YES.match(text) else None
+        if question.mode == "choose":
+            picked = _ordinal(text, question.options)
+            if picked is None and places is not None:
+                match = places.resolve(cl.strip_article(text), among=question.options)
+                picked = match.names[0] if match.sure else None
+            if picked is None:
+                return None
+            return Reading("act", question.complete(picked), stage="answer")
+        if question.slot == "obj":
+            obj = cl.strip_article(text)
+            return Reading("act", question.complete(obj), stage="answer") if obj else None
+        if places is None:
+            return Reading("act", question.complete(cl.strip_article(text)), stage="answer")
+        match = places.resolve(cl.strip_article(re.sub(r"^(?:to|go to)\s+", "", text)))
+        return (
+            Reading("act", question.complete(match.names[0]), stage="answer")
+            if match.sure
+            else None
+        )
+
+
+def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action]:
+    """The actions without what names an unknown place (a delivery to it is dropped)."""
+    if places is None:
+        return list(actions)
+    kept = []
+    for action in actions:
+        if action.to is not None and places.get(action.to) is None:
+            action = replace(action, to=None)
+        if action.place is None or places.get(action.place) is not None:
+            kept.append(action)
+    return kept
+
+
+def _ordinal(text: str, options: list[str]) -> str | None:
+    for word, index in _ORDINALS.items():
+        if re.search(rf"\b{word}\b", text) and -len(options) <= index < len(options):
+            return options[index]
+    return None
+
+
+def _label(name: str, places: PlaceIndex | None) -> str:
+    place = places.get(name) if places else None
+    return place.label() if place else name.replace("_", " ")
+
+
+def _has_verb(part: str, intents: dict[str, object]) -> bool:
+    first = key(part).split(" ", 1)[0]
+    return first in {
+        "go",
+        "drive",
+        "find",
+        "look",
+        "search",
+        "bring",
+        "fetch",
+        "get",
+        "take",
+        "watch",
+        "check",
+    }

@@ -1,0 +1,105 @@
+"""The rules chat with the understanding layer: the live places are read first, a sure request
+goes to start_mission with every leg, an unsure one becomes one question answered next turn."""
+
+from __future__ import annotations
+
+import pytest
+
+from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
+from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
+from robot_voice_chat.services.llm.rules.chat import RulesChat
+from robot_voice_chat.services.llm.understanding.understand import Understanding
+from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
+
+TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.list_locations"),
+         ToolDefinition(name="navigation.get_pose")]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def understanding() -> Understanding:
+    return Understanding()
+
+
+async def _turn(chat: RulesChat, history: list[Message], text: str) -> LLMResponse:
+    """One fast-path turn as the pipeline runs it: list_locations, then the reply."""
+    messages = [*history, Message(role="user", content=text)]
+    first = await chat.chat(messages, TOOLS)
+    assert [c.name for c in first.tool_calls] == ["navigation.list_locations"]
+    messages += [
+        first.as_message(),
+        Message(
+            role="user",
+            tool_results=[
+                ToolResult(tool_call_id=first.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)
+            ],
+        ),
+    ]
+    reply = await chat.chat(messages, TOOLS)
+    history += [Message(role="user", content=text), Message(role="assistant", content=reply.text)]
+    return reply
+
+
+async def test_a_sequence_goes_to_the_planner_with_every_leg_in_order(
+    understanding: Understanding,
+) -> None:
+    reply = await _turn(RulesChat(understanding), [], "Go to the kitchen and then to reception")
+    [call] = reply.tool_calls
+    assert call.name == "start_mission"
+    assert call.arguments["instruction"] == "go to kitchen, then go to reception"
+
+
+async def test_ask_then_answer_then_act(understanding: Understanding) -> None:
+    chat, history = RulesChat(understanding), []
+    question = await _turn(chat, history, "go to the desk")
+    assert not question.tool_calls
+    assert "desk alice" in question.text
+    assert "desk bob" in question.text
+    reply = await _turn(chat, history, "Bob's")
+    [call] = reply.tool_calls
+    assert call.arguments["instruction"] == "go to desk_bob"
+
+
+async def test_never_mind_cancels_the_question(understanding: Understanding) -> None:
+    chat, history = RulesChat(understanding), []
+    question = await _turn(chat, history, "go to the kitchen then sing a song")
+    assert not question.tool_calls
+    assert "(yes or no)" in question.text
+    reply = await _turn(chat, history, "never mind")
+    assert not reply.tool_calls
+    assert "won't do anything" in reply.text
+    after = await _turn(chat, history, "yes")  # nothing pending any more: no action
+    assert not after.tool_calls
+
+
+async def test_a_partial_sequence_is_confirmed_as_a_whole(understanding: Understanding) -> None:
+    chat, history = RulesChat(understanding), []
+    question = await _turn(chat, history, "go to the kitchen and then to the garage")
+    assert "garage" in question.text
+    assert not question.tool_calls
+    reply = await _turn(chat, history, "yes")
+    assert reply.tool_calls[0].arguments["instruction"] == "go to kitchen"
+
+
+async def test_an_unknown_place_is_refused_naming_the_known_ones(
+    understanding: Understanding,
+) -> None:
+    reply = await _turn(RulesChat(understanding), [], "go to the garage")
+    assert not reply.tool_calls
+    assert "garage" in reply.text
+    assert "mailroom" in reply.text
+
+
+async def test_questions_are_answered_from_the_tools(understanding: Understanding) -> None:
+    chat = RulesChat(understanding)
+    places = await _turn(chat, [], "Which places do you know?")
+    assert "desk_alice" in places.text or "desk alice" in places.text
+    where = await _turn(chat, [], "Where are you?")
+    [call] = where.tool_calls
+    assert call.name == "navigation.get_pose"
+    answer = await chat.chat(
+        [Message(role="user", content="Where are you?"), where.as_message(),
+         Message(role="user", tool_results=[ToolResult(tool_call_id=call.id,
+                 content='{"x": 9.0, "y": -3.0, "at_location": "kitchen", "moving": false}')])],
+        TOOLS,
+    )  # fmt: skip
+    assert answer.text == "I'm at the kitchen."

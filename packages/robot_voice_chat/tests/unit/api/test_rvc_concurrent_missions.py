@@ -71,7 +71,7 @@ async def brain(tmp_path: Path) -> AsyncIterator[Brain]:
     world.deliver = container.executor.on_task_event
     app = create_app(container, manage_lifecycle=False)
     transport = httpx.ASGITransport(app)
-    async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as client:
         try:
             yield Brain(container, world, client, emitter, speech)
         finally:

@@ -76,7 +76,9 @@ class DriveSim:
             state = self._advance(now)
             if self._route is not None:
                 self._pose, self._route = state.pose, None
-                state = DriveState(state.pose, "halted", state.distance_remaining_m, state.elapsed_s, 0.0)
+                state = DriveState(
+                    state.pose, "halted", state.distance_remaining_m, state.elapsed_s, 0.0
+                )
                 self._last = state
             return state
 

@@ -70,10 +70,28 @@ def _shape_mask(look: ObjectLook, size: int, rng: np.random.Generator) -> Pixels
     s = size
     if look.shape == "mug":
         cv2.circle(mask, (c, c), int(0.55 * s), 255, -1)
-        cv2.rectangle(mask, (c + int(0.45 * s), c - int(0.15 * s)), (c + int(0.85 * s), c + int(0.15 * s)), 255, -1)
+        cv2.rectangle(
+            mask,
+            (c + int(0.45 * s), c - int(0.15 * s)),
+            (c + int(0.85 * s), c + int(0.15 * s)),
+            255,
+            -1,
+        )
     elif look.shape == "bottle":
-        cv2.rectangle(mask, (c - int(0.25 * s), c - int(0.45 * s)), (c + int(0.25 * s), c + int(0.8 * s)), 255, -1)
-        cv2.rectangle(mask, (c - int(0.1 * s), c - int(0.85 * s)), (c + int(0.1 * s), c - int(0.4 * s)), 255, -1)
+        cv2.rectangle(
+            mask,
+            (c - int(0.25 * s), c - int(0.45 * s)),
+            (c + int(0.25 * s), c + int(0.8 * s)),
+            255,
+            -1,
+        )
+        cv2.rectangle(
+            mask,
+            (c - int(0.1 * s), c - int(0.85 * s)),
+            (c + int(0.1 * s), c - int(0.4 * s)),
+            255,
+            -1,
+        )
     elif look.shape in ("parcel", "box"):
         w = int(s * (0.75 if look.shape == "parcel" else 0.6))
         h = int(s * (0.55 if look.shape == "parcel" else 0.6))
@@ -81,8 +99,12 @@ def _shape_mask(look: ObjectLook, size: int, rng: np.random.Generator) -> Pixels
     elif look.shape == "plate":
         cv2.circle(mask, (c, c), int(0.75 * s), 255, -1)
     else:  # scissors: two blades and two finger loops
-        cv2.line(mask, (c - int(0.7 * s), c - int(0.6 * s)), (c + int(0.3 * s), c + int(0.3 * s)), 255, 9)
-        cv2.line(mask, (c + int(0.7 * s), c - int(0.6 * s)), (c - int(0.3 * s), c + int(0.3 * s)), 255, 9)
+        cv2.line(
+            mask, (c - int(0.7 * s), c - int(0.6 * s)), (c + int(0.3 * s), c + int(0.3 * s)), 255, 9
+        )
+        cv2.line(
+            mask, (c + int(0.7 * s), c - int(0.6 * s)), (c - int(0.3 * s), c + int(0.3 * s)), 255, 9
+        )
         cv2.circle(mask, (c - int(0.35 * s), c + int(0.55 * s)), int(0.22 * s), 255, -1)
         cv2.circle(mask, (c + int(0.35 * s), c + int(0.55 * s)), int(0.22 * s), 255, -1)
     angle = float(rng.uniform(-35.0, 35.0))

@@ -121,7 +121,9 @@ class World:
         return list(self.map.locations)
 
     def place(self, name: str) -> PlaceSpec:
-        return self.spec.places.get(name, PlaceSpec(description=self.map.locations[name].description))
+        return self.spec.places.get(
+            name, PlaceSpec(description=self.map.locations[name].description)
+        )
 
     def objects_at(self, place: str) -> tuple[str, ...]:
         with self._lock:
@@ -129,6 +131,12 @@ class World:
 
     def set_objects(self, place: str, labels: list[str]) -> None:
         """Replace what stands at ``place``; unknown places or labels raise WorldError."""
+        self.check(place, labels)
+        with self._lock:
+            self._objects[place] = list(labels)
+
+    def check(self, place: str, labels: list[str]) -> None:
+        """Raise WorldError unless ``labels`` may stand at ``place``."""
         if place not in self._objects:
             raise WorldError(f"unknown place {place!r}; places: {', '.join(self.places)}")
         if len(labels) > MAX_OBJECTS_PER_PLACE:
@@ -138,8 +146,6 @@ class World:
             raise WorldError(
                 f"unknown objects {unknown}; the catalogue has: {', '.join(self.spec.objects)}"
             )
-        with self._lock:
-            self._objects[place] = list(labels)
 
     def look(self, label: str) -> ObjectLook:
         return self.spec.objects[label]

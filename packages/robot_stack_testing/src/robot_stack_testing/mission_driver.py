@@ -135,12 +135,10 @@ def mailroom_stack(
     overrides: Mapping[str, str] | None = None,
     stack_file: Path | None = None,
 ) -> Iterator[RunningStack]:
-    """The whole stack (``deploy/local-stack.yaml``) with a fresh secret, the camera showing
-    the mailroom shelf, stopped by PID when the block exits."""
+    """The whole stack (``deploy/local-stack.yaml``) with a fresh secret, stopped by PID when
+    the block exits. The camera is robot-sim's: it shows the place the robot stands at."""
     path = stack_file or root / "deploy" / "local-stack.yaml"
-    frames = var_dir / "mailroom-frames"
-    frames_showing(root / "data" / "scenes", frames)
-    placeholders = {**stack_defaults(path), "frames_dir": str(frames), **(overrides or {})}
+    placeholders = {**stack_defaults(path), **(overrides or {})}
     secret = fresh_secret()
     with local_stack(
         root, var_dir, stack_env(secret), stack_file=path, overrides=placeholders

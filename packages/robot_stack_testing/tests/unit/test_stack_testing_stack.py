@@ -218,3 +218,23 @@ def test_restart_replaces_one_service_with_a_new_process(stack_file: Path, tmp_p
         assert second.pid != first.pid
         assert stack["web"] is second
     assert not second.running()
+
+
+def test_a_pid_file_service_is_ready_when_the_file_names_its_own_pid(tmp_path: Path) -> None:
+    """A ROS node has no port: it writes its PID once ready. A stale file (another PID, from
+    an earlier run) does not count."""
+    pid_file = tmp_path / "var" / "node.ready"
+    pid_file.parent.mkdir(parents=True)
+    pid_file.write_text("1")
+    writer = (
+        "import os, sys, time, pathlib; time.sleep(0.3); "
+        "pathlib.Path(sys.argv[1]).write_text(str(os.getpid())); time.sleep(60)"
+    )
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        f'  - name: node\n    argv: ["{{python}}", "-c", {writer!r}, "{{var}}/node.ready"]\n'
+        '    ready: {pid_file: "{var}/node.ready", timeout_s: 20}\n',
+    )
+    with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack) as running:
+        assert pid_file.read_text() == str(running["node"].pid)

@@ -98,6 +98,7 @@ class VisionNode(Node):
                 else None
             ),
             grounder_requests=partial(grounder_requests, settings=pipeline_settings),
+            fresh_frame_wait_s=self.node_settings.fresh_frame_wait_s,
         )
         self.tasks = TaskService(
             self.registry,

@@ -11,6 +11,10 @@
 - **cancel**: always accepted; the robot halts and the goal ends CANCELED.
 - **preemption**: a new goal replaces the running one (Nav2's ``accept_pending_goal``); the
   robot turns toward the new goal at once and the old goal ends ABORTED with ``NONE``.
+- **the camera first**: when the robot stops (arrived, failed, canceled), ``on_stopped`` runs
+  before the goal's result is sent, so the camera frame of where the robot now stands is on
+  the wire before any client learns the robot stopped (a skill started on arrival never sees
+  the corridor view of the drive).
 - **failures**: a map ``failures:`` entry for the goal's location (the closed mailroom door)
   stops the robot at ``at_fraction`` and aborts with ``NO_VALID_PATH`` (208, the code Nav2's
   planner gives when an obstacle closes the only way) and the entry's message as
@@ -63,8 +67,10 @@ class NavigateToPoseServer:
         action_name: str,
         feedback_hz: float = 10.0,
         clock: Callable[[], float] = time.monotonic,
+        on_stopped: Callable[[], None] | None = None,
     ) -> None:
         self._node = node
+        self._on_stopped = on_stopped
         self._drive = drive
         self._clock = clock
         self._period = 1.0 / feedback_hz
@@ -175,6 +181,7 @@ class NavigateToPoseServer:
                 return self._finish(run, started)
             if state.status == "failed":
                 message = state.failure.message if state.failure else "no valid path"
+                self._stopped()
                 return self._abort(run, NO_VALID_PATH, message)
             run.wake.wait(self._period)
             run.wake.clear()
@@ -195,7 +202,12 @@ class NavigateToPoseServer:
         feedback.distance_remaining = float(state.distance_remaining_m)
         return feedback
 
+    def _stopped(self) -> None:
+        if self._on_stopped is not None:
+            self._on_stopped()
+
     def _finish(self, run: _Run, started: float) -> Any:
+        self._stopped()
         run.handle.succeed()
         logger.info(
             "goal_succeeded",
@@ -206,6 +218,7 @@ class NavigateToPoseServer:
 
     def _cancel(self, run: _Run, started: float) -> Any:
         self._drive.halt(self._clock())
+        self._stopped()
         deadline = self._clock() + CANCEL_SETTLE_S
         while not run.handle.is_cancel_requested and self._clock() < deadline:
             run.wake.wait(0.002)  # rclpy marks the goal CANCELING right after our callback

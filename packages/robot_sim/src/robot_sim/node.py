@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 
@@ -58,13 +59,14 @@ class SimNode(Node):
         self.camera = camera
         self._wall = wall
         self.navigator = NavigateToPoseServer(
-            self, drive, settings.action_name, settings.feedback_hz, wall
+            self, drive, settings.action_name, settings.feedback_hz, wall, self._publish_image
         )
         self.parameters = WorldParameters(self, camera.world, self._set_active)
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)
         self._odom = self.create_publisher(Odometry, "/odom", 10)
         self._image = self.create_publisher(Image, settings.camera_topic, CAMERA_QOS)
         self._last_view = ""
+        self._image_lock = threading.Lock()
         # Own groups: a slow camera frame (first render of a new scene) never delays the pose.
         self.create_timer(
             1.0 / settings.pose_hz, self._publish_pose, MutuallyExclusiveCallbackGroup()
@@ -90,14 +92,16 @@ class SimNode(Node):
         self._odom.publish(messages.odometry(state.pose, state.speed_mps, stamp))
 
     def _publish_image(self) -> None:
-        state = self.drive.state(self._wall())
-        view = self.camera.view_of(state.pose, state.driving)
-        frame = self.camera.frame(view)
-        if frame.name != self._last_view:
-            logger.info("camera_view", view=view, frame=frame.name)
-            self._last_view = frame.name
-        stamp = self.get_clock().now().to_msg()
-        self._image.publish(messages.image(frame, stamp, self.settings.camera_frame_id))
+        """One camera frame of where the robot is (the timer, and the navigator on a stop)."""
+        with self._image_lock:
+            state = self.drive.state(self._wall())
+            view = self.camera.view_of(state.pose, state.driving)
+            frame = self.camera.frame(view)
+            if frame.name != self._last_view:
+                logger.info("camera_view", view=view, frame=frame.name)
+                self._last_view = frame.name
+            stamp = self.get_clock().now().to_msg()
+            self._image.publish(messages.image(frame, stamp, self.settings.camera_frame_id))
 
     def destroy_node(self) -> None:
         self.navigator.destroy()

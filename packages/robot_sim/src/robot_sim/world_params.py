@@ -15,8 +15,6 @@ from typing import Any
 import structlog
 from rcl_interfaces.msg import (
     ParameterDescriptor,
-    ParameterType,
-    ParameterValue,
     SetParametersResult,
 )
 from rclpy.node import Node

@@ -104,7 +104,8 @@ def test_someone_takes_the_mug_through_a_parameter(sim: Sim, settings: SimSettin
     )
     wait_until(refused.done, 10.0, "the refusal")
     answer = refused.result().results[0]
-    assert not answer.successful and "unknown objects ['unicorn']" in answer.reason
+    assert not answer.successful
+    assert "unknown objects ['unicorn']" in answer.reason
     taken = parameters.set_parameters(
         [Parameter("places.kitchen.objects", Parameter.Type.STRING_ARRAY, ["green bottle"])]
     )
@@ -112,8 +113,10 @@ def test_someone_takes_the_mug_through_a_parameter(sim: Sim, settings: SimSettin
     assert taken.result().results[0].successful
     changed = time.monotonic()
     wait_until(
-        lambda: sim.images.since(changed)
-        and _found(grounder, _pixels(sim.images.since(changed)[-1]), "the bottle"),
+        lambda: (
+            sim.images.since(changed)
+            and _found(grounder, _pixels(sim.images.since(changed)[-1]), "the bottle")
+        ),
         10.0,
         "the new kitchen scene",
     )

@@ -120,6 +120,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
         root / "deploy" / "local-stack.yaml", {"python": sys.executable, "root": "/r", "var": "/v"}
     )
     assert [s.name for s in services] == [
+        "robot_sim",
         "vision_node",
         "skill_control",
         "perception",
@@ -127,7 +128,11 @@ def test_the_repository_stack_file_names_every_server() -> None:
         "navigation",
         "brain",
     ]
-    assert all(s.ready.tcp or s.ready.http for s in services)
+    assert all(s.ready.tcp or s.ready.http or s.ready.pid_file for s in services)
+    by_name = {s.name: s for s in services}
+    assert by_name["navigation"].env["NAV_MOTION"] == "nav2"  # the real-robot data paths
+    assert "frame_source=ros" in by_name["vision_node"].env["PERCEPTION_CONFIG_OVERRIDES"]
+    assert by_name["robot_sim"].ready.pid_file == Path("/v/robot-sim.pid")
 
 
 STACK = (

@@ -118,11 +118,17 @@ def wait_servers_connected(stack: RunningStack, timeout_s: float = 60.0) -> None
 
 def camera_room(page: Page, stack: RunningStack) -> str:
     """The place whose robot-sim frame the Camera panel shows: the panel's image (fetched as
-    the page fetches it) looked up in the frames robot-sim saved, by content."""
+    the page fetches it; the live view draws the skills' overlays on the frame) compared with
+    every frame robot-sim saved — the closest one, by a clear margin."""
     import cv2
     import numpy as np
 
-    from robot_mcp_perception.models.frame_index import FrameIndex
+    from robot_mcp_perception.models.frame_index import THUMB_SIZE, FrameIndex
+
+    def thumb(gray: Any) -> Any:
+        small = np.asarray(cv2.resize(gray, THUMB_SIZE, interpolation=cv2.INTER_AREA), np.float32)
+        small -= small.mean()
+        return small / max(float(np.linalg.norm(small)), 1e-6)
 
     frame = page.evaluate(
         """async () => {
@@ -130,11 +136,16 @@ def camera_room(page: Page, stack: RunningStack) -> str:
             return Array.from(new Uint8Array(await r.arrayBuffer()));
         }"""
     )
-    bgr = cv2.imdecode(np.asarray(frame, np.uint8), cv2.IMREAD_COLOR)
+    shown = thumb(cv2.imdecode(np.asarray(frame, np.uint8), cv2.IMREAD_GRAYSCALE))
     index = FrameIndex.load(stack.sim_scenes_dir)
-    located = index.locate(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-    assert located is not None, "the camera panel shows no frame robot-sim published"
-    return str(located.frame.path.name.split("-")[0])
+    scores = sorted(
+        ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0]) for f in index.frames),
+        reverse=True,
+    )
+    (best, room), (second, _) = scores[0], scores[1]
+    assert best > 0.8, scores[:3]
+    assert best - second > 0.15, scores[:3]
+    return room
 
 
 def step(page: Page, step_id: str, scope: str = "Mission") -> Any:

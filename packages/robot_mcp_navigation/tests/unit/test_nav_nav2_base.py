@@ -37,7 +37,9 @@ MAP = {
             "location": "mailroom",
             "error_code": "DOOR_CLOSED",
             "message": "The mailroom door is closed.",
-            "suggestions": ['use the east entrance (navigate_to("dock"), then navigate_to("mailroom"))'],
+            "suggestions": [
+                'use the east entrance (navigate_to("dock"), then navigate_to("mailroom"))'
+            ],
         }
     ],
 }

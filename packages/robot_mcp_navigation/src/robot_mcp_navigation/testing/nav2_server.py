@@ -6,6 +6,8 @@ bt_navigator looks like from outside, and nothing more.
   navigation_time, number_of_recoveries), SUCCEEDED on arrival;
 - ``--abort X,Y,CODE,MESSAGE``: a goal at (X, Y) is ABORTED half way with that error code;
 - cancel → CANCELED at once; prints ``goal_canceled`` (the tests read this log line);
+- ``--trace``: also prints ``trace <what> ... wall=<time.time()>`` for each goal received, feedback
+  sent and goal canceled (benchmarks/navigation_nav2.py reads them);
 - publishes the pose on ``/amcl_pose`` (PoseWithCovarianceStamped, reliable + transient local,
   depth 1, as AMCL does) at 10 Hz.
 
@@ -49,8 +51,16 @@ def duration(seconds: float) -> Any:
 
 
 class FakeNav2(Node):
-    def __init__(self, start: tuple[float, float], speed: float, aborts: dict[Any, Any]) -> None:
+    def __init__(
+        self,
+        start: tuple[float, float],
+        speed: float,
+        aborts: dict[Any, Any],
+        trace: bool = False,
+    ) -> None:
         super().__init__("fake_nav2")
+        self.trace = trace
+        self.cancel_asked: dict[bytes, threading.Event] = {}
         self.x, self.y = start
         self.speed = speed
         self.aborts = aborts
@@ -62,7 +72,7 @@ class FakeNav2(Node):
             "/navigate_to_pose",
             self.execute,
             goal_callback=self.on_goal,
-            cancel_callback=lambda _r: CancelResponse.ACCEPT,
+            cancel_callback=self.on_cancel,
             callback_group=group,
         )
         qos = QoSProfile(
@@ -84,8 +94,14 @@ class FakeNav2(Node):
 
     def on_goal(self, request: Any) -> GoalResponse:
         frame = request.pose.header.frame_id
-        say(f"goal_received frame={frame}", flush=True)
+        if self.trace:
+            say(f"trace goal_received wall={time.time():.6f}")
+        say(f"goal_received frame={frame}")
         return GoalResponse.ACCEPT if frame == "map" else GoalResponse.REJECT
+
+    def on_cancel(self, goal: ServerGoalHandle[Any, Any, Any]) -> CancelResponse:
+        self.cancel_asked.setdefault(bytes(goal.goal_id.uuid), threading.Event()).set()
+        return CancelResponse.ACCEPT
 
     def execute(self, goal: ServerGoalHandle[Any, Any, Any]) -> Any:
         target = goal.request.pose.pose.position
@@ -96,17 +112,22 @@ class FakeNav2(Node):
         started = time.monotonic()
         result = NavigateToPose.Result()
         deadline = started + total / self.speed + 60.0
+        cancel_asked = self.cancel_asked.setdefault(bytes(goal.goal_id.uuid), threading.Event())
         while time.monotonic() < deadline:
             if goal.is_cancel_requested:
                 goal.canceled()
-                say("goal_canceled", flush=True)
+                if self.trace:
+                    say(f"trace goal_canceled wall={time.time():.6f}")
+                say("goal_canceled")
                 return result
-            elapsed = time.monotonic() - started
+            # Nav2 reports navigation_time; in 10 ms steps here so a benchmark can find the
+            # feedback an event came from (the navigator rounds elapsed_s to 0.01).
+            elapsed = round(time.monotonic() - started, 2)
             fraction = 1.0 if total == 0 else min(1.0, elapsed * self.speed / total)
             if abort is not None and fraction >= 0.5:
                 result.error_code, result.error_msg = abort
                 goal.abort()
-                say(f"goal_aborted code={abort[0]}", flush=True)
+                say(f"goal_aborted code={abort[0]}")
                 return result
             with self.lock:
                 self.x = origin[0] + (target.x - origin[0]) * fraction
@@ -121,11 +142,16 @@ class FakeNav2(Node):
             feedback.estimated_time_remaining = duration(remaining / self.speed)
             feedback.navigation_time = duration(elapsed)
             goal.publish_feedback(feedback)
+            if self.trace:
+                say(f"trace feedback nav_time={elapsed:.2f} wall={time.time():.6f}", flush=False)
             if fraction >= 1.0:
                 goal.succeed()
-                say("goal_succeeded", flush=True)
+                say("goal_succeeded")
                 return result
-            time.sleep(FEEDBACK_PERIOD_S)  # the control loop's period; the deadline bounds it
+            if cancel_asked.wait(FEEDBACK_PERIOD_S):  # the control loop's period, cut short
+                settle = time.monotonic() + 1.0  # by a cancel (CANCELING follows its callback)
+                while not goal.is_cancel_requested and time.monotonic() < settle:
+                    time.sleep(0.001)
         result.error_code = NavigateToPose.Result.TIMEOUT
         goal.abort()
         return result
@@ -141,14 +167,17 @@ def main() -> None:
     parser.add_argument("--start", default="0,0")
     parser.add_argument("--speed", type=float, default=2.0)
     parser.add_argument("--abort", action="append", default=[])
+    parser.add_argument("--trace", action="store_true")
     args = parser.parse_args()
     sx, sy = (float(v) for v in args.start.split(","))
     rclpy.init()
-    node = FakeNav2((sx, sy), args.speed, dict(parse_abort(a) for a in args.abort))
+    node = FakeNav2(
+        (sx, sy), args.speed, dict(parse_abort(a) for a in args.abort), trace=args.trace
+    )
     executor = MultiThreadedExecutor(num_threads=4)
     executor.add_node(node)
     signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
-    say("fake_nav2_ready", flush=True)
+    say("fake_nav2_ready")
     try:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

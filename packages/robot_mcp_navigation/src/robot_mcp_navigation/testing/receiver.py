@@ -31,6 +31,7 @@ class EventReceiver:
     secret: str
     events: list[TaskEvent] = field(default_factory=list)
     rejected: list[str] = field(default_factory=list)
+    arrivals: dict[str, float] = field(default_factory=dict)  # event_id → first time.time()
 
     def unique(self, task_id: str) -> list[TaskEvent]:
         """The task's events in arrival order, duplicates (same event_id) dropped."""
@@ -67,6 +68,7 @@ class EventReceiver:
             if request.headers.get(HEADER_SERVER) != event.server:
                 self.rejected.append("server_mismatch")
                 return JSONResponse({"error": "server_mismatch"}, status_code=401)
+            self.arrivals.setdefault(event.event_id, time.time())
             self.events.append(event)
             return JSONResponse({"status": "ok"})
 

@@ -4,6 +4,9 @@ Policy (documented in the README):
 - One navigation at a time. A second ``navigate_to`` while one is running is **refused**
   with NAVIGATION_BUSY (naming the running task); the caller stops or cancels first. A
   physical robot should never change course because a request was repeated.
+- A task exists only once the base took the goal (``MotionBase.start_drive``): a base that
+  cannot (Nav2 absent, goal rejected) makes ``navigate_to`` a BASE_UNAVAILABLE error, and
+  nothing moved. The slot is held meanwhile, so a parallel call is NAVIGATION_BUSY.
 - Every task ends with exactly one terminal event: ``task_done``, or ``task_failed`` with a
   TaskFailure payload. A cancelled task (``cancel_task`` / ``stop_navigation``) ends in
   state ``cancelled`` and posts ``task_failed`` with error_code CANCELLED, recoverable

@@ -37,7 +37,9 @@ MAP = {
             "location": "mailroom",
             "error_code": "DOOR_CLOSED",
             "message": "The mailroom door is closed.",
-            "suggestions": ['use the east entrance (navigate_to("dock"), then navigate_to("mailroom"))'],
+            "suggestions": [
+                'use the east entrance (navigate_to("dock"), then navigate_to("mailroom"))'
+            ],
         }
     ],
 }
@@ -353,3 +355,18 @@ async def test_unavailable_base_error_carries_the_detail() -> None:
 def test_bad_settings_are_refused() -> None:
     with pytest.raises(ValueError, match="positive"):
         Nav2MotionBase(FakeNav2Action(), frame="map", speed_mps=0.0, initial_pose=Pose(0, 0))
+
+
+def test_the_readme_table_is_the_mapping_in_the_code() -> None:
+    from pathlib import Path
+
+    from robot_mcp_navigation.motion.nav2.error_codes import CODES, FAILURES
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    for name, failure in FAILURES.items():
+        codes = ", ".join(str(c) for c, n in sorted(CODES.items()) if n == name) or "any other"
+        row = (
+            f"| `{name}` | {codes} | {'yes' if failure.recoverable else 'no'} | {failure.what} "
+            f"| {'; '.join(failure.suggestions)} |"
+        )
+        assert row in readme, f"README row for {name} is stale"

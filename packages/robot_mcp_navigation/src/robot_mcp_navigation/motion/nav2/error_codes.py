@@ -4,7 +4,7 @@ Nav2's bt_navigator ends an aborted NavigateToPose with the error code of the be
 node that failed: its own codes (9000-9003) or the planner's (ComputePathToPose 200-208), the
 controller's (FollowPath 100-107), the smoother's (500-505) and the recovery behaviours'
 (Spin 700-703, BackUp 710-714, DriveOnHeading 720-724, AssistedTeleop 730-732, Wait 740-741).
-The README ("Nav2 error codes") renders this table; tests check every code of the release.
+The README ("Nav2 error codes") renders this table; a test keeps the two equal.
 """
 
 from __future__ import annotations

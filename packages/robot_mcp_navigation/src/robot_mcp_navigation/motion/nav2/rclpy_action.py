@@ -99,7 +99,9 @@ class RclpyGoal(Nav2Goal):
         response = await self._bridge.await_future(self._result_future, None)
         status = _STATUS.get(int(response.status), "unknown")
         result = response.result
-        return Nav2Outcome(status, int(result.error_code), str(result.error_msg))
+        # Humble's NavigateToPose result is empty (error_code came with Iron): "no code".
+        code = int(getattr(result, "error_code", 0))
+        return Nav2Outcome(status, code, str(getattr(result, "error_msg", "")))
 
     async def cancel(self, timeout_s: float) -> bool:
         try:

@@ -11,10 +11,10 @@ import rclpy
 import structlog
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
-from robot_mcp_kit.logging import configure_logging
 from robot_sim.camera import Camera
 from robot_sim.config import ConfigError, SimSettings, load_settings
 from robot_sim.drive import DriveSim
+from robot_sim.logging_setup import configure_logging
 from robot_sim.store import SceneStore
 from robot_sim.world import WorldError, load_world
 
@@ -37,10 +37,10 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 def main(args: list[str] | None = None) -> None:
     try:
         settings = load_settings(os.environ)
-        configure_logging("robot-sim", level=settings.log_level)
+        configure_logging(settings.log_level)
         drive, camera = build(settings)
     except (ConfigError, WorldError, OSError) as exc:
-        configure_logging("robot-sim")
+        configure_logging()
         logger.error("startup_failed", detail=str(exc))
         sys.exit(2)
     from robot_sim.node import SimNode  # rclpy message imports only once the config is good

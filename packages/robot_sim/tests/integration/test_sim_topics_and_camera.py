@@ -128,3 +128,17 @@ def test_someone_takes_the_mug_through_a_parameter(sim: Sim, settings: SimSettin
     wait_until(emptied.done, 10.0, "emptying the kitchen")
     assert emptied.result().results[0].successful
     assert sim.node.camera.world.objects_at("kitchen") == ()
+
+
+def test_the_world_command_changes_a_running_sim(sim: Sim) -> None:
+    from robot_sim.world_cli import main as world
+
+    assert world(["kitchen", "green bottle"]) == 0
+    assert sim.node.camera.world.objects_at("kitchen") == ("green bottle",)
+    assert world(["kitchen", "unicorn"]) == 1
+    assert sim.node.camera.world.objects_at("kitchen") == ("green bottle",)
+    assert world(["--active", "false"]) == 0
+    assert not sim.node.navigator.accepting
+    assert world(["kitchen", "--node", "no_such_node", "--timeout", "1"]) == 2
+    with pytest.raises(SystemExit):
+        world([])  # nothing to change: usage error

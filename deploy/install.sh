@@ -26,7 +26,7 @@ SERVICES=(
   "mcp-skill-control ros skill-control"
   "mcp-perception-buffer ros perception-buffer"
   "robot-mcp-memory memory"
-  "robot-mcp-navigation navigation"
+  "robot-mcp-navigation ros navigation"
   "robot-voice-chat brain"
 )
 UNITS=()
@@ -174,7 +174,10 @@ write_env_files() {
   env_file vision GEMINI_API_KEY= PERCEPTION_CONFIG_OVERRIDES=
   env_file skill-control LOG_LEVEL=INFO
   env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
-  env_file navigation "RVC_EVENT_SECRET=$nav" LOG_LEVEL=INFO
+  # The robot's Nav2 drives the base (README "Deploying on a robot"); NAV_MAP is the robot's map
+  # file of named places (default: the office sample map), NAV_MOTION=simulated for a dry run.
+  env_file navigation "RVC_EVENT_SECRET=$nav" NAV_MOTION=nav2 NAV2_ACTION=/navigate_to_pose \
+    NAV_POSE_TOPIC=/amcl_pose LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \

@@ -1,8 +1,10 @@
 """`make demo`: the whole stack on the embedded defaults, one mission, narrated as it happens.
 
-Starts every service of ``deploy/local-stack.yaml`` as its own OS process (vision node on the
-sample frames with the offline grounder + GrabCut, skill_control, perception buffer, memory,
-the simulated base, the brain on its dev preset with recorded LLM replies), stores a taught
+Starts every service of ``deploy/local-stack.yaml`` as its own OS process (robot-sim — a
+simulated robot with Nav2's NavigateToPose, /amcl_pose and a camera showing the place it is in —,
+the vision node on that camera topic with the offline grounder + GrabCut, skill_control,
+perception buffer, memory, navigation driving robot-sim through Nav2's action, the brain on its
+dev preset with recorded LLM replies), stores a taught
 process in memory, then acts as the user: one request over REST, everything else watched over
 Socket.IO like the UI. The mailroom door is closed on the first try (the map's failure entry),
 so the mission has to replan. Every process is stopped by PID at the end, also on Ctrl+C.

@@ -168,6 +168,20 @@ def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) 
     assert brain["ADMIN_PASSWORD_HASH"] == ""  # the operator sets it (RUNBOOK step 3)
 
 
+def test_navigation_is_installed_to_drive_the_robots_nav2_over_ros(installed: Path) -> None:
+    navigation = env_file(installed / "etc/robot-stack/navigation.env")
+    assert navigation["NAV_MOTION"] == "nav2"
+    assert navigation["NAV2_ACTION"] == "/navigate_to_pose"
+    assert navigation["NAV_POSE_TOPIC"] == "/amcl_pose"
+    service = installed / "etc/systemd/system/robot-mcp-navigation.service"
+    # the ROS domain of the vision node and Nav2, then the unit's own settings (which win)
+    assert unit_values(service, "EnvironmentFile") == [
+        "/etc/robot-stack/ros.env",
+        "/etc/robot-stack/navigation.env",
+    ]
+    assert "/dev/shm" in unit_values(service, "ReadWritePaths")  # Fast DDS shared memory
+
+
 def test_users_and_units_are_created_and_enabled(installed: Path) -> None:
     actions = (installed / "install-actions.log").read_text().splitlines()
     useradds = [a for a in actions if a.startswith("useradd ")]

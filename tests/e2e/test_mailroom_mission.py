@@ -2,9 +2,12 @@
 from ``deploy/local-stack.yaml`` on free loopback ports, one fresh HMAC secret, the brain on
 its dev preset (ReplayLLM: recorded planner replies, checked against what the real servers
 answer). The test is the user: one REST turn, then it watches Socket.IO like the UI does.
+The robot is robot-sim over ROS: navigation drives it through Nav2's NavigateToPose action
+(NAV_MOTION=nav2) and the vision node reads its camera topic (frame_source=ros).
 
     fast path start_mission → plan → memory.find_processes → navigate_to(mailroom)
-    → signed task_failed DOOR_CLOSED from the real navigation server → replan via corridor_b
+    → Nav2 goal ABORTED 208 (NO_VALID_PATH, "The mailroom door is closed.") at robot-sim
+    → signed task_failed NO_PATH from the real navigation server → replan via corridor_b
     → task_done → find_object(yellow package) → wait_for_result (mask_ref, no pixels)
     → stop_skill → finish_mission(succeeded) → memory.record_outcome
 """
@@ -73,7 +76,8 @@ async def test_the_mailroom_mission_survives_a_closed_door_and_finds_the_package
         "s5": "succeeded",
     }
     steps = {s["id"]: s for s in snapshot["steps"]}
-    assert steps["s1"]["detail"].startswith("DOOR_CLOSED")
+    assert steps["s1"]["detail"].startswith("NO_PATH")
+    assert "The mailroom door is closed." in steps["s1"]["detail"]
     assert all(steps[s]["task_id"].startswith("nav-") for s in ("s1", "s1b", "s1c"))
 
     # The brain saw the real server's signed events: the trigger, the failure, two arrivals.
@@ -86,7 +90,7 @@ async def test_the_mailroom_mission_survives_a_closed_door_and_finds_the_package
     assert by_task[steps["s1b"]["task_id"]][-1] == "task_done"
     assert by_task[steps["s1c"]["task_id"]][-1] == "task_done"
     lines = record.event_lines("task_event")
-    assert any("failed DOOR_CLOSED (recoverable)" in line for line in lines)
+    assert any("failed NO_PATH (recoverable)" in line for line in lines)
     assert any(line.startswith("[reaction] eta_below fired") for line in record.event_lines())
     prewarm = record.tool_results("skill_control.prewarm_skill")
     assert prewarm, "the eta_below reaction did not prewarm"
@@ -119,6 +123,12 @@ async def test_the_mailroom_mission_survives_a_closed_door_and_finds_the_package
     }  # fmt: skip
     stopped = record.tool_results("skill_control.stop_skill")
     assert [json.loads(r["result"])["stopped"] for r in stopped] == [True, True]
+
+    # The robot side, as robot-sim logged it: Nav2's abort at the door, the camera in the
+    # mailroom when the package was found.
+    sim_log = stack.services["robot_sim"].log()
+    assert '"error_code": 208' in sim_log
+    assert '"view": "mailroom"' in sim_log
 
     # Memory: the seeded process was retrieved and its outcome recorded.
     process = await call_mcp(

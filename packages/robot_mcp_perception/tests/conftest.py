@@ -72,7 +72,14 @@ def make_settings(**sections: Any) -> PerceptionSettings:
         "grounder": {"_target_": "tests.FakeGrounder", "cost_class": "cloud"},
         "segmenter": {"_target_": "tests.NullSegmenter"},
         "frame_source": {"_target_": "tests.ManualFrameSource"},
-        "node": {"processing_frequency": 5.0, "tick_hz": 50.0, "model_timeout_s": 2.0},
+        # Tests push frames with fixed historic stamps: no waiting for a frame captured after
+        # a skill was taken up (the engine tests cover that rule).
+        "node": {
+            "processing_frequency": 5.0,
+            "tick_hz": 50.0,
+            "model_timeout_s": 2.0,
+            "fresh_frame_wait_s": 0.0,
+        },
         "artifacts": {"enabled": False},
         "logging": {"json_logs": True, "level": "DEBUG"},
     }

@@ -3,21 +3,23 @@
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.poster import EventPoster
 from robot_mcp_kit.tasks import TaskTable
-from robot_mcp_navigation.config import NavigationSettings
+from robot_mcp_navigation.config import ConfigError, NavigationSettings
 from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.events.log_only import LogOnlyEventSink
 from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.map import NavMap, load_map
 from robot_mcp_navigation.motion.base import MotionBase
+from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase
+from robot_mcp_navigation.motion.nav2.port import Nav2Action
 from robot_mcp_navigation.motion.simulated import PoseFile, SimulatedBase
 from robot_mcp_navigation.navigator import Navigator, NavigatorSettings
 from robot_mcp_navigation.tools import SERVER_NAME, build_mcp_server
@@ -33,6 +35,7 @@ class NavigationApp:
     events: EventSink
     navigator: Navigator
     server: MCPServer
+    closers: list[Callable[[], None]] = field(default_factory=list)
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[NavigationApp]:
@@ -44,14 +47,19 @@ class NavigationApp:
             map=self.nav_map.name,
             locations=len(self.nav_map.locations),
             failures=len(self.nav_map.failures),
+            motion=self.settings.motion,
             time_scale=self.settings.time_scale,
             duration_ms=round((time.monotonic() - started) * 1000, 1),
         )
         try:
             yield self
         finally:
-            await self.navigator.close()
-            await self.events.close()
+            try:
+                await self.navigator.close()
+                await self.events.close()
+            finally:
+                for close in self.closers:
+                    close()
             logger.info("navigation_shutdown")
 
 
@@ -69,17 +77,54 @@ def build_event_sink(settings: NavigationSettings) -> EventSink:
     return PosterEventSink(poster)
 
 
-def build_motion_base(settings: NavigationSettings, nav_map: NavMap) -> MotionBase:
-    """The simulated base (its pose kept across restarts); a real base adapter is wired in
-    here instead."""
-    return SimulatedBase(
-        start=nav_map.locations[nav_map.start].pose(),
+def build_motion_base(
+    settings: NavigationSettings, nav_map: NavMap, nav2_action: Nav2Action | None = None
+) -> MotionBase:
+    """``NAV_MOTION``: the in-process simulated base, or Nav2 through its action."""
+    start = nav_map.locations[nav_map.start].pose()
+    if settings.motion == "simulated":
+        return SimulatedBase(
+            start=start,
+            speed_mps=nav_map.speed_mps,
+            time_scale=settings.time_scale,
+            failures=nav_map.failures,
+            tick_s=settings.tick_s,
+            pose_file=PoseFile(settings.pose_path, nav_map.name),
+        )
+    assert nav2_action is not None, "NAV_MOTION=nav2 needs the Nav2 action adapter"
+    return Nav2MotionBase(
+        nav2_action,
+        frame=nav_map.frame,
         speed_mps=nav_map.speed_mps,
-        time_scale=settings.time_scale,
-        failures=nav_map.failures,
-        tick_s=settings.tick_s,
-        pose_file=PoseFile(settings.pose_path, nav_map.name),
+        initial_pose=start,
+        # The map's failures: are not injected with Nav2 (Nav2 decides what fails); their
+        # suggestions (e.g. the detour around the mailroom door) go with Nav2's failures there.
+        site_hints={f.location: tuple(f.suggestions) for f in nav_map.failures},
+        server_timeout_s=settings.nav2_server_timeout_s,
+        cancel_timeout_s=settings.nav2_cancel_timeout_s,
     )
+
+
+def build_nav2_action(settings: NavigationSettings) -> tuple[Nav2Action, Callable[[], None]]:
+    """The rclpy NavigateToPose client and pose subscription, and how to close them.
+
+    Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
+    """
+    try:
+        from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
+        from robot_ros_bridge import RosBridge
+    except ImportError as exc:
+        raise ConfigError(
+            f"NAV_MOTION=nav2 needs rclpy and nav2_msgs ({exc}): run `make setup`, or on a "
+            "system ROS 2 source its setup.bash with ros-$ROS_DISTRO-nav2-msgs installed"
+        ) from exc
+    bridge = RosBridge("robot_mcp_navigation").start()
+    try:
+        action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
+    except BaseException:
+        bridge.close()
+        raise
+    return action, bridge.close
 
 
 def build_app(
@@ -91,7 +136,13 @@ def build_app(
     nav_map = load_map(settings.map_path)
     if not settings.failures_enabled:
         nav_map = nav_map.without_failures()
-    base = base or build_motion_base(settings, nav_map)
+    closers: list[Callable[[], None]] = []
+    if base is None:
+        nav2_action = None
+        if settings.motion == "nav2":
+            nav2_action, close = build_nav2_action(settings)
+            closers.append(close)
+        base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
     navigator = Navigator(
         nav_map,
@@ -105,5 +156,11 @@ def build_app(
         ),
     )
     return NavigationApp(
-        settings, nav_map, base, events, navigator, build_mcp_server(navigator, settings.log_level)
+        settings,
+        nav_map,
+        base,
+        events,
+        navigator,
+        build_mcp_server(navigator, settings.log_level),
+        closers,
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Literal
@@ -12,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError, f
 DEFAULT_PORT = 9101
 DEFAULT_EVENTS_URL = "http://127.0.0.1:8000/api/agent/events"
 APP_NAME = "robot-mcp-navigation"
+_ROS_NAME = re.compile(r"^(/[A-Za-z_][A-Za-z0-9_]*)+$")
 
 
 def default_outbox_path() -> Path:
@@ -38,6 +40,15 @@ class NavigationSettings(BaseModel):
     model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
 
     map_path: Path = Field(default_factory=default_map_path, alias="NAV_MAP")
+    motion: Literal["simulated", "nav2"] = Field(default="simulated", alias="NAV_MOTION")
+    nav2_action: str = Field(default="/navigate_to_pose", alias="NAV2_ACTION")
+    pose_topic: str = Field(default="/amcl_pose", alias="NAV_POSE_TOPIC")
+    nav2_server_timeout_s: float = Field(
+        default=5.0, gt=0.0, le=120.0, alias="NAV2_SERVER_TIMEOUT_S"
+    )
+    nav2_cancel_timeout_s: float = Field(
+        default=5.0, gt=0.0, le=60.0, alias="NAV2_CANCEL_TIMEOUT_S"
+    )
     time_scale: float = Field(default=1.0, gt=0.0, le=1000.0, alias="NAV_TIME_SCALE")
     failures_enabled: bool = Field(default=True, alias="NAV_FAILURES")
     progress_interval_s: float = Field(default=2.0, gt=0.0, alias="NAV_PROGRESS_INTERVAL_S")
@@ -60,6 +71,21 @@ class NavigationSettings(BaseModel):
     @classmethod
     def _empty_secret_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
+
+    @field_validator("motion", mode="before")
+    @classmethod
+    def _lower(cls, value: object) -> object:
+        return value.strip().lower() if isinstance(value, str) else value
+
+    @field_validator("nav2_action", "pose_topic")
+    @classmethod
+    def _ros_name(cls, value: str) -> str:
+        if not _ROS_NAME.match(value):
+            raise ValueError(
+                "must be an absolute ROS name such as /navigate_to_pose "
+                "(letters, digits, underscores, separated by /)"
+            )
+        return value
 
     @field_validator("outbox_path", "pose_path")
     @classmethod

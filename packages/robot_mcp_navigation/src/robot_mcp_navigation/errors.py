@@ -23,3 +23,9 @@ class NavigationBusyError(NavigationError):
 
 class UnknownTaskError(NavigationError):
     code = "UNKNOWN_TASK"
+
+
+class BaseUnavailableNavigationError(NavigationError):
+    """The base's driver (e.g. Nav2) is absent or refused the goal; nothing moved."""
+
+    code = "BASE_UNAVAILABLE"

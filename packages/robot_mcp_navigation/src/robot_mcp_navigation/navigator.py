@@ -4,6 +4,9 @@ Policy (documented in the README):
 - One navigation at a time. A second ``navigate_to`` while one is running is **refused**
   with NAVIGATION_BUSY (naming the running task); the caller stops or cancels first. A
   physical robot should never change course because a request was repeated.
+- A task exists only once the base took the goal (``MotionBase.start_drive``): a base that
+  cannot (Nav2 absent, goal rejected) makes ``navigate_to`` a BASE_UNAVAILABLE error, and
+  nothing moved. The slot is held meanwhile, so a parallel call is NAVIGATION_BUSY.
 - Every task ends with exactly one terminal event: ``task_done``, or ``task_failed`` with a
   TaskFailure payload. A cancelled task (``cancel_task`` / ``stop_navigation``) ends in
   state ``cancelled`` and posts ``task_failed`` with error_code CANCELLED, recoverable
@@ -30,6 +33,7 @@ import structlog
 from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.errors import (
+    BaseUnavailableNavigationError,
     NavigationBusyError,
     UnknownLocationError,
     UnknownTaskError,
@@ -37,6 +41,7 @@ from robot_mcp_navigation.errors import (
 from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.map import NavMap
 from robot_mcp_navigation.motion.base import (
+    BaseUnavailableError,
     DriveFailure,
     DriveGoal,
     DriveProgress,
@@ -48,7 +53,6 @@ from robot_mcp_navigation.triggers import Trigger
 logger = structlog.get_logger(__name__)
 
 TOOL = "navigate_to"
-AT_LOCATION_TOLERANCE_M = 0.05
 
 
 @dataclass(frozen=True)
@@ -125,7 +129,7 @@ class Navigator:
             (
                 name
                 for name, loc in self._map.locations.items()
-                if pose.distance_to(loc.pose()) <= AT_LOCATION_TOLERANCE_M
+                if pose.distance_to(loc.pose()) <= self._base.at_location_tolerance_m
             ),
             None,
         )
@@ -167,17 +171,33 @@ class Navigator:
         goal = DriveGoal(name, self._map.locations[name].pose())
         est = round(self._base.estimate_duration_s(goal.pose), 2)
         trigger_list = list(triggers)
+        drive = _Drive(self._task_ids(), goal, trigger_list, est)
+        self._active = drive  # held while the base takes the goal: a parallel call is BUSY
+        started = time.monotonic()
+        try:
+            outcome = await self._base.start_drive(goal, partial(self._on_progress, drive))
+        except BaseUnavailableError as exc:
+            self._active = None
+            logger.warning("navigation_refused", destination=name, detail=exc.detail)
+            raise BaseUnavailableNavigationError(exc.detail) from exc
+        except BaseException:
+            self._active = None
+            raise
         info = self._tasks.create(
             TOOL,
             est_duration_s=est,
-            task_id=self._task_ids(),
+            task_id=drive.task_id,
             destination=name,
             triggers=[t.model_dump() for t in trigger_list],
         )
-        drive = _Drive(info.task_id, goal, trigger_list, est)
-        self._active = drive
-        drive.runner = asyncio.create_task(self._run(drive), name=f"drive-{info.task_id}")
-        logger.info("navigation_started", task_id=info.task_id, destination=name, est_s=est)
+        drive.runner = asyncio.create_task(self._run(drive, outcome), name=f"drive-{info.task_id}")
+        logger.info(
+            "navigation_started",
+            task_id=info.task_id,
+            destination=name,
+            est_s=est,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
         return info
 
     async def stop(self, reason: str = "stop_navigation") -> TaskInfo | None:
@@ -225,13 +245,13 @@ class Navigator:
         robot_s = drive.est_duration_s * s.drive_timeout_factor + s.drive_timeout_margin_s
         return robot_s / s.time_scale
 
-    async def _run(self, drive: _Drive) -> TaskInfo:
+    async def _run(self, drive: _Drive, outcome: asyncio.Future[DriveResult]) -> TaskInfo:
         started = time.monotonic()
         result: DriveResult | None = None
         failure: DriveFailure | None = None
         try:
             async with asyncio.timeout(self._drive_timeout_s(drive)):
-                result = await self._base.drive_to(drive.goal, partial(self._on_progress, drive))
+                result = await outcome
         except TimeoutError:
             await self._base.stop()
             failure = DriveFailure(

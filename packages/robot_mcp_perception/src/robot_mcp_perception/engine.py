@@ -14,6 +14,8 @@ work goes through the :class:`~robot_mcp_perception.scheduler.Scheduler`. Rules:
   last result stale; a run skipped for rate or budget (the scene may have changed) always
   republishes the last result stale with its original stamp — never old boxes on a new frame;
 - the frame-difference gate for watch skills and ambient_scene;
+- a new or re-enabled skill's first run waits (at most ``fresh_frame_wait_s``) for a frame
+  stamped after the engine took the skill up: "look now" is answered from a frame taken now;
 - ``once`` publishes once then disables; ``prewarm`` grounds once into the prewarm cache;
 - a failed or timed-out run leaves the skill running and republishes its last result stale.
 """
@@ -87,6 +89,8 @@ class SkillEngine:
         scene_reference: Callable[[], Gate] | None = None,
         clock: Callable[[], float] = time.monotonic,
         grounder_requests: CloudRequests = lambda skill: 1,
+        fresh_frame_wait_s: float = 0.0,
+        wall_ns: Callable[[], int] = time.time_ns,
     ) -> None:
         self.registry = registry
         self.scheduler = scheduler
@@ -98,6 +102,10 @@ class SkillEngine:
         self.default_rate_hz = default_rate_hz
         self.scene_reference = scene_reference
         """Builds an unseeded frame-difference gate: the prewarm cache's scene check."""
+        self.fresh_frame_wait_ns = int(fresh_frame_wait_s * 1e9)
+        self._wall_ns = wall_ns
+        self._taken_up_ns: dict[str, int] = {}
+        """Wall ns at which each skill awaiting its first run was first seen (fresh-frame rule)."""
         self._clock = clock
         self.grounder_requests = grounder_requests
         self.lock = threading.RLock()
@@ -168,6 +176,8 @@ class SkillEngine:
     def _maybe_run(self, state: SkillState, frame: Frame, now: float, wait: bool) -> None:
         if now < state.next_due:
             return
+        if state.next_due == 0.0 and self._older_than_skill(state, frame):
+            return
         period = self.period_s(state.skill)
         newer_soon = wait or frame.seq == state.last_seq
         if newer_soon and state.next_due != 0.0 and now < state.next_due + period / 2:
@@ -187,6 +197,18 @@ class SkillEngine:
             self._submit(state, frame, plan)
         else:
             self._republish_stale(state, plan.reason, frame)
+
+    def _older_than_skill(self, state: SkillState, frame: Frame) -> bool:
+        """The frame was captured before the skill was taken up, and the wait is not over."""
+        if self.fresh_frame_wait_ns <= 0:
+            return False
+        name = state.skill.name
+        wall = self._wall_ns()
+        taken_up = self._taken_up_ns.setdefault(name, wall)
+        if frame.stamp_ns >= taken_up or wall - taken_up >= self.fresh_frame_wait_ns:
+            del self._taken_up_ns[name]
+            return False
+        return True
 
     def plan(self, state: SkillState, frame: Frame) -> TickPlan:
         """The §8 decision for this tick (side effects: gate reference, cloud reservation)."""

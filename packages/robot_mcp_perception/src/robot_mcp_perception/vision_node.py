@@ -16,7 +16,7 @@ from typing import Any, NoReturn
 
 import rclpy
 import structlog
-from rcl_interfaces.msg import ParameterDescriptor  # type: ignore[import-untyped]
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -98,6 +98,7 @@ class VisionNode(Node):
                 else None
             ),
             grounder_requests=partial(grounder_requests, settings=pipeline_settings),
+            fresh_frame_wait_s=self.node_settings.fresh_frame_wait_s,
         )
         self.tasks = TaskService(
             self.registry,

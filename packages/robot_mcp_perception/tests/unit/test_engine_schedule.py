@@ -48,7 +48,7 @@ class RecordingScheduler:
 
 
 class Rig:
-    def __init__(self, *names: str, rate_hz: float = 5.0) -> None:
+    def __init__(self, *names: str, rate_hz: float = 5.0, fresh_frame_wait_s: float = 0.0) -> None:
         self.clock = Clock()
         self.registry = SkillRegistry()
         self.seqs: list[int] = [0]
@@ -63,6 +63,8 @@ class Rig:
             sink=self,
             default_rate_hz=rate_hz,
             clock=self.clock,
+            fresh_frame_wait_s=fresh_frame_wait_s,
+            wall_ns=lambda: int(self.clock.now * 1e9),
         )
         self.image = np.zeros((48, 64, 3), dtype=np.uint8)
         for name in names:
@@ -165,3 +167,31 @@ def test_a_late_skill_skips_missed_runs_but_keeps_its_phase() -> None:
     assert len(rig.scheduler.submitted) == 2
     assert state.next_due == pytest.approx(first_due + 3 * 0.2)
     assert state.next_due > rig.clock.now
+
+
+def test_a_new_skill_first_looks_at_a_frame_taken_after_it_was_taken_up() -> None:
+    """Started on arrival, "look" never answers from the frame seen while driving."""
+    rig = Rig(fresh_frame_wait_s=1.0)
+    rig.play(0.2)  # frames keep coming; no skill yet
+    rig.add("look", 5.0)
+    rig.clock.now += 0.01
+    stale = Frame(rig.image, int((rig.clock.now - 0.3) * 1e9), "camera", rig.seqs[-1] + 1)
+    rig.seqs.append(stale.seq)
+    rig.engine.dispatch(stale)  # captured before the skill existed (still in flight)
+    assert rig.scheduler.submitted == []
+    rig.frame()  # captured now
+    assert rig.scheduler.submitted == [("look", rig.seqs[-1])]
+
+
+def test_the_fresh_frame_wait_is_bounded_for_cameras_whose_stamps_lag() -> None:
+    rig = Rig(fresh_frame_wait_s=0.5)
+    rig.add("look", 5.0)
+    for _ in range(40):  # 30 Hz frames stamped 10 s in the past
+        rig.seqs.append(rig.seqs[-1] + 1)
+        rig.engine.dispatch(
+            Frame(rig.image, int((rig.clock.now - 10) * 1e9), "camera", rig.seqs[-1])
+        )
+        rig.clock.now += FRAME_S
+    assert len(rig.scheduler.submitted) >= 1  # ran after the wait, on the newest frame
+    first_seq = rig.scheduler.submitted[0][1]
+    assert 15 <= first_seq <= 17  # 0.5 s of 30 Hz frames went by first

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import cv2
@@ -270,3 +271,34 @@ def test_free_space_is_the_largest_rectangle_clear_of_obstacles() -> None:
     rect = largest_free_rect(80, 40, [(0, 0, 40, 40)], margin_px=0)
     assert rect == (40, 0, 80, 40)
     assert largest_free_rect(80, 40, [(0, 0, 80, 40)], margin_px=0) is None
+
+
+async def test_a_frame_added_to_the_folder_while_running_is_answered(tmp_path: Path) -> None:
+    """The contract with robot-sim: a frame saved (image, then JSON) before it is published
+    is recognised on its first lookup, without restarting the grounder."""
+    generate_scenes(tmp_path, count=2, seed=0, size=SIZE)
+    grounder = AnnotationGrounder(str(tmp_path))
+    later, doc = render_scene(5, seed=0, size=SIZE)
+    before = await grounder.ground(later, "anything", mode="describe")
+    assert "not one of the 2 annotated frames" in before.answer
+    cv2.imwrite(str(tmp_path / "late.png"), cv2.cvtColor(later, cv2.COLOR_RGB2BGR))
+    doc["image"]["file_name"] = "late.png"
+    (tmp_path / "late.json").write_text(json.dumps(doc))
+    after = await grounder.ground(later, labels_of(doc)[0])
+    assert {t.label for t in after.targets} == {labels_of(doc)[0]}
+    assert len(grounder.index.frames) == 3
+    assert grounder.index.refresh() == 0  # nothing new: no re-read
+
+
+def test_a_half_written_frame_is_skipped_until_its_image_is_there(tmp_path: Path) -> None:
+    generate_scenes(tmp_path, count=1, seed=0, size=SIZE)
+    grounder = AnnotationGrounder(str(tmp_path))
+    later, doc = render_scene(3, seed=0, size=SIZE)
+    doc["image"]["file_name"] = "late.png"
+    (tmp_path / "late.json").write_text(json.dumps(doc))
+    (tmp_path / "notes.json").write_text(json.dumps({"not": "an annotation"}))
+    assert grounder.index.refresh() == 0
+    cv2.imwrite(str(tmp_path / "late.png"), cv2.cvtColor(later, cv2.COLOR_RGB2BGR))
+    # Make sure the folder's mtime moved even on a coarse-timestamp file system.
+    os.utime(tmp_path, ns=(1, tmp_path.stat().st_mtime_ns + 1_000_000))
+    assert grounder.index.refresh() == 1

@@ -29,6 +29,7 @@ from typing import Any, TypeVar
 
 import rclpy
 import structlog
+from rclpy.action.client import ActionClient
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
 from rclpy.exceptions import InvalidHandle
@@ -73,6 +74,13 @@ def _contained(callback: Callable[..., Any], where: str) -> Callable[..., Any]:
             return None
 
     return one
+
+
+def _is_ready(client: Any) -> bool:
+    """A service client's or an action client's server is matched (both sides' entities)."""
+    if isinstance(client, ActionClient):
+        return bool(client.server_is_ready())
+    return bool(client.service_is_ready())
 
 
 def _accepts_two(callback: Callable[..., Any]) -> bool:
@@ -217,11 +225,69 @@ class RosBridge:
         is observed in the background so the first call does not wait to settle."""
         client: Any = self.node.create_client(srv_type, service_name, callback_group=self._group)
         self._watched.add(client)
+        self._ensure_watch_timer()
+        return client
+
+    def create_action_client(self, action_type: Any, action_name: str) -> Any:
+        """An action client in the bridge's reentrant callback group; like a service client,
+        its server's readiness is observed in the background (see :meth:`wait_for_server`)."""
+        client: Any = ActionClient(self.node, action_type, action_name, callback_group=self._group)
+        self._watched.add(client)
+        self._ensure_watch_timer()
+        return client
+
+    def _ensure_watch_timer(self) -> None:
         if self._watch_timer is None:
             self._watch_timer = self.node.create_timer(
                 _SERVICE_POLL_S, self._observe_clients, callback_group=self._group
             )
-        return client
+
+    async def wait_for_server(self, client: Any, timeout_s: float) -> None:
+        """Return once ``client``'s server (service or action) is ready and has settled
+        (``discovery_settle_s``, at most half of ``timeout_s``), else raise
+        :class:`ServiceUnavailableError` after ``timeout_s``. Never sends anything."""
+        if self._closed or self._node is None:
+            raise BridgeClosedError("the ROS bridge is closed")
+        started = time.monotonic()
+        while True:
+            now = time.monotonic()
+            settled_at = self._readiness.settled_at(client, _is_ready(client), now)
+            if settled_at is not None and now >= min(settled_at, started + timeout_s / 2):
+                return
+            if settled_at is None and now >= started + timeout_s:
+                name = getattr(client, "service_name", None) or getattr(client, "_action_name", "")
+                raise ServiceUnavailableError(
+                    f"no server for {name} (is it running in this ROS domain?)"
+                )
+            await asyncio.sleep(_SERVICE_POLL_S)
+
+    async def await_future(self, ros_future: Any, timeout_s: float | None) -> Any:
+        """The result of an rclpy future (completed on the executor thread), awaited on the
+        event loop under ``asyncio.timeout``; :class:`ServiceTimeoutError` after
+        ``timeout_s`` (``None``: no deadline, the caller sets one). The rclpy future itself
+        is left alone (the caller decides)."""
+        loop = asyncio.get_running_loop()
+        answer: asyncio.Future[Any] = loop.create_future()
+
+        def _deliver(done: Any) -> None:
+            def _set() -> None:
+                if answer.done():
+                    return
+                exc = done.exception()
+                if exc is not None:
+                    answer.set_exception(exc)
+                else:
+                    answer.set_result(done.result())
+
+            if not loop.is_closed():
+                loop.call_soon_threadsafe(_set)
+
+        ros_future.add_done_callback(_deliver)
+        try:
+            async with asyncio.timeout(timeout_s):
+                return await answer
+        except TimeoutError:
+            raise ServiceTimeoutError(f"no answer within {timeout_s} s") from None
 
     def _observe_clients(self) -> None:
         if self._closed:
@@ -229,7 +295,7 @@ class RosBridge:
         now = time.monotonic()
         for client in list(self._watched):
             try:
-                ready = bool(client.service_is_ready())
+                ready = _is_ready(client)
             except InvalidHandle:  # destroyed while closing
                 continue
             self._readiness.observe(client, ready, now)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import asyncio
 import json
 import secrets
-import shutil
 import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -63,37 +62,6 @@ def stack_env(secret: str) -> dict[str, str]:
     }
 
 
-def frames_showing(
-    scenes: Path,
-    dest: Path,
-    label: str = PACKAGE_LABEL,
-    difficulty: str | None = "easy",
-    limit: int | None = None,
-) -> list[Path]:
-    """Copy the sample frames (and annotations) in which ``label`` is plainly visible
-    (annotated ``difficulty``, by default the clean ``easy`` case) to ``dest``: the camera's
-    view once the robot stands in the mailroom. The hard cases (low contrast, touching
-    objects) are for the benchmarks; GrabCut may reject their masks. ``limit=1`` gives a
-    camera that stands still."""
-    dest.mkdir(parents=True, exist_ok=True)
-    copied = []
-    for annotation in sorted(scenes.glob("*.json")):
-        wanted = [
-            a
-            for a in json.loads(annotation.read_text())["annotations"]
-            if a.get("label") == label and difficulty in (None, a.get("difficulty"))
-        ]
-        image = annotation.with_suffix(".png")
-        if wanted and image.is_file():
-            shutil.copyfile(annotation, dest / annotation.name)
-            copied.append(Path(shutil.copyfile(image, dest / image.name)))
-        if limit is not None and len(copied) >= limit:
-            break
-    if not copied:
-        raise FileNotFoundError(f"no frame in {scenes} shows a {label!r}")
-    return copied
-
-
 async def call_mcp(
     url: str, tool: str, arguments: Mapping[str, Any], timeout_s: float = 20.0
 ) -> Any:
@@ -119,6 +87,13 @@ class RunningStack:
     services: LocalStack
     placeholders: dict[str, str]
     secret: str
+    var_dir: Path | None = None
+
+    @property
+    def sim_scenes_dir(self) -> Path:
+        """Where robot-sim saves every frame it publishes (with its annotations)."""
+        template = self.placeholders["sim_scenes_dir"]
+        return Path(template.format(var=self.var_dir, root=self.services.root))
 
     def url(self, service: str, path: str = "") -> str:
         return f"http://127.0.0.1:{self.placeholders[f'{service}_port']}{path}"
@@ -135,17 +110,15 @@ def mailroom_stack(
     overrides: Mapping[str, str] | None = None,
     stack_file: Path | None = None,
 ) -> Iterator[RunningStack]:
-    """The whole stack (``deploy/local-stack.yaml``) with a fresh secret, the camera showing
-    the mailroom shelf, stopped by PID when the block exits."""
+    """The whole stack (``deploy/local-stack.yaml``) with a fresh secret, stopped by PID when
+    the block exits. The camera is robot-sim's: it shows the place the robot stands at."""
     path = stack_file or root / "deploy" / "local-stack.yaml"
-    frames = var_dir / "mailroom-frames"
-    frames_showing(root / "data" / "scenes", frames)
-    placeholders = {**stack_defaults(path), "frames_dir": str(frames), **(overrides or {})}
+    placeholders = {**stack_defaults(path), **(overrides or {})}
     secret = fresh_secret()
     with local_stack(
         root, var_dir, stack_env(secret), stack_file=path, overrides=placeholders
     ) as services:
-        yield RunningStack(services, placeholders, secret)
+        yield RunningStack(services, placeholders, secret, var_dir)
 
 
 async def seed_memory(stack: RunningStack, markdown: str = MAILROOM_PROCESS) -> Any:

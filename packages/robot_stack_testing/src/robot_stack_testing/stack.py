@@ -1,7 +1,8 @@
 """Start the local robot stack from ``deploy/local-stack.yaml`` and stop it again, by PID.
 
 Used by ``make demo`` and the cross-package end-to-end tests. Services start in file order;
-each one's readiness check (a TCP port or an HTTP 200) must pass before the next starts, so
+each one's readiness check (a TCP port, an HTTP 200, or a PID file naming the process — for
+a ROS node with no port) must pass before the next starts, so
 a broken service fails fast with its log tail instead of a hang further down.
 """
 
@@ -42,6 +43,9 @@ class PortsBusyError(StackError):
 class Readiness:
     tcp: int | None = None
     http: str | None = None
+    pid_file: Path | None = None
+    """Ready once this file holds the process's own PID (a stale file from an earlier run
+    names another PID and does not count)."""
     timeout_s: float = 30.0
 
 
@@ -100,6 +104,7 @@ def load_stack(
                 ready=Readiness(
                     tcp=int(expand(ready["tcp"])) if "tcp" in ready else None,
                     http=expand(ready["http"]) if "http" in ready else None,
+                    pid_file=Path(expand(ready["pid_file"])) if "pid_file" in ready else None,
                     timeout_s=float(ready.get("timeout_s", 30.0)),
                 ),
             )
@@ -145,8 +150,20 @@ def wait_ready(process: LaunchedProcess, ready: Readiness) -> None:
         if ready.http is not None:
             url = ready.http
             wait_until(lambda: alive_and(http_ok(url)), ready.timeout_s, process.name)
+        if ready.pid_file is not None:
+            path = ready.pid_file
+            wait_until(
+                lambda: alive_and(_names_pid(path, process.pid)), ready.timeout_s, process.name
+            )
     except TimeoutError as error:
         raise StackError(f"{process.name} not ready: {error}\n{process.log()[-3000:]}") from error
+
+
+def _names_pid(path: Path, pid: int) -> bool:
+    try:
+        return path.read_text().strip() == str(pid)
+    except OSError:
+        return False
 
 
 def _tcp_open(port: int) -> bool:

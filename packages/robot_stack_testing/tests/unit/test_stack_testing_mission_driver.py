@@ -25,7 +25,6 @@ from robot_stack_testing.mission_driver import (
     MissionNotStartedError,
     MissionRecord,
     Narrator,
-    frames_showing,
     stack_env,
 )
 
@@ -195,22 +194,3 @@ def test_the_stack_environment_shares_one_secret_and_stays_on_loopback() -> None
 def _scene(scenes: Path, name: str, annotations: list[dict[str, Any]]) -> None:
     (scenes / f"{name}.json").write_text(json.dumps({"annotations": annotations}))
     (scenes / f"{name}.png").write_bytes(b"png")
-
-
-def test_frames_showing_copies_only_frames_where_the_label_is_plainly_visible(
-    tmp_path: Path,
-) -> None:
-    scenes = tmp_path / "scenes"
-    scenes.mkdir()
-    _scene(scenes, "a", [{"label": "yellow package", "difficulty": "easy"}])
-    _scene(scenes, "b", [{"label": "yellow package", "difficulty": "low_contrast"}])
-    _scene(scenes, "c", [{"label": "red mug", "difficulty": "easy"}])
-
-    copied = frames_showing(scenes, tmp_path / "out")
-
-    assert [p.name for p in copied] == ["a.png"]
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.json", "a.png"]
-    still = frames_showing(scenes, tmp_path / "still", difficulty=None, limit=1)
-    assert [p.name for p in still] == ["a.png"]  # one frame: a camera that stands still
-    with pytest.raises(FileNotFoundError, match="no frame"):
-        frames_showing(scenes, tmp_path / "none", label="blue whale")

@@ -120,6 +120,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
         root / "deploy" / "local-stack.yaml", {"python": sys.executable, "root": "/r", "var": "/v"}
     )
     assert [s.name for s in services] == [
+        "robot_sim",
         "vision_node",
         "skill_control",
         "perception",
@@ -127,7 +128,11 @@ def test_the_repository_stack_file_names_every_server() -> None:
         "navigation",
         "brain",
     ]
-    assert all(s.ready.tcp or s.ready.http for s in services)
+    assert all(s.ready.tcp or s.ready.http or s.ready.pid_file for s in services)
+    by_name = {s.name: s for s in services}
+    assert by_name["navigation"].env["NAV_MOTION"] == "nav2"  # the real-robot data paths
+    assert "frame_source=ros" in by_name["vision_node"].env["PERCEPTION_CONFIG_OVERRIDES"]
+    assert by_name["robot_sim"].ready.pid_file == Path("/v/robot-sim.pid")
 
 
 STACK = (
@@ -218,3 +223,23 @@ def test_restart_replaces_one_service_with_a_new_process(stack_file: Path, tmp_p
         assert second.pid != first.pid
         assert stack["web"] is second
     assert not second.running()
+
+
+def test_a_pid_file_service_is_ready_when_the_file_names_its_own_pid(tmp_path: Path) -> None:
+    """A ROS node has no port: it writes its PID once ready. A stale file (another PID, from
+    an earlier run) does not count."""
+    pid_file = tmp_path / "var" / "node.ready"
+    pid_file.parent.mkdir(parents=True)
+    pid_file.write_text("1")
+    writer = (
+        "import os, sys, time, pathlib; time.sleep(0.3); "
+        "pathlib.Path(sys.argv[1]).write_text(str(os.getpid())); time.sleep(60)"
+    )
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        f'  - name: node\n    argv: ["{{python}}", "-c", {writer!r}, "{{var}}/node.ready"]\n'
+        '    ready: {pid_file: "{var}/node.ready", timeout_s: 20}\n',
+    )
+    with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack) as running:
+        assert pid_file.read_text() == str(running["node"].pid)

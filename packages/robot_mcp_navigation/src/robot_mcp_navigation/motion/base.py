@@ -1,13 +1,14 @@
 """MotionBase: the port between the navigation service and whatever moves the robot.
 
-The simulated base implements it today; a real base adapter (e.g. a Nav2 action client)
-replaces it in ``composition.py`` without touching the navigator or the MCP tools.
+Adapters: ``SimulatedBase`` (an in-process dot on the map, for tests) and ``Nav2MotionBase``
+(a Nav2 ``NavigateToPose`` action client); ``composition.py`` picks one (``NAV_MOTION``).
 All durations here are robot-time seconds (simulated seconds for the simulated base).
 """
 
 from __future__ import annotations
 
 import abc
+import asyncio
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -71,8 +72,20 @@ class MotionBusyError(RuntimeError):
     """drive_to was called while the base is already driving."""
 
 
+class BaseUnavailableError(RuntimeError):
+    """The base cannot take a goal now (its driver is absent or rejected the goal); nothing
+    moved. ``detail`` says why, for the planner and the operator."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(detail)
+        self.detail = detail
+
+
 class MotionBase(abc.ABC):
     """Drives the robot to a pose, reports progress, and halts on request."""
+
+    at_location_tolerance_m: float = 0.05
+    """How close the pose must be to a location to count as being there."""
 
     @abc.abstractmethod
     async def drive_to(self, goal: DriveGoal, on_progress: ProgressCallback) -> DriveResult:
@@ -81,6 +94,18 @@ class MotionBase(abc.ABC):
         Returns ``stopped`` when :meth:`stop` halted the drive. Raises MotionBusyError if a
         drive is already under way.
         """
+
+    async def start_drive(
+        self, goal: DriveGoal, on_progress: ProgressCallback
+    ) -> asyncio.Future[DriveResult]:
+        """Start driving to ``goal``; return once the base has taken the goal, with the
+        drive's outcome still to come.
+
+        Raises BaseUnavailableError when the base cannot take the goal (nothing moved).
+        The default suits a base that takes every goal at once (it just runs ``drive_to``);
+        a base with a driver that may be absent or refuse overrides it.
+        """
+        return asyncio.ensure_future(self.drive_to(goal, on_progress))
 
     @abc.abstractmethod
     async def stop(self) -> None:

@@ -12,11 +12,19 @@ stored frame, and which window of it, is this image?":
 2. crop (a segment_all tile) — ``cv2.matchTemplate`` (normalised correlation) of the
    downscaled image inside each stored frame, at a few frame scales (1, 1/2, 3/4, 4/3, 2),
    most recently matched frame first; accepted above ``crop_threshold``.
+
+Frames added to the folder while the node runs are picked up (:meth:`FrameIndex.refresh`,
+called before every lookup): when the folder's modification time changed, annotation files
+not indexed yet are loaded. A producer (``robot-sim`` saves every frame it publishes there
+before publishing it) writes the image first and the JSON last, each by rename, so a JSON
+present means its image is complete. Only files directly in a watched folder change its
+mtime: new frames belong in the top folder, not in new subfolders.
 """
 
 from __future__ import annotations
 
 import json
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -131,11 +139,18 @@ class FrameIndex:
         frames: list[AnnotatedFrame],
         full_threshold: float = 0.95,
         crop_threshold: float = 0.8,
+        directory: Path | None = None,
+        known: set[Path] | None = None,
     ) -> None:
         self.frames = frames
         self.full_threshold = full_threshold
         self.crop_threshold = crop_threshold
+        self.directory = directory
         self._last_hit = 0
+        self._lock = threading.Lock()
+        self._known = set(known or ())
+        """Every JSON file of the folder already read (annotations or not)."""
+        self._mtime_ns = _mtime_ns(directory)
 
     @classmethod
     def load(cls, directory: Path, **kwargs: float) -> FrameIndex:
@@ -144,22 +159,33 @@ class FrameIndex:
                 f"annotation directory {directory} does not exist; generate sample scenes with "
                 f"`python -m robot_mcp_perception.sample_scenes {directory}`"
             )
-        frames = []
-        for json_path in sorted(directory.rglob("*.json")):
-            try:
-                doc = json.loads(json_path.read_text())
-            except (OSError, ValueError):
-                continue
-            if isinstance(doc, dict) and "image" in doc and "annotations" in doc:
-                frames.append(load_frame(json_path))
+        mtime_ns = _mtime_ns(directory)
+        known: set[Path] = set()
+        frames = _load_new(directory, known, strict=True)
         if not frames:
             raise ModelUnavailableError(
                 f"no annotated frames (image + annotation JSON) in {directory}; generate them "
                 f"with `python -m robot_mcp_perception.sample_scenes {directory}`"
             )
-        return cls(frames, **kwargs)
+        index = cls(frames, directory=directory, known=known, **kwargs)
+        index._mtime_ns = mtime_ns  # anything written during the load is read on refresh
+        return index
+
+    def refresh(self) -> int:
+        """Index the frames added to the folder since the last look; how many were added."""
+        if self.directory is None:
+            return 0
+        with self._lock:
+            mtime_ns = _mtime_ns(self.directory)
+            if mtime_ns == self._mtime_ns:
+                return 0
+            self._mtime_ns = mtime_ns
+            added = _load_new(self.directory, self._known, strict=False)
+            self.frames = [*self.frames, *added]
+            return len(added)
 
     def locate(self, image: Image) -> Located | None:
+        self.refresh()
         gray = _gray(image)
         if float(gray.std()) < 1.0:
             return None  # a flat image matches nothing
@@ -233,3 +259,38 @@ class FrameIndex:
             _, _, _, loc = cv2.minMaxLoc(scores)
             gx, gy = x0 + int(loc[0]), y0 + int(loc[1])
         return float(gx), float(gy), float(gx + w), float(gy + h)
+
+
+def _mtime_ns(directory: Path | None) -> int:
+    try:
+        return directory.stat().st_mtime_ns if directory is not None else 0
+    except OSError:
+        return 0
+
+
+def _load_new(directory: Path, known: set[Path], strict: bool) -> list[AnnotatedFrame]:
+    """The annotated frames of ``directory`` whose JSON is not in ``known`` (updated).
+
+    ``strict``: a frame whose image is missing raises (start-up); otherwise it is skipped
+    and read again on the next change of the folder.
+    """
+    frames = []
+    for json_path in sorted(directory.rglob("*.json")):
+        if json_path in known:
+            continue
+        try:
+            doc = json.loads(json_path.read_text())
+        except (OSError, ValueError):
+            known.add(json_path)
+            continue
+        if not (isinstance(doc, dict) and "image" in doc and "annotations" in doc):
+            known.add(json_path)
+            continue
+        try:
+            frames.append(load_frame(json_path))
+        except (OSError, ValueError, KeyError):
+            if strict:
+                raise
+            continue
+        known.add(json_path)
+    return frames

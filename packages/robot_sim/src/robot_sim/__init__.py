@@ -1,0 +1,1 @@
+"""robot_sim: a simulated robot that speaks ROS 2 the way a Nav2 robot does."""

@@ -1,0 +1,3 @@
+from robot_sim.main import main
+
+main()

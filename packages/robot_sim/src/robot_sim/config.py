@@ -1,0 +1,84 @@
+"""Process settings from the environment, validated at start-up (fail fast, clear errors)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Literal
+
+import platformdirs
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+APP_NAME = "robot-sim"
+
+
+def default_world_path() -> Path:
+    """The office world shipped with the package (``config/worlds/office.yaml``)."""
+    return Path(__file__).resolve().parents[2] / "config" / "worlds" / "office.yaml"
+
+
+def default_scenes_dir() -> Path:
+    return platformdirs.user_cache_path(APP_NAME) / "scenes"
+
+
+class ConfigError(ValueError):
+    """The environment does not describe a valid configuration."""
+
+
+class SimSettings(BaseModel):
+    model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
+
+    world_path: Path = Field(default_factory=default_world_path, alias="SIM_WORLD")
+    map_path: Path | None = Field(default=None, alias="SIM_MAP")
+    scenes_dir: Path = Field(default_factory=default_scenes_dir, alias="SIM_SCENES_DIR")
+    time_scale: float = Field(default=1.0, gt=0.0, le=1000.0, alias="SIM_TIME_SCALE")
+    failures_enabled: bool = Field(default=True, alias="SIM_FAILURES")
+    action_name: str = Field(default="/navigate_to_pose", alias="SIM_ACTION")
+    camera_topic: str = Field(default="/camera/image_raw", alias="SIM_CAMERA_TOPIC")
+    camera_frame_id: str = Field(default="camera_optical_frame", alias="SIM_CAMERA_FRAME")
+    camera_fps: float = Field(default=5.0, gt=0.0, le=30.0, alias="SIM_CAMERA_FPS")
+    pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")
+    feedback_hz: float = Field(default=10.0, gt=0.0, le=50.0, alias="SIM_FEEDBACK_HZ")
+    ready_file: Path | None = Field(default=None, alias="SIM_READY_FILE")
+    log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
+        default="INFO", alias="LOG_LEVEL"
+    )
+
+    @field_validator("map_path", "ready_file", mode="before")
+    @classmethod
+    def _empty_is_none(cls, value: object) -> object:
+        return None if value in ("", None) else value
+
+    @field_validator("scenes_dir")
+    @classmethod
+    def _absolute(cls, value: Path) -> Path:
+        if not value.is_absolute():
+            raise ValueError("must be an absolute path (the working directory is not state)")
+        return value
+
+    @field_validator("action_name", "camera_topic")
+    @classmethod
+    def _ros_name(cls, value: str) -> str:
+        if not value.startswith("/") or " " in value:
+            raise ValueError("must be an absolute ROS name such as /navigate_to_pose")
+        return value
+
+    @field_validator("log_level", mode="before")
+    @classmethod
+    def _upper(cls, value: object) -> object:
+        return value.upper() if isinstance(value, str) else value
+
+
+_ALIASES = {f.alias for f in SimSettings.model_fields.values() if f.alias is not None}
+
+
+def load_settings(environ: Mapping[str, str]) -> SimSettings:
+    """Settings from an environment mapping; a bad value raises ConfigError naming it."""
+    values = {key: value for key, value in environ.items() if key in _ALIASES}
+    try:
+        return SimSettings.model_validate(values)
+    except ValidationError as exc:
+        problems = "; ".join(
+            f"{'.'.join(str(p) for p in err['loc'])}: {err['msg']}" for err in exc.errors()
+        )
+        raise ConfigError(f"invalid robot-sim settings: {problems}") from exc

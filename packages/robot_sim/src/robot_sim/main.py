@@ -1,0 +1,69 @@
+"""Process entry point: ``robot-sim`` (settings from the environment, see the README)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from types import FrameType
+
+import rclpy
+import structlog
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+from robot_sim.camera import Camera
+from robot_sim.config import ConfigError, SimSettings, load_settings
+from robot_sim.drive import DriveSim
+from robot_sim.logging_setup import configure_logging
+from robot_sim.store import SceneStore
+from robot_sim.world import WorldError, load_world
+
+logger = structlog.get_logger(__name__)
+
+
+def build(settings: SimSettings) -> tuple[DriveSim, Camera]:
+    """The composition root: the world, the drive and the camera (scenes saved up front)."""
+    world = load_world(settings.world_path, settings.map_path)
+    drive = DriveSim(world.map, settings.time_scale, settings.failures_enabled)
+    camera = Camera(world, SceneStore(settings.scenes_dir))
+    camera.prepare()
+    return drive, camera
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+def main(args: list[str] | None = None) -> None:
+    try:
+        settings = load_settings(os.environ)
+        configure_logging(settings.log_level)
+        drive, camera = build(settings)
+    except (ConfigError, WorldError, OSError) as exc:
+        configure_logging()
+        logger.error("startup_failed", detail=str(exc))
+        sys.exit(2)
+    from robot_sim.node import SimNode  # rclpy message imports only once the config is good
+
+    signal.signal(signal.SIGTERM, _interrupt)
+    rclpy.init(args=args)
+    executor = MultiThreadedExecutor(num_threads=4)
+    node: SimNode | None = None
+    try:
+        node = SimNode(settings, drive, camera)
+        executor.add_node(node)
+        if settings.ready_file is not None:
+            settings.ready_file.parent.mkdir(parents=True, exist_ok=True)
+            settings.ready_file.write_text(str(os.getpid()))
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        logger.info("robot_sim_interrupted")
+    finally:
+        if node is not None:
+            node.destroy_node()
+        executor.shutdown(timeout_sec=2.0)
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,151 @@
+"""The world file: the navigation map plus what the camera sees at each of its places.
+
+The map (locations, speed, start, ``failures:``) is read with the navigation server's own
+loader, so the sim and ``robot-mcp-navigation`` can never disagree about where things are.
+The world adds an object catalogue (shape + colour per label) and, per place, a surface and
+the labels standing there. :class:`World` keeps the current contents, which change at run
+time (someone took the mug) through :meth:`World.set_objects`.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from robot_mcp_navigation.map import MapError, NavMap, load_map
+
+Shape = Literal["mug", "bottle", "parcel", "box", "scissors", "plate"]
+RGB = tuple[int, int, int]
+
+
+class WorldError(ValueError):
+    """The world file (or its map) is missing, is not YAML, or is not a valid world."""
+
+
+class ObjectLook(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    shape: Shape
+    colour: RGB
+
+
+MAX_OBJECTS_PER_PLACE = 6
+"""The camera frame has six slots (3 × 2); objects never overlap."""
+
+
+class PlaceSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    surface: RGB = (150, 110, 75)
+    description: str = ""
+    objects: list[str] = Field(default_factory=list, max_length=MAX_OBJECTS_PER_PLACE)
+
+
+class CorridorSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    surface: RGB = (118, 118, 122)
+    description: str = "A corridor seen from the moving robot; no objects in view."
+
+
+class WorldSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    map: Path
+    objects: dict[str, ObjectLook] = Field(min_length=1)
+    corridor: CorridorSpec = Field(default_factory=CorridorSpec)
+    places: dict[str, PlaceSpec] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _known_labels(self) -> WorldSpec:
+        for place, spec in self.places.items():
+            unknown = sorted(set(spec.objects) - set(self.objects))
+            if unknown:
+                raise ValueError(f"place {place!r} lists unknown objects {unknown}")
+        return self
+
+
+def _problems(exc: ValidationError) -> str:
+    return "; ".join(
+        f"{'.'.join(str(p) for p in err['loc']) or '<root>'}: {err['msg']}" for err in exc.errors()
+    )
+
+
+def load_world(path: Path, map_path: Path | None = None) -> World:
+    """Read and validate a world file and its map; every problem is a WorldError naming it.
+
+    ``map_path`` (``SIM_MAP``) replaces the file's ``map:`` so a stack can hand the sim and
+    the navigation server the same map.
+    """
+    try:
+        data: Any = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise WorldError(f"world file not found: {path}") from exc
+    except (OSError, yaml.YAMLError) as exc:
+        raise WorldError(f"cannot read world file {path}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise WorldError(f"{path}: the world must be a YAML mapping")
+    try:
+        spec = WorldSpec.model_validate(data)
+    except ValidationError as exc:
+        raise WorldError(f"{path}: invalid world: {_problems(exc)}") from exc
+    resolved = map_path or (path.parent / spec.map)
+    try:
+        nav_map = load_map(resolved.resolve())
+    except MapError as exc:
+        raise WorldError(f"{path}: {exc}") from exc
+    strangers = sorted(set(spec.places) - set(nav_map.locations))
+    if strangers:
+        raise WorldError(f"{path}: places {strangers} are not locations of the map {resolved}")
+    return World(spec, nav_map)
+
+
+class World:
+    """The map, the catalogue and what stands at each place now (thread-safe)."""
+
+    def __init__(self, spec: WorldSpec, nav_map: NavMap) -> None:
+        self.spec = spec
+        self.map = nav_map
+        self._lock = threading.Lock()
+        self._objects = {
+            name: list(spec.places[name].objects) if name in spec.places else []
+            for name in nav_map.locations
+        }
+
+    @property
+    def places(self) -> list[str]:
+        return list(self.map.locations)
+
+    def place(self, name: str) -> PlaceSpec:
+        return self.spec.places.get(
+            name, PlaceSpec(description=self.map.locations[name].description)
+        )
+
+    def objects_at(self, place: str) -> tuple[str, ...]:
+        with self._lock:
+            return tuple(self._objects[place])
+
+    def set_objects(self, place: str, labels: list[str]) -> None:
+        """Replace what stands at ``place``; unknown places or labels raise WorldError."""
+        self.check(place, labels)
+        with self._lock:
+            self._objects[place] = list(labels)
+
+    def check(self, place: str, labels: list[str]) -> None:
+        """Raise WorldError unless ``labels`` may stand at ``place``."""
+        if place not in self._objects:
+            raise WorldError(f"unknown place {place!r}; places: {', '.join(self.places)}")
+        if len(labels) > MAX_OBJECTS_PER_PLACE:
+            raise WorldError(f"at most {MAX_OBJECTS_PER_PLACE} objects fit in one place")
+        unknown = sorted(set(labels) - set(self.spec.objects))
+        if unknown:
+            raise WorldError(
+                f"unknown objects {unknown}; the catalogue has: {', '.join(self.spec.objects)}"
+            )
+
+    def look(self, label: str) -> ObjectLook:
+        return self.spec.objects[label]

@@ -1,0 +1,84 @@
+"""``robot-sim-world``: change a running robot-sim's world from a shell (no ``ros2`` CLI here).
+
+    robot-sim-world kitchen "green bottle" "white plate"   # someone took the mug
+    robot-sim-world kitchen                                 # the kitchen is empty
+    robot-sim-world --active false                          # the navigator rejects goals
+
+It sets the node's parameters (``places.<place>.objects``, ``active``) through the standard
+parameter service, like ``ros2 param set /robot_sim …``. Exit 0 when the node accepted the
+change, 1 when it refused it (the reason is printed), 2 when no robot-sim answered in time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+
+from robot_sim.node import NODE_NAME
+from robot_sim.world_params import ACTIVE, objects_parameter
+
+
+def parameters_from(args: argparse.Namespace) -> list[Parameter[Any]]:
+    changes: list[Parameter[Any]] = []
+    if args.place is not None:
+        changes.append(
+            Parameter(objects_parameter(args.place), Parameter.Type.STRING_ARRAY, args.objects)
+        )
+    if args.active is not None:
+        changes.append(Parameter(ACTIVE, Parameter.Type.BOOL, args.active == "true"))
+    return changes
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="robot-sim-world", description=__doc__.split("\n")[0])
+    parser.add_argument("place", nargs="?", help="a map location, e.g. kitchen")
+    parser.add_argument("objects", nargs="*", help="catalogue labels standing there now")
+    parser.add_argument("--active", choices=["true", "false"], help="accept navigation goals")
+    parser.add_argument("--node", default=NODE_NAME, help="the robot-sim node's name")
+    parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for it")
+    args = parser.parse_args(argv)
+    changes = parameters_from(args)
+    if not changes:
+        parser.error("name a place (and its objects) and/or --active")
+    context = Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("robot_sim_world", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        client = AsyncParameterClient(node, args.node)
+        if not client.wait_for_services(timeout_sec=args.timeout):
+            sys.stderr.write(f"no {args.node} node answered within {args.timeout} s\n")
+            return 2
+        answered = threading.Event()
+        future = client.set_parameters_atomically(changes)
+        future.add_done_callback(lambda _: answered.set())
+        if not answered.wait(args.timeout):
+            sys.stderr.write(f"{args.node} did not answer within {args.timeout} s\n")
+            return 2
+        reply = future.result()
+        if reply is None or not reply.result.successful:
+            reason = reply.result.reason if reply is not None else "no reply"
+            sys.stderr.write(f"refused: {reason}\n")
+            return 1
+        sys.stdout.write("ok: " + ", ".join(f"{p.name}={p.value}" for p in changes) + "\n")
+        return 0
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+"""Changing the world at run time through the node's ROS parameters.
+
+One ``string[]`` parameter per place, ``places.<place>.objects`` (catalogue labels), and a
+``bool`` parameter ``active`` (false: the navigator rejects goals, like a Nav2 whose lifecycle
+is not active). Any ROS tool sets them — ``ros2 param set /robot_sim
+places.kitchen.objects "['green bottle']"`` (someone took the mug) — and the camera shows the
+change from its next frame. A bad value is refused with a reason naming it; nothing changes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import structlog
+from rcl_interfaces.msg import (
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from robot_sim.world import World, WorldError
+
+logger = structlog.get_logger(__name__)
+
+ACTIVE = "active"
+
+
+def objects_parameter(place: str) -> str:
+    return f"places.{place}.objects"
+
+
+class WorldParameters:
+    """Declares the parameters and applies every accepted change to ``world``."""
+
+    def __init__(self, node: Node, world: World, on_active: Callable[[bool], None]) -> None:
+        self._world = world
+        self._on_active = on_active
+        self._places = {objects_parameter(place): place for place in world.places}
+        catalogue = ", ".join(world.spec.objects)
+        for name, place in self._places.items():
+            node.declare_parameter(
+                name,
+                list(world.objects_at(place)),
+                ParameterDescriptor(
+                    description=f"What stands at {place} (labels of: {catalogue})",
+                    dynamic_typing=True,
+                ),
+            )
+        node.declare_parameter(
+            ACTIVE, True, ParameterDescriptor(description="false: reject navigation goals")
+        )
+        node.add_on_set_parameters_callback(self._on_set)
+
+    def _on_set(self, parameters: list[Parameter[Any]]) -> SetParametersResult:
+        changes: list[tuple[str, list[str]]] = []
+        for parameter in parameters:
+            if parameter.name == ACTIVE:
+                if parameter.type_ != Parameter.Type.BOOL:
+                    return SetParametersResult(successful=False, reason="active must be a bool")
+                continue
+            place = self._places.get(parameter.name)
+            if place is None:
+                continue
+            labels = _labels(parameter)
+            if labels is None:
+                return SetParametersResult(
+                    successful=False, reason=f"{parameter.name} must be a list of strings"
+                )
+            changes.append((place, labels))
+        try:
+            for place, labels in changes:
+                self._world.check(place, labels)
+        except WorldError as error:
+            logger.info("world_change_refused", reason=str(error))
+            return SetParametersResult(successful=False, reason=str(error))
+        for place, labels in changes:
+            self._world.set_objects(place, labels)
+            logger.info("world_changed", place=place, objects=labels)
+        for parameter in parameters:
+            if parameter.name == ACTIVE:
+                self._on_active(bool(parameter.value))
+                logger.info("navigator_active", active=bool(parameter.value))
+        return SetParametersResult(successful=True)
+
+
+def _labels(parameter: Parameter[Any]) -> list[str] | None:
+    """The labels of a string-array value; an empty array may arrive typed as any array
+    (rclpy infers ``BYTE_ARRAY`` for ``[]``)."""
+    value = parameter.value
+    if parameter.type_ == Parameter.Type.STRING_ARRAY:
+        return [str(v) for v in value]
+    empty_arrays = (
+        Parameter.Type.BYTE_ARRAY,
+        Parameter.Type.BOOL_ARRAY,
+        Parameter.Type.INTEGER_ARRAY,
+        Parameter.Type.DOUBLE_ARRAY,
+    )
+    if parameter.type_ in empty_arrays and len(value) == 0:
+        return []
+    return None

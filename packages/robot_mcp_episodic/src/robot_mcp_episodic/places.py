@@ -65,6 +65,11 @@ class Places:
                 best = (distance, place.name)
         return best[1] if best else None
 
+    def position(self, name: str) -> tuple[float, float]:
+        """(x, y) of a named place (an alias works too)."""
+        place = self._by_key[_key(self.resolve(name))]
+        return place.x, place.y
+
     def resolve(self, name: str) -> str:
         """The canonical name of ``name`` (an alias works too); UnknownPlaceError if none."""
         place = self._by_key.get(_key(name))

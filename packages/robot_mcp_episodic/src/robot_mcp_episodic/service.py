@@ -277,10 +277,11 @@ class Episodic:
         self._flush()
         hits: list[dict[str, Any]] = []
         notes = self.store.search_notes(terms, begin, finish, place=where, k=k)
-        best = max((hit.score for hit in notes), default=1.0) or 1.0
-        for hit in notes:
-            item = self._note_item(hit.note, now)
-            hits.append({**item, "score": round(hit.score / best, 4)})
+        best = max((hit.score for hit in notes), default=0.0)
+        for rank, hit in enumerate(notes):
+            # Scaled into (0, 1]; ties of a zero-IDF term keep the store's order.
+            score = hit.score / best if best > 0 else 1.0 / (1 + rank)
+            hits.append({**self._note_item(hit.note, now), "score": round(score, 4)})
         labels = {
             label: score
             for label in self.store.labels()

@@ -240,8 +240,11 @@ class SqliteEpisodicStore(EpisodicStore):
             "ORDER BY bm25(notes_fts) LIMIT ?",
             [*params, k],
         )
-        # bm25() is lower-is-better and negative; the port's score is higher-is-better.
-        return [ScoredNote(note_from_row(row[:8]), round(-float(row[8]), 4)) for row in rows]
+        # bm25() is lower-is-better; the port's score is higher-is-better and never negative
+        # (a term in most notes has an IDF near zero).
+        return [
+            ScoredNote(note_from_row(row[:8]), round(max(0.0, -float(row[8])), 6)) for row in rows
+        ]
 
     def poses(self, start: float, end: float, *, limit: int = 10_000) -> list[PoseSample]:
         rows = self._read(

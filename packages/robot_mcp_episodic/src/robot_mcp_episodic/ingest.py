@@ -241,9 +241,10 @@ class Indexer:
                 self._dirty, self._poses, self._notes = {}, [], []
             started = time.perf_counter()
             try:
+                # Idempotent writes first: if the pose insert fails, a retry duplicates nothing.
+                self._store.save_notes(notes)
                 self._store.save_sightings(sightings)
                 self._store.save_poses(poses)
-                self._store.save_notes(notes)
             except Exception:
                 with self._lock:  # keep them for the next flush; nothing is lost
                     for s in sightings:

@@ -243,7 +243,7 @@ def _messages(mcap: Path) -> list[tuple[Any, Any, Any]]:
             found.clear()
         handle.seek(0)
         try:
-            found.extend(NonSeekingReader(handle).iter_messages())
+            found.extend(NonSeekingReader(handle).iter_messages(log_time_order=False))
         except Exception as exc:
             logger.warning("episodic_bag_truncated", file=str(mcap), error=str(exc))
     return found

@@ -156,3 +156,41 @@ async def test_forget_a_whole_window_removes_every_kind(app: EpisodicApp) -> Non
     assert done["deleted"] == {"sightings": 1, "notes": 1, "poses": 1, "recorded_messages": 0}
     happened = await call(app, "what_happened", start="-5m")
     assert happened["items"] == []
+
+
+async def test_forget_removes_the_label_from_index_and_recordings(tmp_path: Path) -> None:
+    from rclpy.serialization import serialize_message
+    from rosbags.highlevel import AnyReader
+    from ros2_vision_interfaces.msg import VisionDetection, VisionDetectionArray
+
+    clock = ManualClock(T)
+    app = build_app(EpisodicConfig(data_dir=tmp_path), record_ros=False, clock=clock)
+    try:
+        assert app.memory.bags is not None
+        for i in range(6):
+            labels = ["toothbrush", "mug"] if i < 3 else ["mug"]
+            msg = VisionDetectionArray()
+            for label in labels:
+                det = VisionDetection()
+                det.label = label
+                msg.detections.append(det)
+            stamp = T - 60 + i
+            app.memory.indexer.on_detections("detect", stamp, [{"label": x} for x in labels])
+            app.memory.bags.write("/vision/detect/detections_meta",
+                                  "ros2_vision_interfaces/msg/VisionDetectionArray",
+                                  serialize_message(msg), int(stamp * 1e9))  # fmt: skip
+        preview = await call(app, "forget", start="-5m", end="now", label="toothbrush")
+        assert preview["would_delete"]["recorded_messages"] == 3
+        done = await call(app, "forget", start="-5m", end="now", label="toothbrush", dry_run=False)
+        assert done["deleted"]["recorded_messages"] == 3
+        status = await call(app, "memory_status")
+        assert status["recordings"]["messages"] == 3
+    finally:
+        app.close()
+    labels_left = []
+    for bag in sorted((tmp_path / "bags").iterdir()):
+        with AnyReader([bag]) as reader:
+            for connection, _, raw in reader.messages():
+                message = reader.deserialize(raw, connection.msgtype)
+                labels_left += [d.label for d in message.detections]
+    assert labels_left == ["mug", "mug", "mug"]

@@ -336,8 +336,9 @@ class SqliteEpisodicStore(EpisodicStore):
     def compact(self) -> None:
         with self._lock:
             try:
-                self._db.execute("PRAGMA incremental_vacuum")
-                self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                # execute() steps the pragma once (one page); executescript runs it to the end.
+                self._db.executescript("PRAGMA incremental_vacuum;")
+                self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
             except sqlite3.Error as exc:
                 raise StoreError(f"episodic index compaction failed: {exc}") from exc
 

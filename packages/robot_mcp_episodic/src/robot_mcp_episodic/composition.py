@@ -100,7 +100,10 @@ def build_app(
     if record_ros:
         bridge = bridge if bridge is not None else RosBridge(config.ros_node_name)
         bridge.start()
-        recorder = RosRecorder(bridge, indexer, bags, config.pose_topic)
+        recorder = RosRecorder(
+            bridge, indexer, bags, config.pose_topic,
+            index_hz=config.index_hz, pose_hz=config.pose_hz,
+        )  # fmt: skip
     jobs = [
         Job("flush", config.flush_s, indexer.flush),
         Job("retention", config.janitor_s, janitor.enforce),

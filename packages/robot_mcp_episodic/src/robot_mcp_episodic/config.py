@@ -15,6 +15,8 @@ starts (a bad value exits 2 with one line naming the variable).
 - ``EPISODIC_MAX_MB`` (``2048``): size cap of bags + index, oldest bags go first
 - ``EPISODIC_JANITOR_S`` (``60``): how often retention and the size cap run
 - ``EPISODIC_GAP_S`` (``10``): a re-sighting after this gap starts a new interval
+- ``EPISODIC_INDEX_HZ`` (``2``) / ``EPISODIC_POSE_HZ`` (``5``): frames per skill topic and
+  poses per second decoded for the index (every message goes to the MCAP)
 - ``EPISODIC_RECORD_RAW`` (``true``): write MCAP bags
 - ``ROBOT_ID`` (``robot-1``); ``MCP_TRANSPORT`` / ``MCP_HOST`` / ``MCP_PORT`` (stdio /
   127.0.0.1 / 9203)
@@ -48,6 +50,8 @@ _ENV = {
     "max_mb": "EPISODIC_MAX_MB",
     "janitor_s": "EPISODIC_JANITOR_S",
     "gap_s": "EPISODIC_GAP_S",
+    "index_hz": "EPISODIC_INDEX_HZ",
+    "pose_hz": "EPISODIC_POSE_HZ",
     "record_raw": "EPISODIC_RECORD_RAW",
     "robot_id": "ROBOT_ID",
     "log_level": "LOG_LEVEL",
@@ -80,6 +84,8 @@ class EpisodicConfig(BaseModel):
     max_mb: float = Field(default=2048.0, gt=0)
     janitor_s: float = Field(default=60.0, gt=0, le=3600)
     gap_s: float = Field(default=10.0, gt=0, le=3600)
+    index_hz: float = Field(default=2.0, gt=0, le=100)
+    pose_hz: float = Field(default=5.0, gt=0, le=100)
     record_raw: bool = True
     graph_poll_s: float = Field(default=1.0, gt=0, le=30)
     robot_id: str = Field(default="robot-1", min_length=1, max_length=128)

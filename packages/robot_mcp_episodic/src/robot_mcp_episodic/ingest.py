@@ -28,7 +28,7 @@ from typing import Any
 import structlog
 
 from robot_mcp_episodic.places import Places
-from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting
+from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting, Visit
 
 logger = structlog.get_logger(__name__)
 
@@ -82,6 +82,8 @@ class Indexer:
         self._loaded: set[tuple[str, str]] = set()
         self._dirty: dict[str, Sighting] = {}
         self._poses: list[PoseSample] = []
+        self._visit: Visit | None = None
+        self._dirty_visits: dict[str, Visit] = {}
         self._notes: list[Note] = []
         self._pose: Pose | None = None
         self._kept_pose: Pose | None = None
@@ -104,15 +106,27 @@ class Indexer:
     # -- stream inputs ---------------------------------------------------------------------
     def on_pose(self, t: float, x: float, y: float, yaw: float) -> None:
         pose = Pose(t, x, y, yaw)
+        place = self._places.locate(x, y)
         with self._lock:
             self._pose = pose
             self.last_write["pose"] = t
+            self._stay(place, t)
             if not self._keep(pose):
                 return
             self._kept_pose = pose
-            self._poses.append(
-                PoseSample(self.robot_id, self.map, t, x, y, yaw, self._places.locate(x, y))
-            )
+            self._poses.append(PoseSample(self.robot_id, self.map, t, x, y, yaw, place))
+
+    def _stay(self, place: str | None, t: float) -> None:
+        """Extend the current stay, or end it and start one at the new place."""
+        visit = self._visit
+        if visit is not None and visit.place == place and t >= visit.departed:
+            visit.departed = t
+        elif place is None:
+            self._visit = None
+            return
+        else:
+            visit = self._visit = Visit(new_id("v"), self.robot_id, self.map, place, t, t)
+        self._dirty_visits[visit.id] = visit
 
     def _keep(self, pose: Pose) -> bool:
         last = self._kept_pose
@@ -166,12 +180,13 @@ class Indexer:
         if (
             current is not None
             and t - current.last_seen <= self._rules.gap_s
-            and current.place == place
+            and (current.place == place or current.place is None or place is None)
             and current.absent_since is None
             and t >= current.last_seen
         ):
             current.last_seen = t
             current.count += 1
+            current.place = current.place or place
             if score > current.best_score:
                 current.best_score = round(score, 4)
                 current.box = dict(box) if box else None
@@ -237,22 +252,27 @@ class Indexer:
         with self._flush_lock:
             with self._lock:
                 sightings = [dataclasses.replace(s) for s in self._dirty.values()]
+                visits = [dataclasses.replace(v) for v in self._dirty_visits.values()]
                 poses, notes = self._poses, self._notes
                 self._dirty, self._poses, self._notes = {}, [], []
+                self._dirty_visits = {}
             started = time.perf_counter()
             try:
                 # Idempotent writes first: if the pose insert fails, a retry duplicates nothing.
                 self._store.save_notes(notes)
                 self._store.save_sightings(sightings)
+                self._store.save_visits(visits)
                 self._store.save_poses(poses)
             except Exception:
                 with self._lock:  # keep them for the next flush; nothing is lost
                     for s in sightings:
                         self._dirty.setdefault(s.id, s)
+                    for v in visits:
+                        self._dirty_visits.setdefault(v.id, v)
                     self._poses[:0] = poses
                     self._notes[:0] = notes
                 raise
-            rows = len(sightings) + len(poses) + len(notes)
+            rows = len(sightings) + len(visits) + len(poses) + len(notes)
             if rows:
                 logger.debug(
                     "episodic_flushed",
@@ -263,9 +283,15 @@ class Indexer:
                 )
             return rows
 
-    def forget_open(self, sighting_ids: set[str]) -> None:
-        """Drop open intervals that were just forgotten (so they are not written back)."""
+    def forget_open(self, sighting_ids: set[str], visit_ids: set[str] | None = None) -> None:
+        """Drop open intervals and stays that were just forgotten (so they are not written
+        back)."""
+        visit_ids = visit_ids or set()
         with self._lock:
+            if self._visit is not None and self._visit.id in visit_ids:
+                self._visit = None
+            for vid in visit_ids:
+                self._dirty_visits.pop(vid, None)
             for key, sighting in list(self._open.items()):
                 if sighting.id in sighting_ids:
                     del self._open[key]

@@ -1,7 +1,13 @@
 """The recorder's ROS side: graph discovery of the skills' topics, message -> domain
-conversions (pure) and :class:`RosRecorder`, whose callbacks hand each message to the indexer
-(memory only) and to the MCAP recorder (an in-memory chunk), so a slow disk never holds up the
-ROS executor.
+conversions (pure) and :class:`RosRecorder`, whose callbacks hand each message to the MCAP
+recorder (an in-memory chunk) and to the indexer (memory only), so a slow disk never holds up
+the ROS executor.
+
+Subscriptions are raw: every message goes to the MCAP as the CDR bytes that arrived (no
+decode, no re-encode), and only a sample is decoded for the index — at most ``index_hz`` frames
+per skill topic and ``pose_hz`` poses a second. Decoding into Python objects is what costs CPU
+in rclpy; intervals (merged over a 10 s gap) and the pose track (0.25 m / 15° / 10 s) need no
+more. A label seen in a single frame between two samples is in the MCAP, not in the index.
 
 Followed: every ``/vision/<skill>/detections_meta`` (VisionDetectionArray; never
 ``/detections``, which carries masks, nor ``/overlay``) and every ``/vision/<skill>/<output>``
@@ -91,10 +97,14 @@ class RosRecorder:
         indexer: Indexer,
         bags: BagRecorder | None,
         pose_topic: str,
+        *,
+        index_hz: float = 2.0,
+        pose_hz: float = 5.0,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         from geometry_msgs.msg import PoseWithCovarianceStamped
         from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from rclpy.serialization import serialize_message
+        from rclpy.serialization import deserialize_message
         from ros2_vision_interfaces.msg import StampedString, VisionDetectionArray
 
         self._types = {
@@ -102,7 +112,11 @@ class RosRecorder:
             OUTPUT_TYPE: StampedString,
             POSE_TYPE: PoseWithCovarianceStamped,
         }
-        self._serialize = serialize_message
+        self._deserialize = deserialize_message
+        self._index_period = 1.0 / index_hz
+        self._pose_period = 1.0 / pose_hz
+        self._clock = clock
+        self._next_decode: dict[str, float] = {}
         # Best effort matches reliable and best-effort publishers alike.
         self._qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self._bridge = bridge
@@ -113,7 +127,7 @@ class RosRecorder:
         self.pose_topic = pose_topic
         self.received = 0
         self._subs[pose_topic] = bridge.create_subscription(
-            PoseWithCovarianceStamped, pose_topic, self._on_pose, self._qos
+            PoseWithCovarianceStamped, pose_topic, self._on_pose, self._qos, raw=True
         )
 
     def followed(self) -> list[str]:
@@ -133,7 +147,7 @@ class RosRecorder:
                     else self._on_output(topic, skill, leaf)
                 )
                 self._subs[topic] = self._bridge.create_subscription(
-                    self._types[type_name], topic, callback, self._qos
+                    self._types[type_name], topic, callback, self._qos, raw=True
                 )
             logger.info("episodic_subscribed", topic=topic, skill=skill)
 
@@ -143,32 +157,46 @@ class RosRecorder:
                 self._bridge.destroy_subscription(sub)
             self._subs.clear()
 
-    def _record(self, topic: str, type_name: str, msg: Any, stamp: float) -> None:
+    def _decode(self, topic: str, type_name: str, data: bytes, period: float) -> Any | None:
+        """The decoded message if this topic's next sample is due, else None."""
+        now = self._clock()
+        if now < self._next_decode.get(topic, 0.0):
+            return None
+        self._next_decode[topic] = now + period
+        return self._deserialize(data, self._types[type_name])
+
+    def _record(self, topic: str, type_name: str, data: bytes) -> None:
+        """To the MCAP with the receive time as log time (as rosbag2 does); the message keeps
+        its own header stamp."""
         self.received += 1
         if self._bags is not None:
-            self._bags.write(topic, type_name, self._serialize(msg), int(stamp * 1e9))
+            self._bags.write(topic, type_name, data)
 
-    def _on_meta(self, topic: str, skill: str) -> Callable[[Any], None]:
-        def callback(msg: Any) -> None:
-            stamp = stamp_seconds(msg.header)
-            self._indexer.on_detections(skill, stamp, detections_from_msg(msg))
-            self._record(topic, META_TYPE, msg, stamp)
-
-        return callback
-
-    def _on_output(self, topic: str, skill: str, output: str) -> Callable[[Any], None]:
-        def callback(msg: Any) -> None:
-            stamp = stamp_seconds(msg.header)
-            self._indexer.on_output(skill, output, stamp, value_from_msg(msg))
-            self._record(topic, OUTPUT_TYPE, msg, stamp)
+    def _on_meta(self, topic: str, skill: str) -> Callable[[bytes], None]:
+        def callback(data: bytes) -> None:
+            msg = self._decode(topic, META_TYPE, data, self._index_period)
+            if msg is not None:
+                self._indexer.on_detections(
+                    skill, stamp_seconds(msg.header), detections_from_msg(msg)
+                )
+            self._record(topic, META_TYPE, data)
 
         return callback
 
-    def _on_pose(self, msg: Any) -> None:
-        stamp = stamp_seconds(msg.header)
-        pose = msg.pose.pose
-        self._indexer.on_pose(
-            stamp, float(pose.position.x), float(pose.position.y),
-            yaw_from_quaternion(pose.orientation),
-        )  # fmt: skip
-        self._record(self.pose_topic, POSE_TYPE, msg, stamp)
+    def _on_output(self, topic: str, skill: str, output: str) -> Callable[[bytes], None]:
+        def callback(data: bytes) -> None:
+            msg = self._deserialize(data, self._types[OUTPUT_TYPE])  # outputs are rare: all
+            self._indexer.on_output(skill, output, stamp_seconds(msg.header), value_from_msg(msg))
+            self._record(topic, OUTPUT_TYPE, data)
+
+        return callback
+
+    def _on_pose(self, data: bytes) -> None:
+        msg = self._decode(self.pose_topic, POSE_TYPE, data, self._pose_period)
+        if msg is not None:
+            pose = msg.pose.pose
+            self._indexer.on_pose(
+                stamp_seconds(msg.header), float(pose.position.x), float(pose.position.y),
+                yaw_from_quaternion(pose.orientation),
+            )  # fmt: skip
+        self._record(self.pose_topic, POSE_TYPE, data)

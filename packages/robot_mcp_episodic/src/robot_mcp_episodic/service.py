@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import structlog
@@ -19,7 +19,7 @@ from robot_mcp_episodic.bags import BagRecorder
 from robot_mcp_episodic.ingest import NOTE_KINDS, Indexer
 from robot_mcp_episodic.matching import label_matches, matching_labels, words
 from robot_mcp_episodic.places import Places, UnknownPlaceError
-from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting
+from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting, Visit
 from robot_mcp_episodic.timeparse import TimeError, ago, duration, iso, parse_time
 
 logger = structlog.get_logger(__name__)
@@ -33,7 +33,22 @@ _NOTE_GROUPS = {
 }
 MISSION_KINDS = ("mission_started", "mission_finished")
 POSE_NEAR_S = 120.0
+RECEIVE_MARGIN_S = 2.0
 EPOCH_START = 0.0
+
+
+@dataclass(frozen=True)
+class _ForgetRows:
+    sightings: list[Sighting]
+    notes: list[Note]
+    poses: list[PoseSample] = field(default_factory=list)
+    visits: list[Visit] = field(default_factory=list)
+
+    def counts(self) -> dict[str, int]:
+        return {
+            "sightings": len(self.sightings), "notes": len(self.notes),
+            "poses": len(self.poses), "visits": len(self.visits),
+        }  # fmt: skip
 
 
 class EpisodicError(Exception):
@@ -135,7 +150,7 @@ class Episodic:
             ):
                 items.append(self._note_item(n, now))
         if "places" in wanted:
-            items.extend(self._visits(begin, finish, where, now))
+            items.extend(self._visits(begin, finish, where, now, cap))
         items.sort(key=lambda item: item["t"])
         truncated = len(items) > max_items
         items = items[-max_items:]
@@ -175,30 +190,20 @@ class Episodic:
         }
 
     def _visits(
-        self, begin: float, finish: float, where: str | None, now: float
+        self, begin: float, finish: float, where: str | None, now: float, cap: int
     ) -> list[dict[str, Any]]:
-        visits: list[dict[str, Any]] = []
-        current: PoseSample | None = None
-        last: PoseSample | None = None
-        for pose in self.store.poses(begin, finish):
-            if current is None or pose.place != current.place:
-                if current is not None and current.place and last is not None:
-                    visits.append(self._visit(current, last, now))
-                current = pose
-            last = pose
-        if current is not None and current.place and last is not None:
-            visits.append(self._visit(current, last, now))
-        return [v for v in visits if where is None or v["place"] == where]
-
-    def _visit(self, arrived: PoseSample, left: PoseSample, now: float) -> dict[str, Any]:
-        return {
-            **self._when(arrived.t, now),
-            "kind": "visit",
-            "id": f"p-{arrived.id}",
-            "place": arrived.place,
-            "until": iso(left.t),
-            "text": f"was at {arrived.place} for {duration(left.t - arrived.t)}",
-        }
+        return [
+            {
+                **self._when(v.arrived, now),
+                "kind": "visit",
+                "id": v.id,
+                "place": v.place,
+                "until": iso(v.departed),
+                "text": f"was at {v.place} for {duration(v.departed - v.arrived)}",
+            }
+            for v in self.store.visits(begin, finish, limit=cap)
+            if where is None or v.place == where
+        ]
 
     def last_seen(
         self, query: str, before: str = "now", place: str | None = None, n: int = 3
@@ -411,54 +416,53 @@ class Episodic:
         begin, finish = self._range(start, end, now)
         where = self._place(place)
         self._flush()
-        labels = None
-        if label is not None:
-            if not words(label):
-                raise EpisodicError("invalid_argument", "label must name something")
-            labels = matching_labels(self.store.labels(), label)
-        sightings = self.store.sightings(begin, finish, labels=labels, place=where, limit=1_000_000)
-        if label is None:
-            notes = self.store.notes(begin, finish, place=where, limit=1_000_000)
-            poses = [
-                p for p in self.store.poses(begin, finish, limit=10_000_000)
-                if where is None or p.place == where
-            ]  # fmt: skip
-        else:
-            notes = [
-                hit.note
-                for hit in self.store.search_notes(
-                    words(label), begin, finish, place=where, k=100_000
-                )
-            ]
-            poses = []
-        recordings = self._forget_recordings(begin, finish, sightings, label, where, dry_run)
+        if label is not None and not words(label):
+            raise EpisodicError("invalid_argument", "label must name something")
+        rows = self._forget_rows(begin, finish, label, where)
+        recordings = self._forget_recordings(begin, finish, rows.sightings, label, where, dry_run)
         request = {
             "start": iso(begin), "end": iso(finish), "label": label, "place": where,
             "dry_run": dry_run,
         }  # fmt: skip
-        counts = {
-            "sightings": len(sightings), "notes": len(notes), "poses": len(poses),
-            "recorded_messages": recordings,
-        }  # fmt: skip
         if dry_run:
             return {
-                **request, "would_delete": counts,
+                **request, "would_delete": {**rows.counts(), "recorded_messages": recordings},
                 "answer": "Preview only: call forget again with dry_run=false to delete.",
             }  # fmt: skip
-        ids = {s.id for s in sightings}
-        self.indexer.forget_open(ids)
+        self.indexer.forget_open({s.id for s in rows.sightings}, {v.id for v in rows.visits})
         deleted = self.store.delete(
-            [s.id for s in sightings],
-            [n.id for n in notes],
-            [p.id for p in poses if p.id is not None],
+            [s.id for s in rows.sightings],
+            [n.id for n in rows.notes],
+            [p.id for p in rows.poses if p.id is not None],
+            [v.id for v in rows.visits],
         )
         result = {
             "sightings": deleted.sightings, "notes": deleted.notes, "poses": deleted.poses,
-            "recorded_messages": recordings,
+            "visits": deleted.visits, "recorded_messages": recordings,
         }  # fmt: skip
         self.store.record_audit(now, request, result)
         logger.info("episodic_forgot", robot_id=self.store.robot_id, **request, **result)
         return {**request, "deleted": result, "answer": "Deleted and audited."}
+
+    def _forget_rows(
+        self, begin: float, finish: float, label: str | None, where: str | None
+    ) -> _ForgetRows:
+        """What a forget removes from the index: with a label, its sightings and the notes
+        that name it; without, every row in the window (at ``where`` if given)."""
+        many = 10_000_000
+        if label is not None:
+            labels = matching_labels(self.store.labels(), label)
+            hits = self.store.search_notes(words(label), begin, finish, place=where, k=many)
+            return _ForgetRows(
+                self.store.sightings(begin, finish, labels=labels, place=where, limit=many),
+                [hit.note for hit in hits],
+            )
+        return _ForgetRows(
+            self.store.sightings(begin, finish, place=where, limit=many),
+            self.store.notes(begin, finish, place=where, limit=many),
+            [p for p in self.store.poses(begin, finish, limit=many) if where in (None, p.place)],
+            [v for v in self.store.visits(begin, finish, limit=many) if where in (None, v.place)],
+        )
 
     def _forget_recordings(
         self,
@@ -475,8 +479,11 @@ class Episodic:
             return self.bags.forget(begin, finish, lambda *_: True, dry_run=dry_run)
         from robot_mcp_episodic.recording_filter import sighting_selector
 
+        # Recordings are logged at receive time, the index at the image stamp: a margin
+        # covers the transport delay (only frames that show the label are removed).
+        margin = RECEIVE_MARGIN_S
         windows = [
-            (s.skill, s.label, max(begin, s.first_seen), min(finish, s.last_seen))
+            (s.skill, s.label, max(begin, s.first_seen) - margin, min(finish, s.last_seen) + margin)
             for s in sightings
         ]
         if not windows:

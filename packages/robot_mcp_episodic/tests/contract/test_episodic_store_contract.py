@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting
+from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting, Visit
 
 StoreFactory = Callable[..., EpisodicStore]
 T = 1_790_000_000.0
@@ -53,15 +53,14 @@ def test_sightings_overlapping_a_window_filtered_by_label_and_place(
 
     assert [s.id for s in store.sightings(T + 5, T + 55)] == ["s-1", "s-3"]
     assert [s.id for s in store.sightings(T, T + 200, labels=["mug"])] == ["s-1", "s-2"]
-    assert [s.id for s in store.sightings(T, T + 200, labels=["mug"], place="reception")] == [
-        "s-2"
-    ]
+    assert [s.id for s in store.sightings(T, T + 200, labels=["mug"], place="reception")] == ["s-2"]
     assert store.sightings(T, T + 200, labels=[]) == []
     newest = store.sightings(T, T + 200, newest_first=True, limit=2)
     assert [s.id for s in newest] == ["s-2", "s-3"]
     assert store.labels() == ["mug", "scissors"]
     latest = store.latest_sighting("detect", "mug")
-    assert latest is not None and latest.id == "s-2"
+    assert latest is not None
+    assert latest.id == "s-2"
     assert store.latest_sighting("detect", "lamp") is None
 
 
@@ -94,9 +93,7 @@ def test_notes_full_text_search_applies_time_and_place_before_ranking(
     assert all(hit.score >= 0 for hit in hits)
     assert [hit.score for hit in hits] == sorted((hit.score for hit in hits), reverse=True)
     assert [h.note.id for h in store.search_notes(["mug"], T + 15, T + 100)] == ["n-3"]
-    assert [h.note.id for h in store.search_notes(["mug"], 0, T + 100, place="kitchen")] == [
-        "n-1"
-    ]
+    assert [h.note.id for h in store.search_notes(["mug"], 0, T + 100, place="kitchen")] == ["n-1"]
     either = store.search_notes(["scissors", "coffee"], 0, T + 100)
     assert {h.note.id for h in either} == {"n-1", "n-2"}
     # Query syntax characters are plain text, never an error.
@@ -124,7 +121,8 @@ def test_pose_track_reads_and_nearest_samples(open_store: StoreFactory) -> None:
     assert [p.x for p in track] == [1.0, 2.0, 3.0]
     assert all(p.id is not None for p in track)
     before, after = store.pose_near(T + 12)
-    assert before is not None and after is not None
+    assert before is not None
+    assert after is not None
     assert (before.x, after.x) == (1.0, 2.0)
     assert store.pose_near(T - 1)[0] is None
     assert store.pose_near(T + 100)[1] is None
@@ -146,7 +144,9 @@ def test_delete_by_ids_and_retention_and_audit(open_store: StoreFactory) -> None
 
     store.record_audit(T + 200, {"label": "mug"}, {"sightings": 1})
     stats = store.stats()
-    assert {k: v.rows for k, v in stats.kinds.items()} == {"sightings": 0, "poses": 0, "notes": 0}
+    assert {k: v.rows for k, v in stats.kinds.items()} == {
+        "sightings": 0, "poses": 0, "notes": 0, "visits": 0,
+    }  # fmt: skip
     assert stats.audit == [{"t": T + 200, "request": {"label": "mug"}, "result": {"sightings": 1}}]
     assert stats.size_bytes > 0
     store.compact()
@@ -159,3 +159,24 @@ def test_stats_give_rows_and_time_span_per_kind(open_store: StoreFactory) -> Non
     assert stats.kinds["sightings"].rows == 2
     assert (stats.kinds["sightings"].oldest, stats.kinds["sightings"].newest) == (T + 5, T + 20)
     assert stats.kinds["notes"].oldest is None
+
+
+def test_stays_grow_by_upsert_and_are_read_by_overlap(open_store: StoreFactory) -> None:
+    store = open_store()
+    store.save_visits([
+        Visit("v-1", "robot-1", "office", "dock", T, T + 1),
+        Visit("v-2", "robot-1", "office", "kitchen", T + 3, T + 4),
+        Visit("v-3", "robot-1", "office", "dock", T + 8, T + 8),
+    ])  # fmt: skip
+    store.save_visits([Visit("v-2", "robot-1", "office", "kitchen", T + 3, T + 5)])
+
+    visits = store.visits(T, T + 100)
+    assert [(v.place, v.arrived - T, v.departed - T) for v in visits] == [
+        ("dock", 0, 1), ("kitchen", 3, 5), ("dock", 8, 8),
+    ]  # fmt: skip
+    assert [v.id for v in store.visits(T + 4.5, T + 100)] == ["v-2", "v-3"]
+    assert [v.id for v in store.visits(T, T + 100, limit=2)] == ["v-2", "v-3"]
+    assert store.delete([], [], [], ["v-1"]).visits == 1
+    assert store.delete_before("visits", T + 6) == 1
+    assert [v.id for v in store.visits(0, T + 100)] == ["v-3"]
+    assert open_store("robot-2").visits(0, T + 100) == []

@@ -144,9 +144,9 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
     )
     tasks = RosVisionTasks(graph, node, timeout_s=15.0, wait_for_service_s=30.0)
     made = await tasks.create({"name": "everything", "mode": "segment_all", "rate_hz": 2.0})
-    assert made["topics"]["detections_meta"] == "/vision/everything/detections_meta", (
-        vision.log()[-2000:]
-    )
+    assert made["topics"]["detections_meta"] == "/vision/everything/detections_meta", vision.log()[
+        -2000:
+    ]
 
     async with Client(url) as client:
 
@@ -161,11 +161,7 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
 
         # Frames that arrive before the first pose are remembered without a place.
         await async_wait_until(a_label_is_remembered, 60.0, "a sighting in the kitchen")
-        label = next(
-            d.label
-            for m in reversed(received)
-            for d in m.detections
-        )
+        label = next(d.label for m in reversed(received) for d in m.detections)
         answer = await tool_answer(client, "last_seen", {"query": label})
         top = answer["results"][0]
         assert (top["place"], top["skill"]) == ("kitchen", "everything")
@@ -217,4 +213,3 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
 
 async def _more(received: list[Any], count: int) -> bool:
     return len(received) >= count
-

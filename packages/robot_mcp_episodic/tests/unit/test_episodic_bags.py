@@ -66,9 +66,11 @@ def read_bags(root: Path) -> list[tuple[str, int, Any]]:
 def test_messages_read_back_by_rosbags_equal_what_was_recorded(tmp_path: Path) -> None:
     recorder = BagRecorder(tmp_path)
     for i in range(5):
-        recorder.write("/vision/detect/detections_meta", META,
-                       serialize_message(detections(T + i, "mug", f"thing{i}")), (T + i) * 10**9)  # fmt: skip
-        recorder.write("/amcl_pose", POSE, serialize_message(pose(T + i, float(i))), (T + i) * 10**9)
+        frame = serialize_message(detections(T + i, "mug", f"thing{i}"))
+        recorder.write("/vision/detect/detections_meta", META, frame, (T + i) * 10**9)
+        recorder.write(
+            "/amcl_pose", POSE, serialize_message(pose(T + i, float(i))), (T + i) * 10**9
+        )
     recorder.close()
 
     read = read_bags(tmp_path)
@@ -204,7 +206,8 @@ def test_the_size_cap_trims_the_oldest_index_rows_when_no_bag_is_left(
     assert done.rows_deleted["notes"] > 0
     assert sqlite_store.stats().size_bytes <= before / 2
     oldest = sqlite_store.stats().kinds["notes"].oldest
-    assert oldest is not None and oldest > T  # the oldest went first
+    assert oldest is not None
+    assert oldest > T
 
 
 @pytest.mark.parametrize("rotate_s", [3600.0])

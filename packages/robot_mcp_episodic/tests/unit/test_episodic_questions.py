@@ -20,36 +20,44 @@ from robot_mcp_episodic.episode import (
     play_office_day,
     questions,
 )
+from robot_mcp_episodic.store.base import EpisodicStore
+from robot_mcp_episodic.store.postgres import PostgresEpisodicStore
 from robot_mcp_kit.testing_mcp import tool_answer
 
 START = 1_790_000_000.0
 Day = tuple[EpisodicApp, list[Question]]
 
 
-def played_day(data_dir: Path) -> Day:
+def played_day(data_dir: Path, store: EpisodicStore | None = None) -> Day:
     clock = ManualClock(START)
     app = build_app(
-        EpisodicConfig(data_dir=data_dir, record_raw=False), record_ros=False, clock=clock
-    )
+        EpisodicConfig(data_dir=data_dir, record_raw=False),
+        store=store, record_ros=False, clock=clock,
+    )  # fmt: skip
     episode = Episode(app.memory.indexer, app.memory.places, clock)
     shown = play_office_day(episode)
     assert clock.now == START + DAY_S
     return app, questions(START, clock.now, shown)
 
 
-@pytest.fixture(scope="module")
-def day(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Day]:
-    app, asked = played_day(tmp_path_factory.mktemp("episodic"))
+@pytest.fixture(scope="module", params=["sqlite", "postgres"])
+def day(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Day]:
+    store: EpisodicStore | None = None
+    if request.param == "postgres":
+        server = request.getfixturevalue("postgres_server")
+        store = PostgresEpisodicStore(server.create_database(), "robot-1")
+    app, asked = played_day(tmp_path_factory.mktemp("episodic"), store)
     try:
         yield app, asked
     finally:
         app.close()
 
 
-QUESTION_COUNT = len(questions(START, START + DAY_S, {k: (0.0, 0.0) for k in (
+SHOWN_KEYS = (
     "charger", "red mug@kitchen", "scissors", "person", "laptop", "coffee machine", "red mug",
     "parcel#1", "parcel",
-)}))  # fmt: skip
+)  # fmt: skip
+QUESTION_COUNT = len(questions(START, START + DAY_S, dict.fromkeys(SHOWN_KEYS, (0.0, 0.0))))
 
 
 def test_the_question_set_has_at_least_sixty_questions() -> None:

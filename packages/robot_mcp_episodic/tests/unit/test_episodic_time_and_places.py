@@ -41,7 +41,7 @@ def test_clock_times_today_or_yesterday() -> None:
 
 @pytest.mark.parametrize("text", ["yesterday-ish", "-10x", "25:00", "13pm", "soon", "10"])
 def test_unreadable_times_name_the_accepted_forms(text: str) -> None:
-    with pytest.raises(TimeError, match="ISO 8601|clock time"):
+    with pytest.raises(TimeError, match=r"ISO 8601|clock time"):
         parse_time(text, NOW)
 
 

@@ -94,7 +94,9 @@ async def test_a_note_is_searchable_at_once_and_stamped_with_time_and_place(
     app: EpisodicApp,
 ) -> None:
     app.memory.indexer.on_pose(T - 1, 9.0, -3.0, 0.0)
-    note = await call(app, "record_note", kind="user", text="The kettle is broken", mission_id="m-7")
+    note = await call(
+        app, "record_note", kind="user", text="The kettle is broken", mission_id="m-7"
+    )
     assert note["id"].startswith("n-")
     assert (note["time"], note["place"], note["kind"]) == (iso(T), "kitchen", "user")
 
@@ -112,9 +114,7 @@ async def test_memory_status_reports_rows_sizes_retention_and_gaps(app: Episodic
     status = await call(app, "memory_status")
     assert status["index"]["poses"]["rows"] == 2
     assert status["index"]["sightings"]["rows"] == 1
-    assert status["recording_gaps"] == [
-        {"from": iso(T - 600), "to": iso(T - 10), "seconds": 590}
-    ]
+    assert status["recording_gaps"] == [{"from": iso(T - 600), "to": iso(T - 10), "seconds": 590}]
     assert status["retention"]["flush_s"] == 1.0
     assert status["retention"]["recordings_h"] == 72.0
     assert status["last_write"]["detections:detect"]["ago"] == "5 s ago"
@@ -133,7 +133,7 @@ async def test_forget_previews_then_deletes_and_audits(app: EpisodicApp) -> None
 
     preview = await call(app, "forget", start="-5m", end="now", label="toothbrush")
     assert preview["would_delete"] == {
-        "sightings": 1, "notes": 1, "poses": 0, "recorded_messages": 0,
+        "sightings": 1, "notes": 1, "poses": 0, "visits": 0, "recorded_messages": 0,
     }  # fmt: skip
     assert (await call(app, "last_seen", query="toothbrush"))["found"] is True  # preview only
 
@@ -153,15 +153,17 @@ async def test_forget_a_whole_window_removes_every_kind(app: EpisodicApp) -> Non
     indexer.on_detections("detect", T - 90, [{"label": "mug", "score": 0.9}])
     indexer.note("user", "a secret", t=T - 80)
     done = await call(app, "forget", start="-5m", end="now", dry_run=False)
-    assert done["deleted"] == {"sightings": 1, "notes": 1, "poses": 1, "recorded_messages": 0}
+    assert done["deleted"] == {
+        "sightings": 1, "notes": 1, "poses": 1, "visits": 1, "recorded_messages": 0,
+    }  # fmt: skip
     happened = await call(app, "what_happened", start="-5m")
     assert happened["items"] == []
 
 
 async def test_forget_removes_the_label_from_index_and_recordings(tmp_path: Path) -> None:
     from rclpy.serialization import serialize_message
-    from rosbags.highlevel import AnyReader
     from ros2_vision_interfaces.msg import VisionDetection, VisionDetectionArray
+    from rosbags.highlevel import AnyReader
 
     clock = ManualClock(T)
     app = build_app(EpisodicConfig(data_dir=tmp_path), record_ros=False, clock=clock)

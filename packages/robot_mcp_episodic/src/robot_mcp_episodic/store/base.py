@@ -6,7 +6,8 @@ Three kinds of rows, each carrying ``robot_id`` and ``map``:
   how often, the best score and its box, the robot's pose and named place when it first saw
   it, and ``absent_since`` once the robot looked at that place again and did not see it);
 - :class:`PoseSample` — the downsampled pose track;
-- :class:`Note` — scene descriptions, mission events, user turns, what the robot said.
+- :class:`Note` — scene descriptions, mission events, user turns, what the robot said;
+- :class:`Visit` — a stay at one named place (arrived, departed).
 
 Times are unix seconds (float). Every read is scoped to the store's ``robot_id``. Adapters:
 :mod:`.sqlite` (embedded, WAL) and :mod:`.postgres` (a fleet's server); both pass the same
@@ -20,8 +21,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-Kind = Literal["sightings", "poses", "notes"]
-KINDS: tuple[Kind, ...] = ("sightings", "poses", "notes")
+Kind = Literal["sightings", "poses", "notes", "visits"]
+KINDS: tuple[Kind, ...] = ("sightings", "poses", "notes", "visits")
 
 
 class StoreError(RuntimeError):
@@ -71,6 +72,19 @@ class Note:
     place: str | None = None
 
 
+@dataclass
+class Visit:
+    """A stay at one named place: from the first to the last pose there (kept by the
+    indexer as the robot moves, so "places visited" never scans the pose track)."""
+
+    id: str
+    robot_id: str
+    map: str
+    place: str
+    arrived: float
+    departed: float
+
+
 @dataclass(frozen=True)
 class ScoredNote:
     note: Note
@@ -82,9 +96,10 @@ class Deleted:
     sightings: int = 0
     poses: int = 0
     notes: int = 0
+    visits: int = 0
 
     def total(self) -> int:
-        return self.sightings + self.poses + self.notes
+        return self.sightings + self.poses + self.notes + self.visits
 
 
 @dataclass(frozen=True)
@@ -116,6 +131,10 @@ class EpisodicStore(abc.ABC):
 
     @abc.abstractmethod
     def save_notes(self, notes: Sequence[Note]) -> None: ...
+
+    @abc.abstractmethod
+    def save_visits(self, visits: Sequence[Visit]) -> None:
+        """Insert or update by id (a stay grows while the robot is there)."""
 
     # -- reads -------------------------------------------------------------------------------
     @abc.abstractmethod
@@ -168,6 +187,10 @@ class EpisodicStore(abc.ABC):
         """Pose samples in ``[start, end]``, oldest first."""
 
     @abc.abstractmethod
+    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
+        """The newest ``limit`` stays that overlap ``[start, end]``, oldest first."""
+
+    @abc.abstractmethod
     def pose_near(self, t: float) -> tuple[PoseSample | None, PoseSample | None]:
         """The newest sample at or before ``t`` and the oldest after it."""
 
@@ -178,6 +201,7 @@ class EpisodicStore(abc.ABC):
         sighting_ids: Sequence[str],
         note_ids: Sequence[str],
         pose_ids: Sequence[int],
+        visit_ids: Sequence[str] = (),
     ) -> Deleted: ...
 
     @abc.abstractmethod

@@ -25,17 +25,21 @@ from robot_mcp_episodic.store.base import (
     Sighting,
     StoreError,
     StoreStats,
+    Visit,
 )
 from robot_mcp_episodic.store.rows import (
     NOTE_COLUMNS,
     POSE_COLUMNS,
     SIGHTING_COLUMNS,
+    VISIT_COLUMNS,
     note_from_row,
     note_params,
     pose_from_row,
     pose_params,
     sighting_from_row,
     sighting_params,
+    visit_from_row,
+    visit_params,
 )
 
 T = TypeVar("T")
@@ -68,16 +72,23 @@ CREATE TABLE IF NOT EXISTS episodic_notes (
 );
 CREATE INDEX IF NOT EXISTS episodic_notes_by_time ON episodic_notes (robot_id, t);
 CREATE INDEX IF NOT EXISTS episodic_notes_document ON episodic_notes USING GIN (document);
+CREATE TABLE IF NOT EXISTS episodic_visits (
+    id TEXT PRIMARY KEY, robot_id TEXT NOT NULL, map TEXT NOT NULL, place TEXT NOT NULL,
+    arrived DOUBLE PRECISION NOT NULL, departed DOUBLE PRECISION NOT NULL
+);
+CREATE INDEX IF NOT EXISTS episodic_visits_by_time ON episodic_visits (robot_id, departed);
 CREATE TABLE IF NOT EXISTS episodic_forget_audit (
     id BIGSERIAL PRIMARY KEY, robot_id TEXT NOT NULL, t DOUBLE PRECISION NOT NULL,
     request TEXT NOT NULL, result TEXT NOT NULL
 );
 """
 
+
 _TABLE: dict[Kind, tuple[str, str]] = {
     "sightings": ("episodic_sightings", "last_seen"),
     "poses": ("episodic_poses", "t"),
     "notes": ("episodic_notes", "t"),
+    "visits": ("episodic_visits", "departed"),
 }
 
 
@@ -133,7 +144,7 @@ class PostgresEpisodicStore(EpisodicStore):
             f"({', '.join(['%s'] * 15)}) ON CONFLICT (id) DO UPDATE SET "
             "last_seen = excluded.last_seen, count = excluded.count, "
             "best_score = excluded.best_score, box = excluded.box, "
-            "absent_since = excluded.absent_since"
+            "absent_since = excluded.absent_since, place = excluded.place"
         )
         self._run(
             lambda conn: conn.cursor().executemany(sql, [sighting_params(s) for s in sightings])
@@ -261,6 +272,23 @@ class PostgresEpisodicStore(EpisodicStore):
         )
         return [pose_from_row(row) for row in rows]
 
+    def save_visits(self, visits: Sequence[Visit]) -> None:
+        if not visits:
+            return
+        sql = (
+            f"INSERT INTO episodic_visits ({VISIT_COLUMNS}) VALUES (%s, %s, %s, %s, %s, %s) "
+            "ON CONFLICT (id) DO UPDATE SET departed = excluded.departed"
+        )
+        self._run(lambda conn: conn.cursor().executemany(sql, [visit_params(v) for v in visits]))
+
+    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
+        rows = self._rows(
+            f"SELECT {VISIT_COLUMNS} FROM episodic_visits WHERE robot_id = %s "
+            "AND departed >= %s AND arrived <= %s ORDER BY arrived DESC LIMIT %s",
+            (self.robot_id, start, end, limit),
+        )
+        return [visit_from_row(row) for row in reversed(rows)]
+
     def pose_near(self, t: float) -> tuple[PoseSample | None, PoseSample | None]:
         before = self._rows(
             f"SELECT {POSE_COLUMNS} FROM episodic_poses WHERE robot_id = %s AND t <= %s "
@@ -283,6 +311,7 @@ class PostgresEpisodicStore(EpisodicStore):
         sighting_ids: Sequence[str],
         note_ids: Sequence[str],
         pose_ids: Sequence[int],
+        visit_ids: Sequence[str] = (),
     ) -> Deleted:
         def work(conn: Connection) -> Deleted:
             counts = []
@@ -290,6 +319,7 @@ class PostgresEpisodicStore(EpisodicStore):
                 ("episodic_sightings", list(sighting_ids)),
                 ("episodic_poses", list(pose_ids)),
                 ("episodic_notes", list(note_ids)),
+                ("episodic_visits", list(visit_ids)),
             ):
                 cursor = conn.execute(
                     f"DELETE FROM {table} WHERE robot_id = %s AND id = ANY(%s)",

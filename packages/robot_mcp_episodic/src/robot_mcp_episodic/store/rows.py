@@ -6,7 +6,7 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
-from robot_mcp_episodic.store.base import Note, PoseSample, Sighting
+from robot_mcp_episodic.store.base import Note, PoseSample, Sighting, Visit
 
 SIGHTING_COLUMNS = (
     "id, robot_id, map, skill, label, first_seen, last_seen, count, best_score, box, "
@@ -14,6 +14,7 @@ SIGHTING_COLUMNS = (
 )
 POSE_COLUMNS = "id, robot_id, map, t, x, y, yaw, place"
 NOTE_COLUMNS = "id, robot_id, map, t, kind, text, mission_id, place"
+VISIT_COLUMNS = "id, robot_id, map, place, arrived, departed"
 
 
 def sighting_params(s: Sighting) -> tuple[Any, ...]:
@@ -43,6 +44,14 @@ def pose_from_row(row: Sequence[Any]) -> PoseSample:
         id=int(row[0]), robot_id=row[1], map=row[2], t=float(row[3]), x=float(row[4]),
         y=float(row[5]), yaw=float(row[6]), place=row[7],
     )  # fmt: skip
+
+
+def visit_params(v: Visit) -> tuple[Any, ...]:
+    return (v.id, v.robot_id, v.map, v.place, v.arrived, v.departed)
+
+
+def visit_from_row(row: Sequence[Any]) -> Visit:
+    return Visit(row[0], row[1], row[2], row[3], float(row[4]), float(row[5]))
 
 
 def note_params(n: Note) -> tuple[Any, ...]:

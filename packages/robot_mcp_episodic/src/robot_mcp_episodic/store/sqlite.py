@@ -24,17 +24,21 @@ from robot_mcp_episodic.store.base import (
     Sighting,
     StoreError,
     StoreStats,
+    Visit,
 )
 from robot_mcp_episodic.store.rows import (
     NOTE_COLUMNS,
     POSE_COLUMNS,
     SIGHTING_COLUMNS,
+    VISIT_COLUMNS,
     note_from_row,
     note_params,
     pose_from_row,
     pose_params,
     sighting_from_row,
     sighting_params,
+    visit_from_row,
+    visit_params,
 )
 
 SCHEMA = """
@@ -65,13 +69,21 @@ END;
 CREATE TRIGGER IF NOT EXISTS notes_ad AFTER DELETE ON notes BEGIN
     INSERT INTO notes_fts (notes_fts, rowid, text) VALUES ('delete', old.rowid, old.text);
 END;
+CREATE TABLE IF NOT EXISTS visits (
+    id TEXT PRIMARY KEY, robot_id TEXT NOT NULL, map TEXT NOT NULL, place TEXT NOT NULL,
+    arrived REAL NOT NULL, departed REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS visits_by_time ON visits (robot_id, departed);
 CREATE TABLE IF NOT EXISTS forget_audit (
     id INTEGER PRIMARY KEY, robot_id TEXT NOT NULL, t REAL NOT NULL, request TEXT NOT NULL,
     result TEXT NOT NULL
 );
 """
 
-_TIME_COLUMN: dict[Kind, str] = {"sightings": "last_seen", "poses": "t", "notes": "t"}
+
+_TIME_COLUMN: dict[Kind, str] = {
+    "sightings": "last_seen", "poses": "t", "notes": "t", "visits": "departed",
+}  # fmt: skip
 
 
 def fts_query(terms: Sequence[str]) -> str:
@@ -126,7 +138,7 @@ class SqliteEpisodicStore(EpisodicStore):
             f"INSERT INTO sightings ({SIGHTING_COLUMNS}) VALUES ({marks}) ON CONFLICT (id) DO "
             "UPDATE SET last_seen = excluded.last_seen, count = excluded.count, "
             "best_score = excluded.best_score, box = excluded.box, "
-            "absent_since = excluded.absent_since"
+            "absent_since = excluded.absent_since, place = excluded.place"
         )
         with self._tx() as db:
             db.executemany(sql, [sighting_params(s) for s in sightings])
@@ -254,6 +266,24 @@ class SqliteEpisodicStore(EpisodicStore):
         )
         return [pose_from_row(row) for row in rows]
 
+    def save_visits(self, visits: Sequence[Visit]) -> None:
+        if not visits:
+            return
+        sql = (
+            f"INSERT INTO visits ({VISIT_COLUMNS}) VALUES (?, ?, ?, ?, ?, ?) "
+            "ON CONFLICT (id) DO UPDATE SET departed = excluded.departed"
+        )
+        with self._tx() as db:
+            db.executemany(sql, [visit_params(v) for v in visits])
+
+    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
+        rows = self._read(
+            f"SELECT {VISIT_COLUMNS} FROM visits WHERE robot_id = ? AND departed >= ? "
+            "AND arrived <= ? ORDER BY arrived DESC LIMIT ?",
+            (self.robot_id, start, end, limit),
+        )
+        return [visit_from_row(row) for row in reversed(rows)]
+
     def pose_near(self, t: float) -> tuple[PoseSample | None, PoseSample | None]:
         before = self._read(
             f"SELECT {POSE_COLUMNS} FROM poses WHERE robot_id = ? AND t <= ? "
@@ -275,6 +305,7 @@ class SqliteEpisodicStore(EpisodicStore):
         sighting_ids: Sequence[str],
         note_ids: Sequence[str],
         pose_ids: Sequence[int],
+        visit_ids: Sequence[str] = (),
     ) -> Deleted:
         counts: dict[str, int] = {}
         with self._tx() as db:
@@ -282,6 +313,7 @@ class SqliteEpisodicStore(EpisodicStore):
                 ("sightings", sighting_ids),
                 ("notes", note_ids),
                 ("poses", pose_ids),
+                ("visits", visit_ids),
             ):
                 removed = 0
                 for chunk in _chunks(list(ids), 500):
@@ -292,7 +324,7 @@ class SqliteEpisodicStore(EpisodicStore):
                     )
                     removed += cursor.rowcount
                 counts[table] = removed
-        return Deleted(counts["sightings"], counts["poses"], counts["notes"])
+        return Deleted(counts["sightings"], counts["poses"], counts["notes"], counts["visits"])
 
     def delete_before(self, kind: Kind, before: float) -> int:
         column = _TIME_COLUMN[kind]

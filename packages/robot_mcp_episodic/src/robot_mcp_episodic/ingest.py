@@ -186,7 +186,9 @@ class Indexer:
         ):
             current.last_seen = t
             current.count += 1
-            current.place = current.place or place
+            if current.place is None and place is not None and pose is not None:
+                # First seen before the robot knew where it was: where it is now is better.
+                current.place, current.x, current.y, current.yaw = place, pose.x, pose.y, pose.yaw
             if score > current.best_score:
                 current.best_score = round(score, 4)
                 current.box = dict(box) if box else None

@@ -142,3 +142,15 @@ def test_a_failed_flush_keeps_the_rows_for_the_next_one(
     assert indexer.flush() == 4  # the sighting, the note, the pose and the stay
     assert len(sqlite_store.notes(0, T + 1)) == 1
     assert len(sqlite_store.poses(0, T + 1)) == 1
+
+
+def test_a_sighting_before_the_first_pose_takes_the_place_once_known(
+    indexer: Indexer, sqlite_store: EpisodicStore
+) -> None:
+    indexer.on_detections("detect", T, [det("mug")])
+    indexer.flush()
+    indexer.on_pose(T + 1, 9.0, -3.0, 0.5)
+    indexer.on_detections("detect", T + 2, [det("mug")])
+    indexer.flush()
+    [s] = sqlite_store.sightings(0, T + 100)
+    assert (s.first_seen, s.place, s.x, s.y, s.yaw) == (T, "kitchen", 9.0, -3.0, 0.5)

@@ -144,7 +144,8 @@ class PostgresEpisodicStore(EpisodicStore):
             f"({', '.join(['%s'] * 15)}) ON CONFLICT (id) DO UPDATE SET "
             "last_seen = excluded.last_seen, count = excluded.count, "
             "best_score = excluded.best_score, box = excluded.box, "
-            "absent_since = excluded.absent_since, place = excluded.place"
+            "absent_since = excluded.absent_since, place = excluded.place, x = excluded.x, "
+            "y = excluded.y, yaw = excluded.yaw"
         )
         self._run(
             lambda conn: conn.cursor().executemany(sql, [sighting_params(s) for s in sightings])

@@ -138,7 +138,8 @@ class SqliteEpisodicStore(EpisodicStore):
             f"INSERT INTO sightings ({SIGHTING_COLUMNS}) VALUES ({marks}) ON CONFLICT (id) DO "
             "UPDATE SET last_seen = excluded.last_seen, count = excluded.count, "
             "best_score = excluded.best_score, box = excluded.box, "
-            "absent_since = excluded.absent_since, place = excluded.place"
+            "absent_since = excluded.absent_since, place = excluded.place, x = excluded.x, "
+            "y = excluded.y, yaw = excluded.yaw"
         )
         with self._tx() as db:
             db.executemany(sql, [sighting_params(s) for s in sightings])

@@ -18,7 +18,7 @@ set -euo pipefail
 APP=robot-stack
 USER_NAME=robot
 UNITS=(robot-mcp-perception mcp-skill-control mcp-perception-buffer robot-mcp-memory
-       robot-mcp-navigation robot-voice-chat)
+       robot-mcp-navigation robot-mcp-episodic robot-voice-chat)
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DESTDIR="${DESTDIR:-}"
 DESTDIR="${DESTDIR%/}"
@@ -164,6 +164,7 @@ write_env_files() {
   env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
   env_file navigation "RVC_EVENT_SECRET=$nav" LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
+  env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY=

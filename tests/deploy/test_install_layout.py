@@ -24,6 +24,7 @@ UNITS = [
     "mcp-perception-buffer",
     "robot-mcp-memory",
     "robot-mcp-navigation",
+    "robot-mcp-episodic",
     "robot-voice-chat",
 ]
 HARDENING = {
@@ -93,6 +94,7 @@ def test_env_files_are_private_to_root_and_the_robot_group(installed: Path) -> N
     files = sorted(p.name for p in etc.glob("*.env"))
     assert files == [
         "brain.env",
+        "episodic.env",
         "memory.env",
         "navigation.env",
         "perception-buffer.env",

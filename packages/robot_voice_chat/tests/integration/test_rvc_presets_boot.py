@@ -107,7 +107,9 @@ def test_each_preset_boots_as_shipped_and_reports_ready(
     assert data["deployment"] == deployment
     assert data["missions_enabled"] is True
     assert data["planner"] == PLANNERS[deployment]
-    assert set(data["mcp_servers"]) == {"navigation", "memory", "skill_control", "perception"}
+    assert set(data["mcp_servers"]) == {
+        "navigation", "memory", "episodic", "skill_control", "perception",
+    }  # fmt: skip
     process.terminate()
     assert process.wait(15) in (0, -15)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Set
 from typing import Any
 
 from fastapi import APIRouter
@@ -16,13 +17,19 @@ async def livez() -> dict[str, str]:
     return {"status": "ok"}
 
 
+def servers_ready(states: Mapping[str, str], optional: Set[str]) -> bool:
+    """Every server that is not optional is connected."""
+    return all(state == "connected" for name, state in states.items() if name not in optional)
+
+
 @router.get("/readyz", operation_id="readyz")
 async def readyz(container: ContainerDep) -> dict[str, Any]:
     states = container.adapters.tools.server_states()
     planner = container.adapters.planner
     # a planner chain running on its fallback (the cloud planner failed) is degraded
     planner_degraded = bool(getattr(planner, "degraded", False))
-    ready = all(s == "connected" for s in states.values()) and not planner_degraded
+    optional = {s.name for s in container.config.tools.servers if s.optional}
+    ready = servers_ready(states, optional) and not planner_degraded
     return {
         "status": "ready" if ready else "degraded",
         "data": {

@@ -27,6 +27,7 @@ SERVICES=(
   "mcp-perception-buffer ros perception-buffer"
   "robot-mcp-memory memory"
   "robot-mcp-navigation ros navigation"
+  "robot-mcp-episodic ros episodic"
   "robot-voice-chat brain"
 )
 UNITS=()
@@ -179,6 +180,7 @@ write_env_files() {
   env_file navigation "RVC_EVENT_SECRET=$nav" NAV_MOTION=nav2 NAV2_ACTION=/navigate_to_pose \
     NAV_POSE_TOPIC=/amcl_pose LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
+  env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \

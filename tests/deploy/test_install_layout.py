@@ -26,6 +26,7 @@ UNITS = [
     "mcp-perception-buffer",
     "robot-mcp-memory",
     "robot-mcp-navigation",
+    "robot-mcp-episodic",
     "robot-voice-chat",
 ]
 HARDENING = {
@@ -103,6 +104,7 @@ def test_env_files_are_readable_by_root_only(installed: Path) -> None:
     files = sorted(p.name for p in etc.glob("*.env"))
     assert files == [
         "brain.env",
+        "episodic.env",
         "memory.env",
         "navigation.env",
         "perception-buffer.env",

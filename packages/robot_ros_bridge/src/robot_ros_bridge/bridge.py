@@ -314,11 +314,14 @@ class RosBridge:
         topic: str,
         callback: Callable[[Any], None] | Callable[[Any, Any], None],
         qos: QoSProfile | int = 10,
+        *,
+        raw: bool = False,
     ) -> Any:
         """A subscription whose callback runs on an executor thread (keep it short); a
-        two-argument callback also gets the rclpy ``MessageInfo`` (publisher GID, ...)."""
+        two-argument callback also gets the rclpy ``MessageInfo`` (publisher GID, ...).
+        ``raw=True`` hands the callback the serialized (CDR) bytes, undecoded."""
         return self.node.create_subscription(
-            msg_type, topic, _contained(callback, topic), qos, callback_group=self._group
+            msg_type, topic, _contained(callback, topic), qos, callback_group=self._group, raw=raw
         )
 
     def destroy_subscription(self, subscription: Any) -> None:

@@ -140,6 +140,28 @@ async def test_a_subscription_delivers_messages_on_an_executor_thread(
     bridge.destroy_subscription(sub)
 
 
+async def test_a_raw_subscription_delivers_the_serialized_bytes(
+    bridge: RosBridge, vision: FakeVisionNode
+) -> None:
+    from rclpy.serialization import deserialize_message
+    from ros2_vision_interfaces.msg import StampedString
+
+    tasks = RosVisionTasks(bridge, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+    await tasks.create(
+        {"name": "lid", "mode": "describe", "outputs": [{"name": "open", "type": "boolean"}]}
+    )
+    got: list[bytes] = []
+    bridge.create_subscription(StampedString, "/vision/lid/open", got.append, raw=True)
+
+    def published() -> bool:
+        vision.publish_output("lid", "open", False)
+        return bool(got)
+
+    await async_wait_until(published, 10.0, "a raw message", interval_s=0.1)
+    assert isinstance(got[0], bytes)
+    assert deserialize_message(got[0], StampedString).data == "false"
+
+
 async def test_a_closed_bridge_refuses_calls_cleanly(vision: FakeVisionNode) -> None:
     b = RosBridge(_unique("closing")).start()
     tasks = RosVisionTasks(b, vision.name)

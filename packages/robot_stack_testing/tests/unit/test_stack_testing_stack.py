@@ -125,6 +125,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
         "skill_control",
         "perception",
         "memory",
+        "episodic",
         "navigation",
         "brain",
     ]

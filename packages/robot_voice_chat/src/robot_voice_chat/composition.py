@@ -31,6 +31,7 @@ from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.emitter.episodic import EpisodicNoteEmitter
 from robot_voice_chat.services.emitter.history import ChatHistory, HistoryRecordingEmitter
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
 from robot_voice_chat.services.llm.base import LLMProvider
@@ -189,6 +190,7 @@ def assemble(
     """Wire the application layer on top of already-built adapters (tests pass fakes here)."""
     history = ChatHistory(config.ui.chat_history_size)
     emitter = HistoryRecordingEmitter(emitter, history)
+    emitter = EpisodicNoteEmitter(emitter, adapters.tools)
     agent = config.agent
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))

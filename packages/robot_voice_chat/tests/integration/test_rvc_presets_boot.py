@@ -118,7 +118,9 @@ def test_each_preset_boots_as_shipped_and_reports_ready(
         assert data["planner_understanding"] == (
             "openai_compat (qwen2.5:7b-instruct), fallback rules + embedded matcher"
         )
-    assert set(data["mcp_servers"]) == {"navigation", "memory", "skill_control", "perception"}
+    assert set(data["mcp_servers"]) == {
+        "navigation", "memory", "episodic", "skill_control", "perception",
+    }  # fmt: skip
     process.terminate()
     assert process.wait(15) in (0, -15)
 

@@ -10,6 +10,7 @@ import pytest
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.api.auth import hash_password
+from robot_voice_chat.api.routes.health import servers_ready
 from robot_voice_chat.composition import ConfigError, bootstrap, compose_config
 from robot_voice_chat.main import main
 from robot_voice_chat.socket_events import json_schemas
@@ -48,6 +49,23 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
         assert config["planner_understanding"] == "rules + embedded matcher"
         greeting = (await c.post("/api/chat", json={"text": "hello"})).json()
         assert "offline voice" in greeting["reply"]
+
+
+def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readiness(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+        monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
+    monkeypatch.delenv("RVC_EPISODIC_URL", raising=False)
+    for deployment in ("dev", "robot", "test"):
+        servers = {s.name: s for s in compose_config(deployment).tools.servers}
+        assert servers["episodic"].optional, deployment
+        assert servers["episodic"].url == "http://127.0.0.1:9203/sse"
+        assert not servers["navigation"].optional
+    states = {"navigation": "connected", "episodic": "disconnected"}
+    assert servers_ready(states, {"episodic"})
+    assert not servers_ready(states, set())
+    assert not servers_ready({**states, "navigation": "disconnected"}, {"episodic"})
 
 
 def test_robot_deployment_refuses_a_configured_planner_without_its_key(

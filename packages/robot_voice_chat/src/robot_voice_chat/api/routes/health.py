@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Set
 from typing import Any
 
 from fastapi import APIRouter
@@ -16,6 +17,11 @@ async def livez() -> dict[str, str]:
     return {"status": "ok"}
 
 
+def servers_ready(states: Mapping[str, str], optional: Set[str]) -> bool:
+    """Every server that is not optional is connected."""
+    return all(state == "connected" for name, state in states.items() if name not in optional)
+
+
 @router.get("/readyz", operation_id="readyz")
 async def readyz(container: ContainerDep) -> dict[str, Any]:
     states = container.adapters.tools.server_states()
@@ -25,8 +31,9 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
     camera = container.adapters.camera
     # the camera / vision node counts: a mission that looks needs it (issue 23 item 5)
     vision = await camera.health() if camera is not None else None
+    optional = {s.name for s in container.config.tools.servers if s.optional}
     ready = (
-        all(s == "connected" for s in states.values())
+        servers_ready(states, optional)
         and not planner_degraded
         and (vision is None or vision.state == "ok")
     )

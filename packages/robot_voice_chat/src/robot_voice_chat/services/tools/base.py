@@ -28,6 +28,9 @@ class McpServerConfig(BaseModel):
     event_secret: SecretStr | None = None
     motion: bool = False
     safety_stop_tool: str | None = None
+    optional: bool = False
+    """A server the stack may run without (e.g. ``episodic``): readiness does not wait for it;
+    its tools are offered while it is connected."""
 
     @field_validator("event_secret")
     @classmethod

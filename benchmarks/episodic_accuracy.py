@@ -1,0 +1,95 @@
+"""Episodic memory: accuracy on the question set of the scripted office day (3 h of robot
+time, time-compressed; ``robot_mcp_episodic.episode``), asked through the MCP tools exactly as
+the planner would, on SQLite and (with ``--postgres DSN``) PostgreSQL.
+
+    uv run python benchmarks/episodic_accuracy.py [--postgres DSN|throwaway]
+        # writes benchmarks/results/episodic_accuracy.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from mcp import Client
+
+from robot_mcp_episodic.composition import build_app
+from robot_mcp_episodic.config import EpisodicConfig
+from robot_mcp_episodic.episode import Episode, ManualClock, play_office_day, questions
+from robot_mcp_episodic.store.base import EpisodicStore
+from robot_mcp_episodic.store.postgres import PostgresEpisodicStore
+from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.postgres import PostgresServer
+
+RESULTS = Path(__file__).parent / "results"
+START = 1_790_000_000.0
+
+
+async def ask_all(store: EpisodicStore | None, data_dir: Path) -> dict[str, Any]:
+    clock = ManualClock(START)
+    app = build_app(
+        EpisodicConfig(data_dir=data_dir, record_raw=False),
+        store=store, record_ros=False, clock=clock,
+    )  # fmt: skip
+    try:
+        episode = Episode(app.memory.indexer, app.memory.places, clock)
+        started = time.perf_counter()
+        shown = play_office_day(episode)
+        app.memory.indexer.flush()
+        played = time.perf_counter() - started
+        asked = questions(START, clock.now, shown)
+        wrong = []
+        async with Client(app.server) as client:
+            for question in asked:
+                answer = await tool_answer(client, question.tool, question.args)
+                if "_error" in answer or not question.check(answer):
+                    wrong.append(question.text)
+        by_tool: dict[str, int] = {}
+        for question in asked:
+            by_tool[question.tool] = by_tool.get(question.tool, 0) + 1
+        return {
+            "questions": len(asked),
+            "correct": len(asked) - len(wrong),
+            "accuracy": round((len(asked) - len(wrong)) / len(asked), 4),
+            "wrong": wrong,
+            "by_tool": by_tool,
+            "events": episode.events,
+            "replay_s": round(played, 2),
+        }
+    finally:
+        app.close()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument(
+        "--postgres", help="DSN of an empty PostgreSQL database, or 'throwaway' to start one"
+    )
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="episodic-accuracy-"))
+    result = {"sqlite": asyncio.run(ask_all(None, work / "sqlite"))}
+    if args.postgres == "throwaway":
+        server = PostgresServer.start()
+        try:
+            store = PostgresEpisodicStore(server.create_database(), "robot-1")
+            result["postgres"] = asyncio.run(ask_all(store, work / "postgres"))
+        finally:
+            server.stop()
+    elif args.postgres:
+        store = PostgresEpisodicStore(args.postgres, "robot-1")
+        result["postgres"] = asyncio.run(ask_all(store, work / "postgres"))
+    for kind, measured in result.items():
+        print(f"{kind}: {measured['correct']}/{measured['questions']} correct "
+              f"(accuracy {measured['accuracy']:.1%}, goal >= 90 %); by tool "
+              f"{measured['by_tool']}; wrong: {measured['wrong'] or 'none'}")  # fmt: skip
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "episodic_accuracy.json").write_text(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,51 @@
+"""Words of a question matched against recorded labels (pure): "the red mug" finds the label
+"mug" and "mug" finds "red mug"; plurals fold to singular; filler words are dropped."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+
+_STOP_WORDS_TEXT = """
+a an the my your our their his her its this that these those of in on at to from for
+with and or did do does you we i me see saw seen find found where when what which who
+last time was were is are be been any some have has had it there here
+"""
+STOP_WORDS = frozenset(_STOP_WORDS_TEXT.split())
+_WORD = re.compile(r"[^\W_]+", re.UNICODE)
+
+
+def singular(word: str) -> str:
+    if len(word) > 4 and word.endswith("ies"):
+        return word[:-3] + "y"
+    if len(word) > 3 and word.endswith(("ses", "xes", "ches", "shes")):
+        return word[:-2]
+    if len(word) > 3 and word.endswith("s") and not word.endswith("ss"):
+        return word[:-1]
+    return word
+
+
+def words(text: str) -> list[str]:
+    """Content words of ``text``, lower case, singular, stop words dropped, in order."""
+    found = [singular(w) for w in _WORD.findall(text.lower()) if w not in STOP_WORDS]
+    return list(dict.fromkeys(found))
+
+
+def label_matches(label: str, query_words: Iterable[str]) -> float:
+    """0..1: how well ``label`` matches the query (1 = every label word is asked for or every
+    asked word is in the label; partial overlaps score below 1)."""
+    label_set = set(words(label))
+    query_set = set(query_words)
+    if not label_set or not query_set:
+        return 0.0
+    common = label_set & query_set
+    if not common:
+        return 0.0
+    if label_set <= query_set or query_set <= label_set:
+        return 1.0
+    return len(common) / len(label_set | query_set)
+
+
+def matching_labels(labels: Iterable[str], query: str, threshold: float = 1.0) -> list[str]:
+    query_words = words(query)
+    return [label for label in labels if label_matches(label, query_words) >= threshold]

@@ -1,0 +1,96 @@
+"""Times as people and planners write them, resolved by the server (the model never does time
+arithmetic): ISO 8601 (``2026-11-24T15:00:00Z``; no zone = UTC), a clock time today
+(``15:00``, ``3pm``), relative (``-30s``, ``-10m``, ``-2h``, ``-1d``, ``30 s ago``) and ``now``.
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import UTC, datetime
+
+_RELATIVE = re.compile(
+    r"^\s*-\s*(\d+(?:\.\d+)?)\s*(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)\s*$"
+)
+_AGO = re.compile(
+    r"^\s*(\d+(?:\.\d+)?)\s*(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)\s+ago\s*$"
+)
+_CLOCK = re.compile(r"^\s*(\d{1,2})(?::(\d{2}))?\s*(am|pm)?\s*$")
+_UNIT_S = {"s": 1.0, "m": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+class TimeError(ValueError):
+    """A time the server cannot read; the message says which forms it accepts."""
+
+
+def _unit(text: str) -> float:
+    return _UNIT_S[text[0]]
+
+
+def parse_time(text: str | float | None, now: float) -> float:
+    """Unix seconds for ``text`` relative to ``now`` (unix s). ``None`` or empty = now."""
+    if text is None:
+        return now
+    if isinstance(text, int | float):
+        return float(text)
+    value = text.strip().lower()
+    if value in ("", "now"):
+        return now
+    for pattern in (_RELATIVE, _AGO):
+        match = pattern.match(value)
+        if match:
+            return now - float(match.group(1)) * _unit(match.group(2))
+    clock = _CLOCK.match(value)
+    if clock and (clock.group(2) is not None or clock.group(3) is not None):
+        return _clock_today(clock, now)
+    try:
+        parsed = datetime.fromisoformat(text.strip().replace("Z", "+00:00").replace("z", "+00:00"))
+    except ValueError:
+        raise TimeError(
+            f"cannot read the time {text!r}: use ISO 8601 (2026-11-24T15:00:00Z), a relative "
+            "time (-30s, -10m, -2h, -1d), a clock time today (15:00, 3pm) or now"
+        ) from None
+    if parsed.tzinfo is None:
+        parsed = parsed.replace(tzinfo=UTC)
+    return parsed.timestamp()
+
+
+def _clock_today(match: re.Match[str], now: float) -> float:
+    hour = int(match.group(1))
+    minute = int(match.group(2) or 0)
+    meridiem = match.group(3)
+    if meridiem:
+        if not 1 <= hour <= 12:
+            raise TimeError(f"{match.group(0).strip()!r} is not a clock time")
+        hour = hour % 12 + (12 if meridiem == "pm" else 0)
+    if hour > 23 or minute > 59:
+        raise TimeError(f"{match.group(0).strip()!r} is not a clock time")
+    today = datetime.fromtimestamp(now, UTC)
+    at = today.replace(hour=hour, minute=minute, second=0, microsecond=0).timestamp()
+    # "3 pm" said at 10 am means yesterday's 3 pm: memory answers about the past.
+    return at - 86400.0 if at > now else at
+
+
+def iso(stamp: float) -> str:
+    """``2026-11-24T15:00:00.123Z`` (UTC, milliseconds)."""
+    text = datetime.fromtimestamp(stamp, UTC).isoformat(timespec="milliseconds")
+    return text.replace("+00:00", "Z")
+
+
+def ago(stamp: float, now: float) -> str:
+    """``"42 s ago"``, ``"5 min ago"``, ``"3 h 5 min ago"``, ``"2 d 4 h ago"``."""
+    seconds = max(0, round(now - stamp))
+    if seconds < 120:
+        return f"{seconds} s ago"
+    minutes = seconds // 60
+    if minutes < 60:
+        return f"{minutes} min ago"
+    hours, minutes = divmod(minutes, 60)
+    if hours < 24:
+        return f"{hours} h {minutes} min ago" if minutes else f"{hours} h ago"
+    days, hours = divmod(hours, 24)
+    return f"{days} d {hours} h ago" if hours else f"{days} d ago"
+
+
+def duration(seconds: float) -> str:
+    """``"45 s"``, ``"12 min"``, ``"1 h 30 min"``."""
+    return ago(0.0, max(0.0, seconds)).removesuffix(" ago")

@@ -79,7 +79,9 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
     )
     await second.start()
     app = create_app(second, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://127.0.0.1") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         snap = (await c.get(f"/api/agent/missions/{mission_id}")).json()
         listing = (await c.get("/api/agent/missions")).json()
     try:

@@ -45,7 +45,9 @@ def container_with(camera: CameraFeed | None) -> Container:
 
 async def readyz(camera: CameraFeed | None) -> dict[str, object]:
     app = create_app(container_with(camera), manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://127.0.0.1") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         body: dict[str, object] = (await c.get("/api/readyz")).json()
     return body
 

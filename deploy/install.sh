@@ -20,7 +20,8 @@ set -euo pipefail
 APP=robot-stack
 # One entry per service: "<unit> <env files it reads>". The unit runs as a system user named
 # like the unit; deploy/<unit>.service must name the same user and the same env files. Adding
-# a service = its unit file + one line here (+ its keys in write_env_files).
+# a service = its unit file + one line here (its env files are created empty, 0600 root; give
+# them generated secrets in write_env_files).
 SERVICES=(
   "robot-mcp-perception ros vision"
   "mcp-skill-control ros skill-control"
@@ -185,6 +186,11 @@ write_env_files() {
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local
+  # every env file a SERVICES entry names exists (empty for a new service without settings)
+  local entry name
+  for entry in "${SERVICES[@]}"; do
+    for name in ${entry#* }; do [[ -f "$ETC/$name.env" ]] || env_file "$name"; done
+  done
   if [[ -z "$(env_value ADMIN_PASSWORD_HASH "$ETC/brain.env")" ]]; then
     say "set the operator password: /opt/$APP/.venv/bin/robot-voice-chat hash-password," \
       "then put it in /etc/$APP/brain.env as ADMIN_PASSWORD_HASH='<hash>' (single quotes)"

@@ -194,6 +194,44 @@ def test_users_and_units_are_created_and_enabled(installed: Path) -> None:
     assert enable.split()[2:] == ["robot-stack.target", *[f"{u}.service" for u in UNITS]]
 
 
+def test_adding_a_service_is_its_unit_file_and_one_line(tmp_path: Path) -> None:
+    source = tmp_path / "source"
+    shutil.copytree(ROOT / "deploy", source / "deploy")
+    nav = (source / "deploy/robot-mcp-navigation.service").read_text()
+    (source / "deploy/robot-sim.service").write_text(
+        nav.replace("robot-mcp-navigation", "robot-sim").replace(
+            "EnvironmentFile=/etc/robot-stack/navigation.env",
+            "EnvironmentFile=/etc/robot-stack/ros.env\nEnvironmentFile=/etc/robot-stack/sim.env",
+        )
+    )
+    script = source / "deploy/install.sh"
+    text = script.read_text()
+    script.write_text(
+        text.replace(
+            '  "robot-voice-chat brain"\n', '  "robot-voice-chat brain"\n  "robot-sim ros sim"\n'
+        )
+    )
+    root = tmp_path / "root"
+    run_install_from(script, root)
+    assert stat.S_IMODE((root / "etc/robot-stack/sim.env").stat().st_mode) == 0o600
+    assert (root / "etc/systemd/system/robot-sim.service").is_file()
+    actions = (root / "install-actions.log").read_text()
+    assert "--shell /usr/sbin/nologin robot-sim" in actions
+    assert "robot-sim.service" in next(a for a in actions.splitlines() if "enable" in a)
+
+
+def run_install_from(script: Path, root: Path) -> None:
+    result = subprocess.run(
+        ["bash", str(script), "--skip-build"],
+        env={**os.environ, "DESTDIR": str(root)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
 def test_a_unit_that_does_not_match_its_service_entry_is_refused(tmp_path: Path) -> None:
     """install.sh's SERVICES list and the unit files agree (user, env files), or no install."""
     source = tmp_path / "source"

@@ -27,7 +27,7 @@ from robot_stack_testing import (
     free_tcp_port,
     wait_for_tcp_port,
 )
-from robot_stack_testing.mission_driver import frames_showing
+from robot_stack_testing.sample_frames import frames_showing
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -56,6 +56,13 @@ started_at?: (number | null)
 teaching?: boolean
 }
 
+export interface SafetyStatePayload {
+by?: (string | null)
+latched: boolean
+reason?: (string | null)
+since?: (number | null)
+}
+
 export interface SendMessagePayload {
 text: string
 }
@@ -90,6 +97,7 @@ export interface ServerEvents {
   mission_finished: MissionFinishedPayload;
   mission_plan: MissionPlanPayload;
   mission_started: MissionStartedPayload;
+  safety_state: SafetyStatePayload;
   speak: SpeakPayload;
   speech_interrupted: SpeechInterruptedPayload;
   teaching_failed: TeachingFailedPayload;

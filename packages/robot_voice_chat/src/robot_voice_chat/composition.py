@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import socketio
@@ -27,6 +27,9 @@ from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
+from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.latch import SafetyLatch
+from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -37,7 +40,14 @@ from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.mcp import McpToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AppConfig, resolve_path, state_path
+from robot_voice_chat.settings import (
+    CONFIG_DIR,
+    AppConfig,
+    data_dir,
+    resolve_path,
+    state_path,
+)
+from robot_voice_chat.socket_events import SafetyState
 from robot_voice_chat.socket_origins import origin_policy
 
 logger = structlog.get_logger(__name__)
@@ -176,6 +186,10 @@ def assemble(
     history = ChatHistory(config.ui.chat_history_size)
     emitter = HistoryRecordingEmitter(emitter, history)
     agent = config.agent
+    latch = SafetyLatch(FileLatchStore(data_dir(agent) / "safety"))
+    latch.add_listener(_announce_latch(emitter))
+    # the one choke point: everything below holds the guarded backend, never the raw one
+    adapters = replace(adapters, tools=GuardedToolBackend(adapters.tools, latch))
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
@@ -192,6 +206,7 @@ def assemble(
         prompt_path=resolve_path(config.agent.prompt_file),
         store=MissionStore(),
         archive=archive,
+        latch=latch,
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,
@@ -204,6 +219,13 @@ def assemble(
     return Container(
         config, adapters, emitter, executor, pipeline, teaching, trace, sio, history=history
     )
+
+
+def _announce_latch(emitter: EventEmitter) -> Any:
+    async def announce(state: LatchState) -> None:
+        await emitter.emit(SafetyState(**state.model_dump()))
+
+    return announce
 
 
 def bootstrap(config: AppConfig) -> Container:

@@ -55,6 +55,16 @@ class MissionEventLine(SocketEvent):
     ts: float
 
 
+class SafetyState(SocketEvent):
+    """The latched software stop (``GET /api/safety`` returns the same fields)."""
+
+    EVENT: ClassVar[str] = "safety_state"
+    latched: bool
+    since: float | None = None  # epoch seconds
+    by: str | None = None
+    reason: str | None = None
+
+
 class MissionFinished(SocketEvent):
     EVENT: ClassVar[str] = "mission_finished"
     mission_id: str
@@ -127,6 +137,7 @@ SERVER_EVENTS: tuple[type[SocketEvent], ...] = (
     MissionPlan,
     MissionEventLine,
     MissionFinished,
+    SafetyState,
     TeachingState,
     TeachingSaved,
     TeachingFailed,

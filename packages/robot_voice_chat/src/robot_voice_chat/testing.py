@@ -13,6 +13,9 @@ from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.latch import SafetyLatch
+from robot_voice_chat.control.latch_store import LatchStore, MemoryLatchStore
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
@@ -37,6 +40,7 @@ class Harness:
     speech: FakeSpeechOutput
     trace: TraceRecorder
     teaching: Teaching
+    latch: SafetyLatch
 
 
 def nav_servers() -> list[McpServerConfig]:
@@ -58,7 +62,12 @@ def nav_servers() -> list[McpServerConfig]:
 
 
 def make_harness(
-    tmp_path: Path, planner: FakeLLM, *, memory_server: str = "", **agent: Any
+    tmp_path: Path,
+    planner: FakeLLM,
+    *,
+    memory_server: str = "",
+    latch_store: LatchStore | None = None,
+    **agent: Any,
 ) -> Harness:
     tools = FakeToolBackend(nav_servers())
     tools.add("navigation.navigate_to", lambda a: task_info("nav-1"), location="string")
@@ -71,9 +80,10 @@ def make_harness(
     memory = MemoryClient(tools, memory_server)
     teaching = Teaching(emitter, memory)
     config = AgentConfig(memory_server=memory_server, **agent)
+    latch = SafetyLatch(latch_store or MemoryLatchStore())
     executor = MissionExecutor(
         planner=planner,
-        tools=tools,
+        tools=GuardedToolBackend(tools, latch),
         emitter=emitter,
         speech=speech,
         memory=memory,
@@ -81,5 +91,6 @@ def make_harness(
         teaching=teaching,
         config=config,
         prompt_path=CONFIG_DIR / "agent_prompt.yaml",
+        latch=latch,
     )
-    return Harness(executor, planner, tools, emitter, speech, trace, teaching)
+    return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch)

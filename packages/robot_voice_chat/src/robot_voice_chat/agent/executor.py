@@ -22,11 +22,14 @@ from robot_voice_chat.agent.run import (
     MissionFailure,
     MissionRun,
     MissionsDisabledError,
+    SafetyStopLatchedError,
 )
 from robot_voice_chat.agent.skills import SkillLedger
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.latch import SafetyLatch, latched_sentence
+from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -63,6 +66,7 @@ class MissionExecutor:
         store: MissionStore | None = None,
         registry: TaskRegistry | None = None,
         archive: MissionArchive | None = None,
+        latch: SafetyLatch | None = None,
     ) -> None:
         self.planner = planner
         self.tools = tools
@@ -76,6 +80,8 @@ class MissionExecutor:
         self.store = store or MissionStore()
         self.registry = registry or TaskRegistry()
         self.archive = archive
+        # the composition root passes the persisted latch; alone, one for this process life
+        self.latch = latch or SafetyLatch(MemoryLatchStore())
         self.output = MissionOutput(emitter, speech, trace, archive)
         self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
         self.run: MissionRun | None = None
@@ -97,6 +103,7 @@ class MissionExecutor:
             output=self.output,
             dispatcher=self.dispatcher,
             current_run=lambda: self.run,
+            latch=self.latch,
         )
 
     @property
@@ -113,9 +120,11 @@ class MissionExecutor:
             raise MissionsDisabledError("missions are disabled (no planner configured)")
         if self.run is not None:
             raise MissionBusyError(self.run.mission)
+        self._refuse_if_latched(instruction)
         prompt = await load_prompt(self.prompt_path)
         if self.run is not None:  # another start won the race while the prompt loaded
             raise MissionBusyError(self.run.mission)
+        self._refuse_if_latched(instruction)  # a stop may have come while the prompt loaded
         mission = Mission.new(instruction, teaching=await self.teaching.take())
         self.store.add(mission)
         await self.output.save(mission)
@@ -136,6 +145,11 @@ class MissionExecutor:
             logger.info("mission_started", instruction=instruction)
             run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
         return mission
+
+    def _refuse_if_latched(self, instruction: str) -> None:
+        if self.latch.latched:
+            logger.warning("mission_refused", code="SAFETY_STOP_LATCHED", instruction=instruction)
+            raise SafetyStopLatchedError(latched_sentence(self.latch.state))
 
     async def on_user_turn(self, text: str) -> None:
         run = self.run
@@ -407,5 +421,5 @@ class MissionExecutor:
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)
 
-    async def safety_stop(self, reason: str = "stop") -> None:
-        await self.bargein.safety_stop(reason)
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
+        await self.bargein.safety_stop(reason, by)

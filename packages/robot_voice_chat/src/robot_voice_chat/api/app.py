@@ -14,7 +14,16 @@ from slowapi.errors import RateLimitExceeded
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
-from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
+from robot_voice_chat.api.routes import (
+    agent,
+    camera,
+    chat,
+    chat_history,
+    health,
+    robot_map,
+    safety,
+    ui,
+)
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.composition import Container
 
@@ -46,6 +55,7 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     app.include_router(auth_routes.build_router(container.auth))
     app.include_router(health.router)
     app.include_router(chat.router)
+    app.include_router(safety.router)
     app.include_router(agent.build_router(container.config.api))
     for router in (chat_history.router, camera.router, robot_map.router, ui.router):
         app.include_router(router)

@@ -22,6 +22,7 @@ def register_handlers(container: Container) -> None:
     async def connect(sid: str, environ: dict[str, Any], auth: Any = None) -> None:
         logger.info("socket_connected", sid=sid)
         await sio.emit("teaching_state", {"armed": container.teaching.armed}, to=sid)
+        await sio.emit("safety_state", container.executor.latch.state.model_dump(), to=sid)
 
     @sio.event  # type: ignore[untyped-decorator]
     async def send_message(sid: str, data: Any) -> dict[str, Any]:
@@ -36,5 +37,5 @@ def register_handlers(container: Container) -> None:
 
     @sio.event  # type: ignore[untyped-decorator]
     async def stop_pipeline(sid: str, data: Any = None) -> dict[str, Any]:
-        await container.pipeline.stop()
+        await container.pipeline.stop("Stop robot (operator UI)")
         return {"ok": True}

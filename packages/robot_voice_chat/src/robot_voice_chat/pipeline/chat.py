@@ -86,16 +86,14 @@ class ChatPipeline:
             )
             return result
 
-    async def stop(self) -> None:
-        """``stop_pipeline`` / stop_mission: end streaming replies, safety stop, then quiet."""
+    async def stop(self, reason: str = "stop_pipeline") -> None:
+        """``stop_pipeline`` / stop_mission / ``POST /api/safety/stop``: end streaming replies,
+        safety stop (latched until an operator clears it), then quiet."""
         current = asyncio.current_task()
         for turn in list(self._fast_turns):
             if turn is not current:  # stop_mission called from inside a turn ends the rest
                 turn.cancel()
-        if self._executor.active is not None:
-            await self._executor.safety_stop(reason="stop_pipeline")
-        else:
-            await self._executor.safety_stop(reason="stop_pipeline (no mission)")
+        await self._executor.safety_stop(reason=reason)
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
@@ -182,7 +180,7 @@ class ChatPipeline:
         if call.name == "start_mission":
             return await self._start_mission(call, turn_id)
         if call.name == "stop_mission":
-            await self.stop()
+            await self.stop("stop_mission (asked in chat)")
             return ToolResult(tool_call_id=call.id, content="stopped"), None
         if not self._fast_path_may_call(call.name):
             logger.warning("fast_path_motion_refused", tool=call.name)

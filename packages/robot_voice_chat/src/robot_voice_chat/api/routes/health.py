@@ -34,5 +34,6 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "deployment": container.config.deployment,
             # these servers' events are refused (401) until they get a secret
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
+            "safety": container.executor.latch.state.model_dump(),
         },
     }

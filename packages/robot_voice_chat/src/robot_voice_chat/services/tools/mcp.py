@@ -174,6 +174,11 @@ class McpToolBackend(ToolBackend):
                             name=f"{name}.{t.name}",
                             description=t.description or "",
                             parameters=dict(t.input_schema or {"type": "object"}),
+                            annotations=(
+                                t.annotations.model_dump(by_alias=True, exclude_none=True)
+                                if t.annotations is not None
+                                else None
+                            ),
                         )
                         for t in listed.tools
                     ]

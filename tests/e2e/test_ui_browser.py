@@ -349,5 +349,6 @@ def test_push_to_talk_sends_the_microphone_to_speech_input_and_esc_stops(
     assert len(upload.data) > 2000
 
     page.keyboard.press("Escape")
-    expect(page.get_by_text("Emergency stop sent")).to_be_visible()
+    expect(page.get_by_text("Stop sent")).to_be_visible()
+    expect(page.get_by_role("region", name="Safety stop")).to_contain_text("latched")
     shoot(page, "10-voice-and-stop")

@@ -1,11 +1,13 @@
 import { useEffect } from 'react';
 import { fetchHistory } from '@/features/chat/api/chat';
 import { fetchActiveMission, traceLine } from '@/features/mission/api/missions';
+import { getSafety } from '@/features/safety/api/safety';
 import { fetchUiConfig } from '@/features/status/api/status';
 import { getTeaching } from '@/features/teaching/api/teaching';
 import { getSocket } from '@/lib/socket';
 import { useChatStore } from '@/stores/chatStore';
 import { useMissionStore } from '@/stores/missionStore';
+import { useSafetyStore } from '@/stores/safetyStore';
 import { useSettingsStore } from '@/stores/settingsStore';
 import { wireEvents } from './wireEvents';
 
@@ -22,6 +24,7 @@ export function useBoot(): void {
     void getTeaching().then(useSettingsStore.getState().setTeaching, () => undefined);
     void fetchHistory().then(useChatStore.getState().load, () => undefined);
     void rehydrateMission().catch(() => undefined);
+    void getSafety().then(useSafetyStore.getState().setLatch, () => undefined);
     return unwire;
   }, []);
 }

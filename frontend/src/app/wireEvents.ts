@@ -3,6 +3,7 @@ import type { RobotSocket } from '@/lib/socket';
 import { useChatStore } from '@/stores/chatStore';
 import { useConnectionStore } from '@/stores/connectionStore';
 import { useMissionStore } from '@/stores/missionStore';
+import { useSafetyStore } from '@/stores/safetyStore';
 import { useSettingsStore } from '@/stores/settingsStore';
 import { useToastStore } from '@/stores/toastStore';
 import type { MissionPlanPayload } from '@/types/events';
@@ -79,6 +80,7 @@ export function wireEvents(socket: RobotSocket, onReconnect: () => void): () => 
   socket.on('teaching_state', (e) => useSettingsStore.getState().setTeaching(e.armed));
   socket.on('teaching_saved', (e) => toast('success', `Process saved: ${e.process_id}`));
   socket.on('teaching_failed', (e) => toast('error', `Teaching failed: ${e.reason}`));
+  socket.on('safety_state', (e) => useSafetyStore.getState().setLatch(e));
   socket.on('speak', (e) => speak(e.text));
   socket.on('speech_interrupted', () => silence());
   socket.connect();

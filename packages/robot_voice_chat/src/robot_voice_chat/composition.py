@@ -30,6 +30,7 @@ from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
+from robot_voice_chat.control.policy import PolicyError, ToolPolicy
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -157,6 +158,12 @@ class Container:
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
     history: ChatHistory = field(default_factory=ChatHistory)
 
+    def policy_summary(self) -> dict[str, Any] | None:
+        """The tool policy in force (version, digest, file) for readyz."""
+        tools = self.adapters.tools
+        policy = tools.policy if isinstance(tools, GuardedToolBackend) else None
+        return policy.summary() if policy is not None else None
+
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
         self.adapters.tools.add_connect_listener(self.executor.reconcile)
@@ -188,8 +195,9 @@ def assemble(
     agent = config.agent
     latch = SafetyLatch(FileLatchStore(data_dir(agent) / "safety"))
     latch.add_listener(_announce_latch(emitter))
+    policy = load_policy(config)
     # the one choke point: everything below holds the guarded backend, never the raw one
-    adapters = replace(adapters, tools=GuardedToolBackend(adapters.tools, latch))
+    adapters = replace(adapters, tools=GuardedToolBackend(adapters.tools, latch, policy))
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
@@ -219,6 +227,16 @@ def assemble(
     return Container(
         config, adapters, emitter, executor, pipeline, teaching, trace, sio, history=history
     )
+
+
+def load_policy(config: AppConfig) -> ToolPolicy:
+    path = resolve_path(config.control.policy_file)
+    try:
+        policy = ToolPolicy.load(path)
+    except PolicyError as exc:
+        raise ConfigError(str(exc)) from exc
+    logger.info("policy_loaded", **policy.summary())
+    return policy
 
 
 def _announce_latch(emitter: EventEmitter) -> Any:

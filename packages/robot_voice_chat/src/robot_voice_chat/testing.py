@@ -13,9 +13,10 @@ from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.guard import ApprovalGate, GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import LatchStore, MemoryLatchStore
+from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
@@ -67,6 +68,8 @@ def make_harness(
     *,
     memory_server: str = "",
     latch_store: LatchStore | None = None,
+    policy: ToolPolicy | None = None,
+    approvals: ApprovalGate | None = None,
     **agent: Any,
 ) -> Harness:
     tools = FakeToolBackend(nav_servers())
@@ -75,6 +78,7 @@ def make_harness(
     tools.add("navigation.stop_navigation", lambda a: {"stopped": True})
     tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
     tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
+    tools.annotate("perception.prewarm", {"readOnlyHint": False, "destructiveHint": False})
     emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
     trace = TraceRecorder(tmp_path / "missions")
     memory = MemoryClient(tools, memory_server)
@@ -83,7 +87,7 @@ def make_harness(
     latch = SafetyLatch(latch_store or MemoryLatchStore())
     executor = MissionExecutor(
         planner=planner,
-        tools=GuardedToolBackend(tools, latch),
+        tools=GuardedToolBackend(tools, latch, policy, approvals),
         emitter=emitter,
         speech=speech,
         memory=memory,

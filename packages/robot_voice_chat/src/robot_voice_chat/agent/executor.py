@@ -28,6 +28,7 @@ from robot_voice_chat.agent.skills import SkillLedger
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.services.emitter.base import EventEmitter
@@ -83,7 +84,11 @@ class MissionExecutor:
         # the composition root passes the persisted latch; alone, one for this process life
         self.latch = latch or SafetyLatch(MemoryLatchStore())
         self.output = MissionOutput(emitter, speech, trace, archive)
-        self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
+        self.plan_tools = PlanTools(
+            on_plan=self.output.emit_plan,
+            on_say=self.output.say,
+            vet_reaction=tools.vet_reaction if isinstance(tools, GuardedToolBackend) else None,
+        )
         self.run: MissionRun | None = None
         self.dispatcher = TaskDispatcher(
             tools=tools,

@@ -35,5 +35,6 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             # these servers' events are refused (401) until they get a secret
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
             "safety": container.executor.latch.state.model_dump(),
+            "policy": container.policy_summary(),
         },
     }

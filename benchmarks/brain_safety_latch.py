@@ -114,7 +114,7 @@ def start_brain(env: dict[str, str], port: int) -> subprocess.Popen[bytes]:
         except httpx.HTTPError:
             return False
 
-    wait_until(answers, 60, "brain serving /api/livez")
+    wait_until(answers, 180, "brain serving /api/livez")  # slow under load
     return process
 
 

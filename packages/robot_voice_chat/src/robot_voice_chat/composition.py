@@ -27,6 +27,7 @@ from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
+from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
@@ -196,9 +197,16 @@ def assemble(
     latch = SafetyLatch(FileLatchStore(data_dir(agent) / "safety"))
     latch.add_listener(_announce_latch(emitter))
     policy = load_policy(config)
-    # the one choke point: everything below holds the guarded backend, never the raw one
-    adapters = replace(adapters, tools=GuardedToolBackend(adapters.tools, latch, policy))
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
+    approvals = ApprovalBroker(
+        emitter=emitter,
+        trace=trace,
+        audit_path=state_path(agent, config.control.audit_log, "approvals.jsonl"),
+        timeout_s=config.control.approval_timeout_s,
+    )
+    # the one choke point: everything below holds the guarded backend, never the raw one
+    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals)
+    adapters = replace(adapters, tools=guarded)
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
     teaching = Teaching(emitter, memory)
@@ -215,6 +223,7 @@ def assemble(
         store=MissionStore(),
         archive=archive,
         latch=latch,
+        approvals=approvals,
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,

@@ -13,7 +13,8 @@ from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.control.guard import ApprovalGate, GuardedToolBackend
+from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import LatchStore, MemoryLatchStore
 from robot_voice_chat.control.policy import ToolPolicy
@@ -69,7 +70,9 @@ def make_harness(
     memory_server: str = "",
     latch_store: LatchStore | None = None,
     policy: ToolPolicy | None = None,
-    approvals: ApprovalGate | None = None,
+    approvals: ApprovalBroker | None = None,
+    emitter: FakeEventEmitter | None = None,
+    trace: TraceRecorder | None = None,
     **agent: Any,
 ) -> Harness:
     tools = FakeToolBackend(nav_servers())
@@ -79,8 +82,8 @@ def make_harness(
     tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
     tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
     tools.annotate("perception.prewarm", {"readOnlyHint": False, "destructiveHint": False})
-    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
-    trace = TraceRecorder(tmp_path / "missions")
+    emitter, speech = emitter or FakeEventEmitter(), FakeSpeechOutput()
+    trace = trace or TraceRecorder(tmp_path / "missions")
     memory = MemoryClient(tools, memory_server)
     teaching = Teaching(emitter, memory)
     config = AgentConfig(memory_server=memory_server, **agent)
@@ -96,5 +99,6 @@ def make_harness(
         config=config,
         prompt_path=CONFIG_DIR / "agent_prompt.yaml",
         latch=latch,
+        approvals=approvals,
     )
     return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch)

@@ -13,6 +13,7 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.latch import SafetyLatch, acting
 from robot_voice_chat.services.speech.base import SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
@@ -35,6 +36,7 @@ class BargeIn:
         dispatcher: TaskDispatcher,
         current_run: Callable[[], MissionRun | None],
         latch: SafetyLatch,
+        approvals: ApprovalBroker | None = None,
     ) -> None:
         self.tools = tools
         self.registry = registry
@@ -45,6 +47,7 @@ class BargeIn:
         self.dispatcher = dispatcher
         self.current_run = current_run
         self.latch = latch
+        self.approvals = approvals
 
     def is_stop(self, text: str) -> bool:
         """A stop word anywhere in the utterance stops — negations included ("don't stop"):
@@ -60,6 +63,8 @@ class BargeIn:
         until the user answers."""
         by = by or acting()
         self.latch.engage(by, reason)  # from here every motion call is refused (guard)
+        if self.approvals is not None:  # nothing waiting for a yes may run after a stop
+            self.approvals.deny_all(f"safety stop: {reason}")
         run = self.current_run()
         active = run is not None and run.mission.active
         if run is not None and active:

@@ -28,8 +28,9 @@ from robot_voice_chat.agent.skills import SkillLedger
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.approvals import ApprovalBroker, PendingApproval
 from robot_voice_chat.control.guard import GuardedToolBackend
-from robot_voice_chat.control.latch import SafetyLatch, latched_sentence
+from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
@@ -68,6 +69,7 @@ class MissionExecutor:
         registry: TaskRegistry | None = None,
         archive: MissionArchive | None = None,
         latch: SafetyLatch | None = None,
+        approvals: ApprovalBroker | None = None,
     ) -> None:
         self.planner = planner
         self.tools = tools
@@ -83,6 +85,9 @@ class MissionExecutor:
         self.archive = archive
         # the composition root passes the persisted latch; alone, one for this process life
         self.latch = latch or SafetyLatch(MemoryLatchStore())
+        self.approvals = approvals
+        if approvals is not None:
+            approvals.add_state_hook(self._awaiting_approval)
         self.output = MissionOutput(emitter, speech, trace, archive)
         self.plan_tools = PlanTools(
             on_plan=self.output.emit_plan,
@@ -109,6 +114,7 @@ class MissionExecutor:
             dispatcher=self.dispatcher,
             current_run=lambda: self.run,
             latch=self.latch,
+            approvals=approvals,
         )
 
     @property
@@ -163,6 +169,12 @@ class MissionExecutor:
         if self.is_stop(text):
             await self.safety_stop(reason=f"user said {text!r}")
             return
+        if self.approvals is not None:  # a yes/no to the approval the mission waits for
+            answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
+            if answer is not None:
+                await self.output.log_line(run, "user_turn", text)
+                await self.output.say(run, answer)
+                return
         await self.output.log_line(run, "user_turn", text)
         self.trace.record(run.mission.id, "user_turn", text=text)
         run.awaiting_user = False
@@ -170,6 +182,21 @@ class MissionExecutor:
             run.post(f"{run.prompt.paused_note}\nUser: {text}")
         else:
             run.post(f"[user] {text}")
+
+    async def _awaiting_approval(self, request: PendingApproval, waiting: bool) -> None:
+        """The mission shows ``awaiting_approval`` while one of its calls waits for a yes."""
+        run = self.run
+        if run is None or run.mission.id != request.context.mission_id:
+            return
+        mission = run.mission
+        if waiting and mission.state in ("planning", "running"):
+            mission.state = "awaiting_approval"
+        elif not waiting and mission.state == "awaiting_approval":
+            if not self.approvals or not self.approvals.pending(mission.id):
+                mission.state = "running"
+        else:
+            return
+        await self.output.emit_plan(run)
 
     # --- the loop (§5.2) ------------------------------------------------------------------
     async def _run(self, run: MissionRun) -> None:

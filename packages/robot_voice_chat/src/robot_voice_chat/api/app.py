@@ -16,6 +16,7 @@ from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.routes import (
     agent,
+    approvals,
     camera,
     chat,
     chat_history,
@@ -56,6 +57,7 @@ def create_app(container: Container, *, manage_lifecycle: bool = True) -> FastAP
     app.include_router(health.router)
     app.include_router(chat.router)
     app.include_router(safety.router)
+    app.include_router(approvals.router)
     app.include_router(agent.build_router(container.config.api))
     for router in (chat_history.router, camera.router, robot_map.router, ui.router):
         app.include_router(router)

@@ -111,16 +111,19 @@ class FileLatchStore(LatchStore):
         self.directory.mkdir(parents=True, exist_ok=True)
         if state.latched:  # state first: a crash before the journal line still reads latched
             atomic_write(self.state_path, state.model_dump_json())
-            self._append(record)
+            append_record(self.journal_path, record)
         else:  # journal first: a crash before the state write still reads latched
-            self._append(record)
+            append_record(self.journal_path, record)
             atomic_write(self.state_path, state.model_dump_json())
 
-    def _append(self, record: dict[str, Any]) -> None:
-        created = not self.journal_path.exists()
-        with self.journal_path.open("a", encoding="utf-8") as handle:
-            handle.write(json.dumps(record, separators=(",", ":")) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-        if created:
-            _fsync_dir(self.directory)
+
+def append_record(path: Path, record: dict[str, Any]) -> None:
+    """Append one JSON line and fsync it (append-only journals and audit logs)."""
+    created = not path.exists()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a", encoding="utf-8") as handle:
+        handle.write(json.dumps(record, separators=(",", ":"), default=str) + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+    if created:
+        _fsync_dir(path.parent)

@@ -16,6 +16,7 @@ import structlog
 
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.run import MissionBusyError, MissionsDisabledError
+from robot_voice_chat.control.latch import acting
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
@@ -100,6 +101,10 @@ class ChatPipeline:
         if mission is not None:
             await self._executor.on_user_turn(text)
             return TurnResult(turn_id, "", "mission", mission.id)
+        answered = self._answer_approval(text)
+        if answered is not None:
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=answered))
+            return TurnResult(turn_id, answered, "fast")
         turn = asyncio.create_task(self._fast_turn(text, turn_id), name=f"turn-{turn_id}")
         self._fast_turns.add(turn)
         try:
@@ -119,6 +124,13 @@ class ChatPipeline:
             return TurnResult(turn_id, message, "error")
         finally:
             self._fast_turns.discard(turn)
+
+    def _answer_approval(self, text: str) -> str | None:
+        """A yes/no to an approval a fast-path call waits for (not a stop: stops stop)."""
+        approvals = self._executor.approvals
+        if approvals is None or self._executor.is_stop(text):
+            return None
+        return approvals.answer_from_chat(text, None, acting())
 
     def _fast_path_may_call(self, name: str) -> bool:
         """Motion reaches the robot only through a mission (start_mission), so the fast path

@@ -5,11 +5,12 @@ from __future__ import annotations
 from collections.abc import Awaitable
 from typing import Any, Literal, TypeVar
 
-from mcp.server.mcpserver import MCPServer
+from mcp.server.mcpserver import Context, MCPServer
 
 from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskState
+from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.errors import NavigationError
 from robot_mcp_navigation.navigator import Navigator
 from robot_mcp_navigation.triggers import Trigger
@@ -35,12 +36,17 @@ async def _guard(call: Awaitable[T]) -> T:
         raise tool_error(exc.code, exc.detail) from exc
 
 
-def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPServer:
+def build_mcp_server(
+    navigator: Navigator, log_level: LogLevel = "INFO", confirmer: MotionConfirmer | None = None
+) -> MCPServer:
+    """``confirmer``: ask the client's person before each drive (NAV_CONFIRM_MOTION=elicit)."""
     server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
     install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
 
     @server.tool(annotations=MOVES_ROBOT)
-    async def navigate_to(location: str, triggers: list[Trigger] | None = None) -> dict[str, Any]:
+    async def navigate_to(
+        location: str, ctx: Context, triggers: list[Trigger] | None = None
+    ) -> dict[str, Any]:
         """Start driving the robot to a named location (see list_locations).
 
         Returns at once with a TaskInfo: {"task_id", "state": "running", "est_duration_s",
@@ -52,6 +58,8 @@ def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPS
         prepare the next step before arrival. Refused with NAVIGATION_BUSY while another
         navigation runs: call stop_navigation or cancel_task first.
         """
+        if confirmer is not None:
+            await confirmer.confirm(ctx, location)
         info = await _guard(navigator.navigate_to(location, triggers or []))
         return info.model_dump(mode="json")
 

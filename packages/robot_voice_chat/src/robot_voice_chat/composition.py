@@ -28,6 +28,7 @@ from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AuthSetupError, OperatorAuth
 from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.elicitation import approval_elicitation
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
@@ -224,6 +225,9 @@ def assemble(
         archive=archive,
         latch=latch,
         approvals=approvals,
+    )
+    guarded.set_elicitation_handler(
+        approval_elicitation(approvals, lambda: executor.active.id if executor.active else None)
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,

@@ -21,6 +21,7 @@ from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
+    ElicitationHandler,
     McpServerConfig,
     ServerListener,
     ToolBackend,
@@ -178,6 +179,9 @@ class GuardedToolBackend(ToolBackend):
 
     def has_tool(self, name: str) -> bool:
         return self.inner.has_tool(name)
+
+    def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
+        self.inner.set_elicitation_handler(handler)
 
     async def start(self) -> None:
         await self.inner.start()

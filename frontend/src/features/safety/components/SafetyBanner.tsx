@@ -55,7 +55,7 @@ export function SafetyBanner() {
           <label className="flex items-center gap-1">
             Why is it safe to move?
             <input
-              className="rounded-md border border-line bg-surface px-2 py-1 text-fg"
+              className="w-80 max-w-full rounded-md border border-line bg-surface px-2 py-1 text-fg"
               value={reason}
               onChange={(e) => setReason(e.target.value)}
               minLength={3}

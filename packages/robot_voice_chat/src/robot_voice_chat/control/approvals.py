@@ -230,9 +230,8 @@ class ApprovalBroker:
                 raise ApprovalRefusedError(
                     409, f"approval {approval_id} is for {request.tool} with other arguments"
                 )
-        self._finish(
-            request, verdict, operator, reason, "approved" if verdict == "approve" else "denied"
-        )
+        ended = "approved" if verdict == "approve" else "denied"
+        self._finish(request, verdict, operator, reason or f"{ended} by {operator}", ended)
         return request
 
     def answer_from_chat(self, text: str, mission_id: str | None, operator: str) -> str | None:

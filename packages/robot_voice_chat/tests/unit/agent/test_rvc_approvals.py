@@ -258,3 +258,12 @@ async def test_a_safety_stop_denies_the_pending_approval(tmp_path: Path) -> None
 )
 def test_only_explicit_answers_count(text: str, verdict: str | None) -> None:
     assert parse_answer(text) == verdict
+
+
+async def test_a_decision_without_a_reason_says_who_decided(tmp_path: Path) -> None:
+    h, _ = harness(tmp_path, FakeLLM([PLAN, FINISH]))
+    await h.executor.start("go to the kitchen")
+    request = await waiting_for_approval(h)
+    broker_of(h).resolve(request.approval_id, "deny", "bob")
+    await h.executor.wait_idle(5)
+    assert resolved(h)[-1].reason == "denied by bob"

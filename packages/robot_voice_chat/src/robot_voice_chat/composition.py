@@ -227,7 +227,11 @@ def assemble(
         approvals=approvals,
     )
     guarded.set_elicitation_handler(
-        approval_elicitation(approvals, lambda: executor.active.id if executor.active else None)
+        approval_elicitation(
+            approvals,
+            lambda: executor.active.id if executor.active else None,
+            min(agent.tool_timeout_s, config.tools.call_timeout_s),
+        )
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import json
 import sys
+import time
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -96,3 +97,19 @@ def test_only_a_single_yes_no_field_is_answerable() -> None:
     two = {"properties": {"a": {"type": "boolean"}, "b": {"type": "boolean"}}}
     assert yes_no_field(two) is None
     assert yes_no_field({}) is None
+
+
+async def test_the_question_expires_before_the_tool_call_would_time_out(tmp_path: Path) -> None:
+    broker = ApprovalBroker(
+        emitter=FakeEventEmitter(),
+        trace=TraceRecorder(tmp_path / "missions"),
+        audit_path=tmp_path / "approvals.jsonl",
+        timeout_s=60,
+    )
+    handler = approval_elicitation(broker, lambda: None, call_timeout_s=2.0)
+    schema = {"properties": {"confirm": {"type": "boolean"}}}
+    asked = asyncio.create_task(handler("navigation", "Drive to the kitchen?", schema))
+    await async_wait_until(lambda: broker.pending(), 5, "the question")
+    assert broker.pending()[0].expires_at - time.time() <= 1.8 + 0.1
+
+    assert await asked == ("decline", None)  # nobody answered: declined, never a yes

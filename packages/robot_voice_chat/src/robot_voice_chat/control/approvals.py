@@ -149,8 +149,16 @@ class ApprovalBroker:
         ]
 
     async def ask(
-        self, tool: str, arguments: dict[str, Any], reason: str, context: DispatchContext
+        self,
+        tool: str,
+        arguments: dict[str, Any],
+        reason: str,
+        context: DispatchContext,
+        timeout_s: float | None = None,
     ) -> ApprovalAnswer:
+        """``timeout_s`` (default: the configured one) — shorter when the asker cannot wait
+        as long (an MCP server's question inside a tool call with its own deadline)."""
+        timeout = min(self.timeout_s, timeout_s) if timeout_s is not None else self.timeout_s
         frozen = json.loads(canonical(arguments))  # what the operator sees is what is bound
         request = PendingApproval(
             approval_id=f"ap-{uuid.uuid4().hex[:12]}",
@@ -158,8 +166,8 @@ class ApprovalBroker:
             arguments=frozen,
             reason=reason,
             context=context,
-            expires_at=time.time() + self.timeout_s,
-            deadline=time.monotonic() + self.timeout_s,
+            expires_at=time.time() + timeout,
+            deadline=time.monotonic() + timeout,
             digest=binding(tool, frozen, context.mission_id),
         )
         self._pending[request.approval_id] = request
@@ -172,13 +180,13 @@ class ApprovalBroker:
             for hook in self._hooks:
                 await hook(request, True)
             await self.emitter.emit(request.event())
-            async with asyncio.timeout(self.timeout_s):
+            async with asyncio.timeout(timeout):
                 verdict, operator, why = await asyncio.shield(request.answer)
         except TimeoutError:
             if request.answer.done():  # answered in the same instant: the answer counts
                 verdict, operator, why = request.answer.result()
             else:
-                why = f"no answer within {self.timeout_s:g} s"
+                why = f"no answer within {timeout:g} s"
                 self._finish(request, "deny", None, why, "expired")
         finally:
             self._finish(request, "deny", None, why, "denied")  # no-op when already answered

@@ -29,8 +29,14 @@ def yes_no_field(schema: dict[str, Any]) -> str | None:
 
 
 def approval_elicitation(
-    broker: ApprovalBroker, current_mission: Callable[[], str | None]
+    broker: ApprovalBroker,
+    current_mission: Callable[[], str | None],
+    call_timeout_s: float | None = None,
 ) -> ElicitationHandler:
+    """``call_timeout_s``: the deadline of the tool call the question arrives in; the card
+    expires (denied) a little before it, so no answer can come after the call gave up."""
+    ask_timeout = max(1.0, call_timeout_s * 0.9) if call_timeout_s is not None else None
+
     async def answer(server: str, message: str, schema: dict[str, Any]) -> ElicitationAnswer:
         field = yes_no_field(schema)
         if field is None:
@@ -38,7 +44,11 @@ def approval_elicitation(
             return "decline", None
         context = DispatchContext(mission_id=current_mission())
         verdict = await broker.ask(
-            f"{server}.elicitation", {"question": message}, f"the {server} server asks", context
+            f"{server}.elicitation",
+            {"question": message},
+            f"the {server} server asks",
+            context,
+            timeout_s=ask_timeout,
         )
         logger.info("elicitation_answered", server=server, approved=verdict.approved)
         return ("accept", {field: True}) if verdict.approved else ("decline", None)

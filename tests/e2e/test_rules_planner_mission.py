@@ -131,6 +131,10 @@ async def stop_mid_drive_then_continue(stack: RunningStack) -> None:
             10,
             "the robot asks whether to continue",
         )
+        # the stop is latched: the operator clears it (which resumes nothing), then continues
+        cleared = await user.http.post("/api/safety/clear", json={"reason": "dock area checked"})
+        assert cleared.json()["latched"] is False
+        assert user.record.of("mission_plan")[-1]["state"] == "paused"
         await user.send("continue")
         record = await user.wait_finished(60)
     assert record.outcome == "succeeded", record.of("mission_finished")

@@ -269,9 +269,11 @@ def rules_stack(tmp_path: Path) -> Iterator[RunningStack]:
         yield running
 
 
-def test_stop_mid_drive_pauses_and_continue_drives_on_to_the_goal(
+def test_stop_robot_latches_until_clear_stop_then_it_drives(
     browser: Browser, rules_stack: RunningStack
 ) -> None:
+    """Stop robot mid-drive → paused, latched banner; continuing or a new instruction moves
+    nothing while latched; Clear stop (with why) resumes nothing; then the robot drives."""
     stack = rules_stack
     page, errors = open_ui(browser, stack.brain_url)
     send(page, "go to the kitchen")
@@ -279,34 +281,106 @@ def test_stop_mid_drive_pauses_and_continue_drives_on_to_the_goal(
     start = robot_xy(page)
     wait_until(lambda: robot_xy(page) != start, 30.0, "the robot to drive")
 
-    page.get_by_role("button", name="Stop mission").click()
+    page.get_by_role("button", name="Stop robot").click()
     banner = page.get_by_role("alert").filter(has_text="Paused — continue or abort?")
     expect(banner).to_be_visible(timeout=20_000)
+    latch = page.get_by_role("region", name="Safety stop")
+    expect(latch).to_contain_text("Software stop latched")
+    expect(latch).to_contain_text("hardware emergency stop remains required")
+    expect(page.get_by_role("region", name="Status")).to_contain_text("Software stop: latched")
     expect(step(page, "s1")).to_have_attribute("data-status", "failed")
     expect(step(page, "s1")).to_contain_text("safety stop")
     pose = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()
     assert pose["moving"] is False, pose
-    # The marker settles on the halted pose (it polls at 2.5 Hz) and stays there.
     wait_until(
         lambda: robot_xy(page) == (pose["x"], pose["y"]), 5.0, "the marker on the halted pose"
     )
-    page.wait_for_timeout(1500)
-    assert robot_xy(page) == (pose["x"], pose["y"])
-    shoot(page, "07-paused")
+    shoot(page, "07-stopped-latched")
 
-    # Continue is the operator's turn "continue": the planner adds a step that drives on from
-    # the halted pose, and the mission ends at the goal.
+    # Continue while latched: the planner's drive is refused, never sent; it reports that.
     page.get_by_role("button", name="Continue").click()
-    expect(page.get_by_role("log", name="Conversation")).to_contain_text("continue")
-    expect(banner).to_be_hidden(timeout=20_000)
-    expect(step(page, "s1b")).to_contain_text("Resume the drive to the kitchen")
-    wait_until(lambda: robot_xy(page) != (pose["x"], pose["y"]), 30.0, "the robot to drive on")
-    shoot(page, "08-continued")
     summary = page.get_by_role("log", name="Conversation").get_by_role("article")
-    expect(summary).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
-    expect(summary).to_contain_text("succeeded")
-    assert httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()["moving"] is False
-    shoot(page, "09-arrived-after-stop")
+    expect(summary.last).to_contain_text("failed", timeout=STEP_TIMEOUT_MS)
+    expect(summary.last).to_contain_text("latched")
+    # A new instruction is refused with the reason, and nothing moves.
+    send(page, "go to the kitchen")
+    conversation = page.get_by_role("log", name="Conversation")
+    expect(conversation).to_contain_text("software stop is latched", timeout=20_000)
+    expect(page.get_by_role("region", name="Mission")).to_contain_text("No mission running")
+    assert robot_xy(page) == (pose["x"], pose["y"])
+    shoot(page, "08-refused-while-latched")
+
+    # Clear stop asks why, records it, and resumes nothing.
+    latch.get_by_role("button", name="Clear stop").click()
+    latch.get_by_label("Why is it safe to move?").fill("corridor checked, nobody in the way")
+    shoot(page, "09-clear-stop-confirm")
+    latch.get_by_role("button", name="Confirm clear stop").click()
+    expect(page.get_by_role("region", name="Safety stop")).to_be_hidden(timeout=20_000)
+    expect(page.get_by_role("region", name="Status")).to_contain_text("Software stop: clear")
+    page.wait_for_timeout(1500)
+    assert robot_xy(page) == (pose["x"], pose["y"])  # clearing moved nothing
+
+    send(page, "go to the kitchen")
+    expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
+    wait_until(lambda: robot_xy(page) != (pose["x"], pose["y"]), 30.0, "the robot to drive")
+    shoot(page, "10-driving-after-clear")
+    expect(summary.last).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
+    expect(summary.last).to_contain_text("succeeded")
+    assert errors == [], errors
+
+
+@pytest.fixture
+def approval_stack(tmp_path: Path) -> Iterator[RunningStack]:
+    """The dev preset with a site policy that wants an operator's yes for every drive."""
+    policy = tmp_path / "policy.yaml"
+    policy.write_text(
+        "version: 1\ntools:\n  navigation.navigate_to:\n    decision: confirm\n"
+        "    reason: every drive needs a yes at this site\n"
+    )
+    overrides = {
+        **free_port_overrides(STACK_FILE),
+        "nav_time_scale": "4",
+        "brain_config_overrides": f"control.policy_file={policy}",
+    }
+    with mailroom_stack(ROOT, tmp_path / "var", overrides) as running:
+        wait_servers_connected(running)
+        yield running
+
+
+def test_approve_lets_the_drive_run_and_deny_makes_the_planner_report(
+    browser: Browser, approval_stack: RunningStack
+) -> None:
+    stack = approval_stack
+    page, errors = open_ui(browser, stack.brain_url)
+    start = robot_xy(page)
+    send(page, "go to the kitchen")
+    card = page.get_by_role("region", name="Approval")
+    expect(card).to_be_visible(timeout=STEP_TIMEOUT_MS)
+    expect(card).to_contain_text("navigation.navigate_to")
+    expect(card).to_contain_text('"location":"kitchen"')
+    expect(card).to_contain_text("every drive needs a yes at this site")
+    expect(page.locator("[data-mission-state=awaiting_approval]")).to_be_visible()
+    page.wait_for_timeout(1000)
+    assert robot_xy(page) == start  # nothing moves before the yes
+    shoot(page, "11-approval-card")
+
+    card.get_by_role("button", name="Approve").click()
+    expect(card).to_be_hidden(timeout=20_000)
+    wait_until(lambda: robot_xy(page) != start, 30.0, "the approved drive to run")
+    shoot(page, "12-approved-driving")
+    summary = page.get_by_role("log", name="Conversation").get_by_role("article")
+    expect(summary.last).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
+    at_kitchen = robot_xy(page)
+
+    send(page, "go to the mailroom")
+    expect(card).to_be_visible(timeout=STEP_TIMEOUT_MS)
+    expect(card).to_contain_text('"location":"mailroom"')
+    card.get_by_role("button", name="Deny").click()
+    expect(card).to_be_hidden(timeout=20_000)
+    expect(summary.last).to_contain_text("failed", timeout=STEP_TIMEOUT_MS)
+    expect(summary.last).to_contain_text("denied")
+    assert robot_xy(page) == at_kitchen
+    shoot(page, "13-denied-reported")
     assert errors == [], errors
 
 
@@ -383,7 +457,8 @@ def test_push_to_talk_sends_the_microphone_to_speech_input_and_esc_stops(
     assert len(upload.data) > 2000
 
     page.keyboard.press("Escape")
-    expect(page.get_by_text("Emergency stop sent")).to_be_visible()
+    expect(page.get_by_text("Stop sent")).to_be_visible()
+    expect(page.get_by_role("region", name="Safety stop")).to_contain_text("latched")
     shoot(page, "10-voice-and-stop")
 
 

@@ -5,6 +5,7 @@ import { Conversation, LiveAnnouncer } from '@/features/chat/components/Conversa
 import { MessageBox } from '@/features/chat/components/MessageBox';
 import { MapView } from '@/features/map/components/MapView';
 import { MissionPanel } from '@/features/mission/components/MissionPanel';
+import { SafetyBanner } from '@/features/safety/components/SafetyBanner';
 import { StatusBar } from '@/features/status/components/StatusBar';
 import { useSettingsStore } from '@/stores/settingsStore';
 import { Header as AppHeader } from './Header';
@@ -19,6 +20,7 @@ export function App() {
   return (
     <div className="flex h-full flex-col">
       <AppHeader />
+      <SafetyBanner />
       <main className="grid min-h-0 flex-1 grid-cols-1 gap-3 overflow-y-auto p-3 lg:grid-cols-[minmax(0,1fr)_380px] lg:overflow-hidden">
         <div className="flex min-h-[60vh] flex-col gap-3 lg:min-h-0">
           <div className="max-h-[55%] shrink-0 overflow-y-auto">

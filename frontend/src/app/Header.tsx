@@ -1,6 +1,6 @@
 import { Button } from '@/components/ui/Button';
 import { Icon } from '@/components/ui/Icon';
-import { EmergencyStop } from '@/features/safety/components/EmergencyStop';
+import { StopRobot } from '@/features/safety/components/StopRobot';
 import { TeachButton } from '@/features/teaching/components/TeachButton';
 import { silence } from '@/features/voice/speech';
 import { useSettingsStore } from '@/stores/settingsStore';
@@ -28,7 +28,7 @@ export function Header() {
       <Button variant="ghost" aria-label={`Switch to ${next} theme`} onClick={() => setTheme(next)}>
         <Icon name={theme === 'dark' ? 'sun' : 'moon'} />
       </Button>
-      <EmergencyStop />
+      <StopRobot />
     </header>
   );
 }

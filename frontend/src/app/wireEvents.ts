@@ -2,7 +2,9 @@ import { silence, speak } from '@/features/voice/speech';
 import type { RobotSocket } from '@/lib/socket';
 import { useChatStore } from '@/stores/chatStore';
 import { useConnectionStore } from '@/stores/connectionStore';
+import { useApprovalStore } from '@/stores/approvalStore';
 import { useMissionStore } from '@/stores/missionStore';
+import { useSafetyStore } from '@/stores/safetyStore';
 import { useSettingsStore } from '@/stores/settingsStore';
 import { useToastStore } from '@/stores/toastStore';
 import type { MissionPlanPayload } from '@/types/events';
@@ -79,6 +81,12 @@ export function wireEvents(socket: RobotSocket, onReconnect: () => void): () => 
   socket.on('teaching_state', (e) => useSettingsStore.getState().setTeaching(e.armed));
   socket.on('teaching_saved', (e) => toast('success', `Process saved: ${e.process_id}`));
   socket.on('teaching_failed', (e) => toast('error', `Teaching failed: ${e.reason}`));
+  socket.on('safety_state', (e) => useSafetyStore.getState().setLatch(e));
+  socket.on('approval_requested', (e) => useApprovalStore.getState().requested(e));
+  socket.on('approval_resolved', (e) => {
+    useApprovalStore.getState().resolved(e.approval_id);
+    if (e.decision === 'deny') toast('info', `Denied: ${e.reason || 'by the operator'}`);
+  });
   socket.on('speak', (e) => speak(e.text));
   socket.on('speech_interrupted', () => silence());
   socket.connect();

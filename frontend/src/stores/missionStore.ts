@@ -40,7 +40,7 @@ export interface ActivityLine {
 
 /** The activity log keeps this many lines (a 30-minute mission must not grow the page). */
 export const ACTIVITY_LIMIT = 200;
-export const ACTIVE_STATES: ReadonlySet<MissionState> = new Set(['planning', 'running', 'paused']);
+export const ACTIVE_STATES: ReadonlySet<MissionState> = new Set(['planning', 'running', 'paused', 'awaiting_approval']);
 
 interface MissionStore {
   mission: Mission | null;

@@ -13,6 +13,7 @@ const STATE_TO_STATUS: Record<MissionState, StepStatus> = {
   planning: 'pending',
   running: 'running',
   paused: 'skipped',
+  awaiting_approval: 'pending',
   succeeded: 'succeeded',
   failed: 'failed',
   cancelled: 'skipped',
@@ -25,7 +26,7 @@ export function StatusChip({ state }: { state: MissionState }) {
       data-mission-state={state}
       className={`inline-flex items-center rounded-full border border-current px-2 py-0.5 text-xs font-semibold uppercase tracking-wide ${tone}`}
     >
-      {state}
+      {state.replace('_', ' ')}
     </span>
   );
 }

@@ -18,6 +18,7 @@ from mcp.server.mcpserver import MCPServer
 
 from mcp_perception_buffer.config import SERVER_NAME
 from mcp_perception_buffer.service import Perception, PerceptionError
+from robot_mcp_kit.annotations import READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_ros_bridge import RosBridgeError
 
@@ -59,7 +60,7 @@ def _now(fn: Callable[[], dict[str, Any]]) -> Callable[[], Awaitable[dict[str, A
 def build_server(perception: Perception) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def what_do_you_see() -> dict[str, Any]:
         """Answer "what do you see?" from what is already buffered (free, instant).
 
@@ -71,7 +72,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("what_do_you_see", _now(perception.what_do_you_see))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_latest(skill: str) -> dict[str, Any]:
         """Return the newest result of one running skill (non-blocking).
 
@@ -82,7 +83,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("get_latest", _now(lambda: perception.get_latest(skill)))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_history(skill: str, seconds: float = 30.0) -> dict[str, Any]:
         """Return a skill's buffered results of the last `seconds` seconds, oldest first.
 
@@ -92,7 +93,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("get_history", _now(lambda: perception.get_history(skill, seconds)))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def wait_for_result(
         skill: str, timeout_s: float = 15.0, after_stamp: float | None = None
     ) -> dict[str, Any]:
@@ -107,7 +108,7 @@ def build_server(perception: Perception) -> MCPServer:
             lambda: perception.wait_for_result(skill, timeout_s, after_stamp),
         )
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_buffers() -> dict[str, Any]:
         """List every skill the buffer follows, with counts and freshness.
 
@@ -117,7 +118,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("list_buffers", _now(perception.list_buffers))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_health() -> dict[str, Any]:
         """Report whether this server's watch events reach the brain.
 
@@ -129,7 +130,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("get_health", perception.health)
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_task(task_id: str) -> dict[str, Any]:
         """Return the state of a watcher task ("watch-<skill_id>").
 
@@ -140,7 +141,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("get_task", lambda: perception.get_task(task_id))
 
-    @server.tool()
+    @server.tool(annotations=STOPS)
     async def cancel_task(task_id: str, stop_skill: bool = True) -> dict[str, Any]:
         """End a watcher task: disarm it (no more watch_events) and stop its skill.
 
@@ -152,7 +153,7 @@ def build_server(perception: Perception) -> MCPServer:
         """
         return await _guard("cancel_task", lambda: perception.cancel_task(task_id, stop_skill))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_tasks(states: list[StateName] | None = None) -> dict[str, Any]:
         """List watcher tasks, optionally only those in `states` (e.g. ["running"]).
 

@@ -18,6 +18,7 @@ from mcp.server.mcpserver import MCPServer
 from mcp_skill_control.catalog import CatalogError
 from mcp_skill_control.params import ParamValue
 from mcp_skill_control.tools import SkillControl
+from robot_mcp_kit.annotations import CONFIGURES_FREELY, READ_ONLY, RECORDS, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_ros_bridge import RosBridgeError
 
@@ -46,7 +47,7 @@ async def _guard(name: str, call: Callable[[], Awaitable[dict[str, Any]]]) -> di
 def build_server(control: SkillControl) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_skill_templates() -> dict[str, Any]:
         """List the skill templates the robot can be configured with.
 
@@ -57,7 +58,7 @@ def build_server(control: SkillControl) -> MCPServer:
         """
         return await _guard("list_skill_templates", _sync(control.templates))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_running_skills() -> dict[str, Any]:
         """List the skills currently running on the vision node.
 
@@ -67,7 +68,7 @@ def build_server(control: SkillControl) -> MCPServer:
         """
         return await _guard("list_running_skills", control.running_skills)
 
-    @server.tool()
+    @server.tool(annotations=RECORDS)
     async def instantiate_skill(
         template: str, params: dict[str, ParamValue] | None = None
     ) -> dict[str, Any]:
@@ -86,7 +87,7 @@ def build_server(control: SkillControl) -> MCPServer:
             "instantiate_skill", lambda: control.instantiate(template, dict(params or {}))
         )
 
-    @server.tool()
+    @server.tool(annotations=CONFIGURES_FREELY)
     async def instantiate_raw_skill(skill: dict[str, Any]) -> dict[str, Any]:
         """Start an ad-hoc skill that is not in the catalog (escape hatch).
 
@@ -97,7 +98,7 @@ def build_server(control: SkillControl) -> MCPServer:
         """
         return await _guard("instantiate_raw_skill", lambda: control.instantiate_raw(skill))
 
-    @server.tool()
+    @server.tool(annotations=RECORDS)
     async def prewarm_skill(
         template: str, params: dict[str, ParamValue] | None = None
     ) -> dict[str, Any]:
@@ -109,7 +110,7 @@ def build_server(control: SkillControl) -> MCPServer:
         """
         return await _guard("prewarm_skill", lambda: control.prewarm(template, dict(params or {})))
 
-    @server.tool()
+    @server.tool(annotations=STOPS)
     async def stop_skill(skill_id: str) -> dict[str, Any]:
         """Stop a running skill and remove its topics.
 
@@ -118,7 +119,7 @@ def build_server(control: SkillControl) -> MCPServer:
         """
         return await _guard("stop_skill", lambda: control.stop(skill_id))
 
-    @server.tool()
+    @server.tool(annotations=STOPS)
     async def set_skill_enabled(skill_id: str, enabled: bool) -> dict[str, Any]:
         """Pause (enabled=false) or resume (enabled=true) a skill without losing its config.
 

@@ -15,6 +15,7 @@ import structlog
 from mcp.server.mcpserver import MCPServer
 from pydantic import Field
 
+from robot_mcp_kit.annotations import READ_ONLY, RECORDS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_memory.config import SERVER_NAME
 from robot_mcp_memory.documents import FORMAT_SPEC
@@ -55,7 +56,7 @@ def build_server(memory: ProcessMemory) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
     install_json_tool_errors(server)  # error results carry only {"error", "detail"} JSON
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def find_processes(
         query: Annotated[str, Field(description="The task in plain words, e.g. the instruction.")],
         k: Annotated[int, Field(ge=1, le=MAX_K, description="How many processes at most.")] = 3,
@@ -68,13 +69,13 @@ def build_server(memory: ProcessMemory) -> MCPServer:
         it). Remember the ids you used and report them with record_outcome at the end."""
         return await _answer("find_processes", lambda: memory.find(query, k))
 
-    @server.tool(description=SAVE_PROCESS_DESCRIPTION)
+    @server.tool(description=SAVE_PROCESS_DESCRIPTION, annotations=RECORDS)
     async def save_process(
         markdown: Annotated[str, Field(description="The whole process document (markdown).")],
     ) -> str:
         return await _answer("save_process", lambda: memory.save(markdown))
 
-    @server.tool()
+    @server.tool(annotations=RECORDS)
     async def record_outcome(
         process_id: Annotated[str, Field(description="Id of a process used in the mission.")],
         success: Annotated[bool, Field(description="True if the mission succeeded.")],
@@ -89,7 +90,7 @@ def build_server(memory: ProcessMemory) -> MCPServer:
             "record_outcome", lambda: memory.record_outcome(process_id, success, note)
         )
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_process(
         id: Annotated[str, Field(description="The process id (slug).")],
         version: Annotated[
@@ -102,7 +103,7 @@ def build_server(memory: ProcessMemory) -> MCPServer:
         markdown}; error "not_found" if the id or version does not exist."""
         return await _answer("get_process", lambda: memory.get(id, version))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_processes(
         limit: Annotated[int, Field(ge=1, le=500, description="Page size.")] = 100,
         offset: Annotated[int, Field(ge=0, description="Processes to skip.")] = 0,

@@ -13,6 +13,7 @@ from mcp.server.mcpserver import MCPServer
 from robot_mcp_kit.poster import EventPoster
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import ConfigError, NavigationSettings
+from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.events.log_only import LogOnlyEventSink
 from robot_mcp_navigation.events.poster import PosterEventSink
@@ -155,12 +156,13 @@ def build_app(
             progress_pct_step=settings.progress_pct_step,
         ),
     )
+    confirmer = MotionConfirmer(nav_map) if settings.confirm_motion == "elicit" else None
     return NavigationApp(
         settings,
         nav_map,
         base,
         events,
         navigator,
-        build_mcp_server(navigator, settings.log_level),
+        build_mcp_server(navigator, settings.log_level, confirmer),
         closers,
     )

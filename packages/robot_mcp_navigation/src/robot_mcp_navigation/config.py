@@ -66,6 +66,8 @@ class NavigationSettings(BaseModel):
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
         default="INFO", alias="LOG_LEVEL"
     )
+    # elicit: ask the MCP client's person to confirm each navigate_to (third-party hosts)
+    confirm_motion: Literal["off", "elicit"] = Field(default="off", alias="NAV_CONFIRM_MOTION")
 
     @field_validator("event_secret", mode="before")
     @classmethod

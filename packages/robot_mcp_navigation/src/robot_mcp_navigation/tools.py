@@ -5,10 +5,12 @@ from __future__ import annotations
 from collections.abc import Awaitable
 from typing import Any, Literal, TypeVar
 
-from mcp.server.mcpserver import MCPServer
+from mcp.server.mcpserver import Context, MCPServer
 
+from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskState
+from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.errors import NavigationError
 from robot_mcp_navigation.navigator import Navigator
 from robot_mcp_navigation.triggers import Trigger
@@ -34,12 +36,17 @@ async def _guard(call: Awaitable[T]) -> T:
         raise tool_error(exc.code, exc.detail) from exc
 
 
-def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPServer:
+def build_mcp_server(
+    navigator: Navigator, log_level: LogLevel = "INFO", confirmer: MotionConfirmer | None = None
+) -> MCPServer:
+    """``confirmer``: ask the client's person before each drive (NAV_CONFIRM_MOTION=elicit)."""
     server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
     install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
 
-    @server.tool()
-    async def navigate_to(location: str, triggers: list[Trigger] | None = None) -> dict[str, Any]:
+    @server.tool(annotations=MOVES_ROBOT)
+    async def navigate_to(
+        location: str, ctx: Context, triggers: list[Trigger] | None = None
+    ) -> dict[str, Any]:
         """Start driving the robot to a named location (see list_locations).
 
         Returns at once with a TaskInfo: {"task_id", "state": "running", "est_duration_s",
@@ -51,10 +58,12 @@ def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPS
         prepare the next step before arrival. Refused with NAVIGATION_BUSY while another
         navigation runs: call stop_navigation or cancel_task first.
         """
+        if confirmer is not None:
+            await confirmer.confirm(ctx, location)
         info = await _guard(navigator.navigate_to(location, triggers or []))
         return info.model_dump(mode="json")
 
-    @server.tool()
+    @server.tool(annotations=STOPS)
     async def stop_navigation() -> dict[str, Any]:
         """Halt the robot immediately and cancel the running navigation, if any.
 
@@ -68,19 +77,19 @@ def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPS
             "cancelled_task": final.model_dump(mode="json") if final else None,
         }
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_pose() -> dict[str, Any]:
         """Where the robot is: x, y, theta (map frame), the named location it is at (or
         null), whether it is moving and towards which destination."""
         return navigator.pose()
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_locations() -> dict[str, Any]:
         """The named locations of the map, with description, aliases, distance from the
         robot and estimated driving time in seconds."""
         return navigator.locations()
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def get_task(task_id: str) -> dict[str, Any]:
         """The current TaskInfo of a navigation task: state (running, succeeded, failed,
         cancelled), live progress while running, result or error when finished."""
@@ -90,14 +99,14 @@ def build_mcp_server(navigator: Navigator, log_level: LogLevel = "INFO") -> MCPS
             raise tool_error(exc.code, exc.detail) from exc
         return info.model_dump(mode="json")
 
-    @server.tool()
+    @server.tool(annotations=STOPS)
     async def cancel_task(task_id: str) -> dict[str, Any]:
         """Cancel a navigation task: the robot halts where it is and the task ends as
         cancelled. A task that already ended is returned unchanged."""
         info = await _guard(navigator.cancel_task(task_id))
         return info.model_dump(mode="json")
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def list_tasks(states: list[TaskState] | None = None) -> dict[str, Any]:
         """Navigation tasks known to this server (since it started), optionally filtered
         by state, e.g. states=["running"] to reconcile after a restart."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import socketio
@@ -27,6 +27,12 @@ from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
+from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.elicitation import approval_elicitation
+from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.latch import SafetyLatch
+from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
+from robot_voice_chat.control.policy import PolicyError, ToolPolicy
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -38,7 +44,14 @@ from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.mcp import McpToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AppConfig, resolve_path, state_path
+from robot_voice_chat.settings import (
+    CONFIG_DIR,
+    AppConfig,
+    data_dir,
+    resolve_path,
+    state_path,
+)
+from robot_voice_chat.socket_events import SafetyState
 from robot_voice_chat.socket_origins import origin_policy
 
 logger = structlog.get_logger(__name__)
@@ -160,6 +173,12 @@ class Container:
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
     history: ChatHistory = field(default_factory=ChatHistory)
 
+    def policy_summary(self) -> dict[str, Any] | None:
+        """The tool policy in force (version, digest, file) for readyz."""
+        tools = self.adapters.tools
+        policy = tools.policy if isinstance(tools, GuardedToolBackend) else None
+        return policy.summary() if policy is not None else None
+
     async def start(self) -> None:
         self.trace.prune(self.config.agent.trace_retention_days)
         await self.executor.recover()  # before any server connects and reconciles
@@ -192,7 +211,19 @@ def assemble(
     emitter = HistoryRecordingEmitter(emitter, history)
     emitter = EpisodicNoteEmitter(emitter, adapters.tools)
     agent = config.agent
+    latch = SafetyLatch(FileLatchStore(data_dir(agent) / "safety"))
+    latch.add_listener(_announce_latch(emitter))
+    policy = load_policy(config)
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
+    approvals = ApprovalBroker(
+        emitter=emitter,
+        trace=trace,
+        audit_path=state_path(agent, config.control.audit_log, "approvals.jsonl"),
+        timeout_s=config.control.approval_timeout_s,
+    )
+    # the one choke point: everything below holds the guarded backend, never the raw one
+    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals)
+    adapters = replace(adapters, tools=guarded)
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
     teaching = Teaching(emitter, memory)
@@ -208,6 +239,15 @@ def assemble(
         prompt_path=resolve_path(config.agent.prompt_file),
         store=MissionStore(),
         archive=archive,
+        latch=latch,
+        approvals=approvals,
+    )
+    guarded.set_elicitation_handler(
+        approval_elicitation(
+            approvals,
+            lambda: executor.active.id if executor.active else None,
+            min(agent.tool_timeout_s, config.tools.call_timeout_s),
+        )
     )
     pipeline = ChatPipeline(
         llm=adapters.llm,
@@ -220,6 +260,23 @@ def assemble(
     return Container(
         config, adapters, emitter, executor, pipeline, teaching, trace, sio, history=history
     )
+
+
+def load_policy(config: AppConfig) -> ToolPolicy:
+    path = resolve_path(config.control.policy_file)
+    try:
+        policy = ToolPolicy.load(path)
+    except PolicyError as exc:
+        raise ConfigError(str(exc)) from exc
+    logger.info("policy_loaded", **policy.summary())
+    return policy
+
+
+def _announce_latch(emitter: EventEmitter) -> Any:
+    async def announce(state: LatchState) -> None:
+        await emitter.emit(SafetyState(**state.model_dump()))
+
+    return announce
 
 
 def bootstrap(config: AppConfig) -> Container:

@@ -187,6 +187,16 @@ class UiConfig(BaseModel):
     tool_timeout_s: float = Field(3.0, gt=0)  # pose / locations / detections for the UI
 
 
+class ControlConfig(BaseModel):
+    """Operator control of motion: the tool policy file and approvals (issue 21)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    policy_file: str = "config/policy.yaml"
+    approval_timeout_s: float = Field(60.0, gt=0)  # no answer within this → denied
+    audit_log: str = ""  # "" = <data_dir>/approvals.jsonl (append-only)
+
+
 class AppConfig(BaseModel):
     """The composed tree. Adapter groups stay dicts with ``_target_`` (built by Hydra)."""
 
@@ -203,6 +213,7 @@ class AppConfig(BaseModel):
     chat: ChatConfig = Field(default_factory=ChatConfig)
     auth: AuthConfig = Field(default_factory=AuthConfig)
     ui: UiConfig = Field(default_factory=UiConfig)
+    control: ControlConfig = Field(default_factory=ControlConfig)
 
     @field_validator("llm", "speech_output", "speech_input")
     @classmethod

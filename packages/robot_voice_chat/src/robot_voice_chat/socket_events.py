@@ -11,7 +11,9 @@ from typing import Any, ClassVar, Literal
 from pydantic import BaseModel, Field
 
 StepStatus = Literal["pending", "running", "succeeded", "failed", "skipped"]
-MissionState = Literal["planning", "running", "paused", "succeeded", "failed", "cancelled"]
+MissionState = Literal[
+    "planning", "running", "paused", "awaiting_approval", "succeeded", "failed", "cancelled"
+]
 MissionEventKind = Literal["tool_call", "task_event", "reaction", "say", "user_turn"]
 
 
@@ -53,6 +55,37 @@ class MissionEventLine(SocketEvent):
     kind: MissionEventKind
     text: str
     ts: float
+
+
+class SafetyState(SocketEvent):
+    """The latched software stop (``GET /api/safety`` returns the same fields)."""
+
+    EVENT: ClassVar[str] = "safety_state"
+    latched: bool
+    since: float | None = None  # epoch seconds
+    by: str | None = None
+    reason: str | None = None
+
+
+class ApprovalRequested(SocketEvent):
+    """A ``confirm`` tool call waits for an operator's Approve / Deny (issue 21)."""
+
+    EVENT: ClassVar[str] = "approval_requested"
+    approval_id: str
+    mission_id: str | None = None
+    step_id: str | None = None
+    tool: str
+    arguments: dict[str, Any] = Field(default_factory=dict)
+    reason: str
+    expires_at: float  # epoch seconds; no answer by then = denied
+
+
+class ApprovalResolved(SocketEvent):
+    EVENT: ClassVar[str] = "approval_resolved"
+    approval_id: str
+    decision: Literal["approve", "deny"]
+    operator: str | None = None  # None: nobody answered (timeout) or the stop denied it
+    reason: str = ""
 
 
 class MissionFinished(SocketEvent):
@@ -127,6 +160,9 @@ SERVER_EVENTS: tuple[type[SocketEvent], ...] = (
     MissionPlan,
     MissionEventLine,
     MissionFinished,
+    SafetyState,
+    ApprovalRequested,
+    ApprovalResolved,
     TeachingState,
     TeachingSaved,
     TeachingFailed,

@@ -13,6 +13,11 @@ from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.latch import SafetyLatch
+from robot_voice_chat.control.latch_store import LatchStore, MemoryLatchStore
+from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
@@ -37,6 +42,7 @@ class Harness:
     speech: FakeSpeechOutput
     trace: TraceRecorder
     teaching: Teaching
+    latch: SafetyLatch
 
 
 def nav_servers() -> list[McpServerConfig]:
@@ -58,7 +64,16 @@ def nav_servers() -> list[McpServerConfig]:
 
 
 def make_harness(
-    tmp_path: Path, planner: FakeLLM, *, memory_server: str = "", **agent: Any
+    tmp_path: Path,
+    planner: FakeLLM,
+    *,
+    memory_server: str = "",
+    latch_store: LatchStore | None = None,
+    policy: ToolPolicy | None = None,
+    approvals: ApprovalBroker | None = None,
+    emitter: FakeEventEmitter | None = None,
+    trace: TraceRecorder | None = None,
+    **agent: Any,
 ) -> Harness:
     tools = FakeToolBackend(nav_servers())
     tools.add("navigation.navigate_to", lambda a: task_info("nav-1"), location="string")
@@ -66,14 +81,16 @@ def make_harness(
     tools.add("navigation.stop_navigation", lambda a: {"stopped": True})
     tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
     tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
-    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
-    trace = TraceRecorder(tmp_path / "missions")
+    tools.annotate("perception.prewarm", {"readOnlyHint": False, "destructiveHint": False})
+    emitter, speech = emitter or FakeEventEmitter(), FakeSpeechOutput()
+    trace = trace or TraceRecorder(tmp_path / "missions")
     memory = MemoryClient(tools, memory_server)
     teaching = Teaching(emitter, memory)
     config = AgentConfig(memory_server=memory_server, **agent)
+    latch = SafetyLatch(latch_store or MemoryLatchStore())
     executor = MissionExecutor(
         planner=planner,
-        tools=tools,
+        tools=GuardedToolBackend(tools, latch, policy, approvals),
         emitter=emitter,
         speech=speech,
         memory=memory,
@@ -81,5 +98,7 @@ def make_harness(
         teaching=teaching,
         config=config,
         prompt_path=CONFIG_DIR / "agent_prompt.yaml",
+        latch=latch,
+        approvals=approvals,
     )
-    return Harness(executor, planner, tools, emitter, speech, trace, teaching)
+    return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch)

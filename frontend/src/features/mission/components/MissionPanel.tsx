@@ -1,4 +1,5 @@
 import { Button } from '@/components/ui/Button';
+import { ApprovalCards } from '@/features/approvals/components/ApprovalCard';
 import { StatusChip } from '@/components/ui/StatusChip';
 import { sendMessage } from '@/features/chat/api/chat';
 import { stopPipeline } from '@/features/mission/api/missions';
@@ -42,9 +43,12 @@ export function MissionPanel() {
   const active = mission !== null && ACTIVE_STATES.has(mission.state);
   if (!mission || !active) {
     return (
-      <section aria-label="Mission" className="rounded-lg border border-dashed border-line px-3 py-2 text-sm text-muted">
-        No mission running. Ask the robot to do something, e.g. “Please fetch the package from the mailroom.”
-      </section>
+      <>
+        <ApprovalCards missionId={null} />
+        <section aria-label="Mission" className="rounded-lg border border-dashed border-line px-3 py-2 text-sm text-muted">
+          No mission running. Ask the robot to do something, e.g. “Please fetch the package from the mailroom.”
+        </section>
+      </>
     );
   }
   return (
@@ -61,6 +65,7 @@ export function MissionPanel() {
         </Button>
       </header>
       {mission.state === 'paused' && <PausedBanner />}
+      <ApprovalCards missionId={mission.id} />
       <div className="px-3 py-2">
         {mission.steps.length === 0 ? (
           <p className="text-sm text-muted">Planning…</p>

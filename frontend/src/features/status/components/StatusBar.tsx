@@ -1,6 +1,7 @@
 import { useCallback, useState } from 'react';
 import { usePolling } from '@/lib/usePolling';
 import { useConnectionStore } from '@/stores/connectionStore';
+import { useSafetyStore } from '@/stores/safetyStore';
 import { fetchReadiness, type Readiness } from '../api/status';
 
 const SERVER_TONE = {
@@ -11,6 +12,7 @@ const SERVER_TONE = {
 
 export function StatusBar() {
   const socket = useConnectionStore();
+  const latch = useSafetyStore((s) => s.latch);
   const [ready, setReady] = useState<Readiness | null>(null);
   const [unreachable, setUnreachable] = useState(false);
   const tick = useCallback(async () => {
@@ -40,6 +42,12 @@ export function StatusBar() {
           Socket: <strong data-socket-state={socket.state}>{socketText}</strong>
         </span>
         {unreachable && <span className="text-status-failed">Brain unreachable</span>}
+        {latch && (
+          <span className="flex items-center gap-1" data-latched={latch.latched}>
+            <span aria-hidden="true" className={`h-2 w-2 rounded-full ${latch.latched ? 'bg-status-failed' : 'bg-status-succeeded'}`} />
+            Software stop: <strong>{latch.latched ? 'latched' : 'clear'}</strong>
+          </span>
+        )}
         {ready &&
           Object.entries(ready.data.mcp_servers).map(([name, state]) => (
             <span key={name} className="flex items-center gap-1" title={`${name}: ${state}`}>

@@ -13,6 +13,8 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.latch import SafetyLatch, acting
 from robot_voice_chat.services.speech.base import SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
@@ -33,6 +35,8 @@ class BargeIn:
         output: MissionOutput,
         dispatcher: TaskDispatcher,
         current_run: Callable[[], MissionRun | None],
+        latch: SafetyLatch,
+        approvals: ApprovalBroker | None = None,
     ) -> None:
         self.tools = tools
         self.registry = registry
@@ -42,6 +46,8 @@ class BargeIn:
         self.output = output
         self.dispatcher = dispatcher
         self.current_run = current_run
+        self.latch = latch
+        self.approvals = approvals
 
     def is_stop(self, text: str) -> bool:
         """A stop word anywhere in the utterance stops — negations included ("don't stop"):
@@ -49,11 +55,16 @@ class BargeIn:
         words = re.findall(r"[^\W\d_]+", text.lower())
         return any(word in self.config.stop_words for word in words)
 
-    async def safety_stop(self, reason: str = "stop") -> None:
-        """(0) pause and suspend (state only, no await), (1) cancel motion tasks +
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
+        """(0) latch the software stop and pause (state only, no await), (1) persist the
+        latch while cancelling motion tasks +
         safety_stop_tool, (2) interrupt speech, (2b) end watchers and stop the vision skills
         the brain started, (3) mark their steps failed, (4) ask; the loop stays suspended
         until the user answers."""
+        by = by or acting()
+        self.latch.engage(by, reason)  # from here every motion call is refused (guard)
+        if self.approvals is not None:  # nothing waiting for a yes may run after a stop
+            self.approvals.deny_all(f"safety stop: {reason}")
         run = self.current_run()
         active = run is not None and run.mission.active
         if run is not None and active:
@@ -64,7 +75,7 @@ class BargeIn:
             run.mission.state = "paused"
             run.suspended = True
             run.awaiting_user = True
-        calls = []
+        calls = [self._latch(by, reason)]
         cancelled = []
         for server in self.tools.servers().values():
             if not server.motion:
@@ -110,6 +121,9 @@ class BargeIn:
         )
         await self.output.emit_plan(run)
         await self.output.say(run, STOP_QUESTION)
+
+    async def _latch(self, by: str, reason: str) -> None:
+        await self.latch.stop(by, reason)
 
     async def _safety_tool(self, tool: str) -> None:
         outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)

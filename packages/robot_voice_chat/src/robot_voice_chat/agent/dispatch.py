@@ -27,6 +27,7 @@ from robot_voice_chat.agent.task_registry import (
     server_restarted_event,
 )
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
@@ -128,7 +129,9 @@ class TaskDispatcher:
                 return await self._refuse_held(run, call, step_id, args)
             started, sent_at = time.monotonic(), time.time()
             # no await between the check above and the send: a stop cannot slip in between
-            outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
+            # (the guard behind call_tool re-checks the latch after any approval it waits for)
+            with dispatching(DispatchContext(mission.id, step_id)):
+                outcome = await self.tools.call_tool(call.name, args, self.config.tool_timeout_s)
         finally:
             if in_flight is not None:
                 self.motion_steps_in_flight.discard(in_flight)
@@ -297,7 +300,9 @@ class TaskDispatcher:
         self.trace.record(run.mission.id, "reaction", text=note)
 
     async def _fire(self, mission_id: str, tool: str, arguments: dict[str, Any]) -> None:
-        outcome = await self.tools.call_tool(tool, arguments, self.config.tool_timeout_s)
+        # a prepared reaction never waits for a person: a confirm tool is refused, not asked
+        with dispatching(DispatchContext(mission_id, may_ask=False)):
+            outcome = await self.tools.call_tool(tool, arguments, self.config.tool_timeout_s)
         self.skills.note(tool, arguments, outcome.text, outcome.is_error)
         self.trace.record(
             mission_id,

@@ -23,11 +23,16 @@ from robot_voice_chat.agent.run import (
     MissionFailure,
     MissionRun,
     MissionsDisabledError,
+    SafetyStopLatchedError,
 )
 from robot_voice_chat.agent.skills import SkillLedger
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.control.approvals import ApprovalBroker, PendingApproval
+from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
+from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -64,6 +69,8 @@ class MissionExecutor:
         store: MissionStore | None = None,
         registry: TaskRegistry | None = None,
         archive: MissionArchive | None = None,
+        latch: SafetyLatch | None = None,
+        approvals: ApprovalBroker | None = None,
     ) -> None:
         self.planner = planner
         self.tools = tools
@@ -77,8 +84,17 @@ class MissionExecutor:
         self.store = store or MissionStore()
         self.registry = registry or TaskRegistry()
         self.archive = archive
+        # the composition root passes the persisted latch; alone, one for this process life
+        self.latch = latch or SafetyLatch(MemoryLatchStore())
+        self.approvals = approvals
+        if approvals is not None:
+            approvals.add_state_hook(self._awaiting_approval)
         self.output = MissionOutput(emitter, speech, trace, archive)
-        self.plan_tools = PlanTools(on_plan=self.output.emit_plan, on_say=self.output.say)
+        self.plan_tools = PlanTools(
+            on_plan=self.output.emit_plan,
+            on_say=self.output.say,
+            vet_reaction=tools.vet_reaction if isinstance(tools, GuardedToolBackend) else None,
+        )
         self.run: MissionRun | None = None
         self._starting = asyncio.Lock()
         self.dispatcher = TaskDispatcher(
@@ -99,6 +115,8 @@ class MissionExecutor:
             output=self.output,
             dispatcher=self.dispatcher,
             current_run=lambda: self.run,
+            latch=self.latch,
+            approvals=approvals,
         )
 
     @property
@@ -118,7 +136,9 @@ class MissionExecutor:
         async with self._starting:
             if self.run is not None:
                 raise MissionBusyError(self.run.mission)
+            self._refuse_if_latched(instruction)
             prompt = await load_prompt(self.prompt_path)
+            self._refuse_if_latched(instruction)  # a stop may have come while the prompt loaded
             mission = Mission.new(instruction, teaching=await self.teaching.take())
             self.store.add(mission)
             await self.output.save(mission)
@@ -140,6 +160,11 @@ class MissionExecutor:
             run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
         return mission
 
+    def _refuse_if_latched(self, instruction: str) -> None:
+        if self.latch.latched:
+            logger.warning("mission_refused", code="SAFETY_STOP_LATCHED", instruction=instruction)
+            raise SafetyStopLatchedError(latched_sentence(self.latch.state))
+
     async def on_user_turn(self, text: str) -> str:
         """Route a turn into the mission (§5.1); returns the immediate answer for the
         person (the planner may add its own with ``say``)."""
@@ -150,6 +175,11 @@ class MissionExecutor:
         if self.is_stop(text):
             await self.safety_stop(reason=f"user said {text!r}")
             return "Stopped. Should I continue or abort?"
+        if self.approvals is not None:  # a yes/no to the approval the mission waits for
+            answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
+            if answer is not None:
+                await self.output.log_line(run, "user_turn", text)
+                return answer
         await self.output.log_line(run, "user_turn", text)
         self.trace.record(mission.id, "user_turn", text=text)
         run.awaiting_user = False
@@ -161,6 +191,21 @@ class MissionExecutor:
             f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
             "message went to it. Say stop to halt me."
         )
+
+    async def _awaiting_approval(self, request: PendingApproval, waiting: bool) -> None:
+        """The mission shows ``awaiting_approval`` while one of its calls waits for a yes."""
+        run = self.run
+        if run is None or run.mission.id != request.context.mission_id:
+            return
+        mission = run.mission
+        if waiting and mission.state in ("planning", "running"):
+            mission.state = "awaiting_approval"
+        elif not waiting and mission.state == "awaiting_approval":
+            if not self.approvals or not self.approvals.pending(mission.id):
+                mission.state = "running"
+        else:
+            return
+        await self.output.emit_plan(run)
 
     # --- the loop (§5.2) ------------------------------------------------------------------
     async def _run(self, run: MissionRun) -> None:
@@ -428,5 +473,5 @@ class MissionExecutor:
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)
 
-    async def safety_stop(self, reason: str = "stop") -> None:
-        await self.bargein.safety_stop(reason)
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
+        await self.bargein.safety_stop(reason, by)

@@ -10,9 +10,11 @@ from typing import Any, Literal
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.socket_events import MissionPlan, StepView
 
-MissionState = Literal["planning", "running", "paused", "succeeded", "failed", "cancelled"]
+MissionState = Literal[
+    "planning", "running", "paused", "awaiting_approval", "succeeded", "failed", "cancelled"
+]
 StepStatus = Literal["pending", "running", "succeeded", "failed", "skipped"]
-ACTIVE_STATES: frozenset[str] = frozenset({"planning", "running", "paused"})
+ACTIVE_STATES: frozenset[str] = frozenset({"planning", "running", "paused", "awaiting_approval"})
 TERMINAL_STEP: frozenset[str] = frozenset({"succeeded", "failed", "skipped"})
 
 

@@ -10,7 +10,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from robot_voice_chat.agent.mission import apply_plan
-from robot_voice_chat.agent.reactions import Reaction
+from robot_voice_chat.agent.reactions import Reaction, ReactionCall
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.services.llm.base import ToolCall, ToolDefinition, ToolResult
 
@@ -139,19 +139,31 @@ class PlanTools:
         self,
         on_plan: Callable[[MissionRun], Awaitable[None]],
         on_say: Callable[[MissionRun, str], Awaitable[None]],
+        vet_reaction: Callable[[str, dict[str, Any]], str | None] | None = None,
     ) -> None:
         self._on_plan = on_plan
         self._on_say = on_say
+        self._vet_reaction = vet_reaction
 
     async def call(self, run: MissionRun, call: ToolCall) -> ToolResult:
         handler = getattr(self, f"_{call.name}")
         try:
+            if call.name == "register_reaction":
+                refused = self._vetted(call.arguments)
+                if refused is not None:
+                    return ToolResult(tool_call_id=call.id, content=refused, is_error=True)
             text: str = await handler(run, call.arguments)
         except (KeyError, TypeError, ValueError, ValidationError) as exc:
             return ToolResult(
                 tool_call_id=call.id, content=f"invalid arguments: {exc}", is_error=True
             )
         return ToolResult(tool_call_id=call.id, content=text)
+
+    def _vetted(self, args: dict[str, Any]) -> str | None:
+        if self._vet_reaction is None:
+            return None
+        call = ReactionCall.model_validate(args["call"])
+        return self._vet_reaction(call.tool, call.arguments)
 
     async def _set_plan(self, run: MissionRun, args: dict[str, Any]) -> str:
         apply_plan(run.mission, list(args["steps"]), replace=True)

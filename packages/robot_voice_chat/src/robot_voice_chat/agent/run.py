@@ -34,6 +34,10 @@ class MissionsDisabledError(RuntimeError):
     pass
 
 
+class SafetyStopLatchedError(MissionsDisabledError):
+    """A new mission while the software stop is latched; the message says why and what to do."""
+
+
 @dataclass
 class MissionRun:
     mission: Mission

@@ -14,7 +14,17 @@ from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
 from robot_voice_chat.api.request_guard import RequestGuard
-from robot_voice_chat.api.routes import agent, camera, chat, chat_history, health, robot_map, ui
+from robot_voice_chat.api.routes import (
+    agent,
+    approvals,
+    camera,
+    chat,
+    chat_history,
+    health,
+    robot_map,
+    safety,
+    ui,
+)
 from robot_voice_chat.api.security_headers import SecurityHeadersMiddleware
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.api.socket_sessions import SocketSessions
@@ -71,6 +81,8 @@ def create_app(
     )
     app.include_router(health.router)
     app.include_router(chat.router)
+    app.include_router(safety.router)
+    app.include_router(approvals.router)
     app.include_router(agent.build_router(container.config.api))
     for router in (chat_history.router, camera.router, robot_map.router, ui.router):
         app.include_router(router)

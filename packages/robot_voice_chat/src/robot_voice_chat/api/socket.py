@@ -38,6 +38,7 @@ def register_handlers(container: Container, sessions: SocketSessions | None = No
             raise socketio.exceptions.ConnectionRefusedError("login required")
         logger.info("socket_connected", sid=sid)
         await sio.emit("teaching_state", {"armed": container.teaching.armed}, to=sid)
+        await sio.emit("safety_state", container.executor.latch.state.model_dump(), to=sid)
 
     @sio.event  # type: ignore[untyped-decorator]
     async def disconnect(sid: str, *_: Any) -> None:
@@ -61,5 +62,5 @@ def register_handlers(container: Container, sessions: SocketSessions | None = No
     async def stop_pipeline(sid: str, data: Any = None) -> dict[str, Any]:
         if session_ended(sid):
             return LOGIN_REQUIRED
-        await container.pipeline.stop()
+        await container.pipeline.stop("Stop robot (operator UI)")
         return {"ok": True}

@@ -17,6 +17,7 @@ import structlog
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.agent.run import MissionBusyError, MissionsDisabledError
+from robot_voice_chat.control.latch import acting
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
@@ -85,16 +86,14 @@ class ChatPipeline:
             )
             return result
 
-    async def stop(self) -> None:
-        """``stop_pipeline`` / stop_mission: end streaming replies, safety stop, then quiet."""
+    async def stop(self, reason: str = "stop_pipeline") -> None:
+        """``stop_pipeline`` / stop_mission / ``POST /api/safety/stop``: end streaming replies,
+        safety stop (latched until an operator clears it), then quiet."""
         current = asyncio.current_task()
         for turn in list(self._fast_turns):
             if turn is not current:  # stop_mission called from inside a turn ends the rest
                 turn.cancel()
-        if self._executor.active is not None:
-            await self._executor.safety_stop(reason="stop_pipeline")
-        else:
-            await self._executor.safety_stop(reason="stop_pipeline (no mission)")
+        await self._executor.safety_stop(reason=reason)
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
@@ -103,6 +102,10 @@ class ChatPipeline:
             # shown at once (not spoken: the planner may answer with its own say)
             await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=note))
             return TurnResult(turn_id, note, "mission", mission.id)
+        answered = self._answer_approval(text)
+        if answered is not None:
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=answered))
+            return TurnResult(turn_id, answered, "fast")
         turn = asyncio.create_task(self._fast_turn(text, turn_id), name=f"turn-{turn_id}")
         self._fast_turns.add(turn)
         try:
@@ -122,6 +125,13 @@ class ChatPipeline:
             return TurnResult(turn_id, message, "error")
         finally:
             self._fast_turns.discard(turn)
+
+    def _answer_approval(self, text: str) -> str | None:
+        """A yes/no to an approval a fast-path call waits for (not a stop: stops stop)."""
+        approvals = self._executor.approvals
+        if approvals is None or self._executor.is_stop(text):
+            return None
+        return approvals.answer_from_chat(text, None, acting())
 
     def _fast_path_may_call(self, name: str) -> bool:
         """Motion reaches the robot only through a mission (start_mission), so the fast path
@@ -183,7 +193,7 @@ class ChatPipeline:
         if call.name == "start_mission":
             return await self._start_mission(call, turn_id)
         if call.name == "stop_mission":
-            await self.stop()
+            await self.stop("stop_mission (asked in chat)")
             return ToolResult(tool_call_id=call.id, content="stopped"), None
         if not self._fast_path_may_call(call.name):
             logger.warning("fast_path_motion_refused", tool=call.name)

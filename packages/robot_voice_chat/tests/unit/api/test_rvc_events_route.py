@@ -157,7 +157,7 @@ async def test_event_for_a_live_task_reaches_the_executor(tmp_path: Path) -> Non
     planner = FakeLLM(
         [
             reply("", ("set_plan", {"steps": [{"id": "s1", "title": "Drive"}]})),
-            reply("", ("navigation.navigate_to", {"step_id": "s1", "location": "lab"})),
+            reply("", ("navigation.navigate_to", {"step_id": "s1", "location": "kitchen"})),
             reply("", ("wait_for_events", {"reason": "x"})),
             reply("", ("finish_mission", {"outcome": "succeeded", "summary": "ok"})),
         ]
@@ -362,7 +362,7 @@ async def test_a_failed_handling_releases_the_event_id_for_the_retry(tmp_path: P
 async def test_an_event_for_another_servers_task_is_refused(tmp_path: Path) -> None:
     planner = FakeLLM(
         [
-            reply("", ("navigation.navigate_to", {"location": "lab"})),
+            reply("", ("navigation.navigate_to", {"location": "kitchen"})),
             reply("", ("wait_for_events", {"reason": "x"})),
         ]
     )

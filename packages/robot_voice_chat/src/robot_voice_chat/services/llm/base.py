@@ -17,6 +17,8 @@ class ToolDefinition(BaseModel):
     name: str
     description: str = ""
     parameters: dict[str, Any] = Field(default_factory=lambda: {"type": "object", "properties": {}})
+    # the server's MCP tool annotations (readOnlyHint, destructiveHint, ...); None = none given
+    annotations: dict[str, Any] | None = None
 
 
 class ToolCall(BaseModel):

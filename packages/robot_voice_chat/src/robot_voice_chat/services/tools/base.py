@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Awaitable, Callable
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, Field, SecretStr, field_validator
 
@@ -13,6 +13,9 @@ from robot_voice_chat.services.llm.base import ToolDefinition
 Transport = Literal["stdio", "sse", "streamable_http"]
 ConnectionState = Literal["connected", "disconnected", "connecting"]
 ServerListener = Callable[[str], Awaitable[None]]
+ElicitationAnswer = tuple[Literal["accept", "decline", "cancel"], dict[str, Any] | None]
+# (server, message, requested JSON schema) → the person's answer: an MCP server's question
+ElicitationHandler = Callable[[str, str, dict[str, Any]], Awaitable[ElicitationAnswer]]
 MIN_EVENT_SECRET_BYTES = 32
 
 
@@ -87,6 +90,10 @@ class ToolBackend(abc.ABC):
 
     def has_tool(self, name: str) -> bool:
         return any(tool.name == name for tool in self.list_tools())
+
+    def set_elicitation_handler(self, handler: ElicitationHandler) -> None:  # noqa: B027
+        """Declare MCP elicitation to the servers and route their questions to ``handler``;
+        adapters without servers keep the default (nothing to ask)."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Begin connecting; adapters without connections keep the default."""

@@ -28,11 +28,27 @@ class FakeToolBackend(ToolBackend):
         self.lost_listeners: list[ServerListener] = []
         self.states: dict[str, ConnectionState] = dict.fromkeys(self._servers, "connected")
 
-    def add(self, name: str, handler: Handler, description: str = "", **props: Any) -> None:
+    def add(
+        self,
+        name: str,
+        handler: Handler,
+        description: str = "",
+        **props: Any,
+    ) -> None:
         self._handlers[name] = handler
         schema = {"type": "object", "properties": {k: {"type": v} for k, v in props.items()}}
+        previous = self._definitions.get(name)
         self._definitions[name] = ToolDefinition(
-            name=name, description=description or name, parameters=schema
+            name=name,
+            description=description or name,
+            parameters=schema,
+            annotations=previous.annotations if previous else None,
+        )
+
+    def annotate(self, name: str, annotations: dict[str, Any]) -> None:
+        """Publish MCP tool annotations for ``name`` as its server would."""
+        self._definitions[name] = self._definitions[name].model_copy(
+            update={"annotations": annotations}
         )
         server = name.split(".", 1)[0]
         if server not in self._servers:

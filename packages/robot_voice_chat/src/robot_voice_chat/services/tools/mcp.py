@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import structlog
-from mcp.client.session import ClientSession
+from mcp import types
+from mcp.client.session import ClientRequestContext, ClientSession
 from mcp.client.sse import sse_client
 from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp.client.streamable_http import streamable_http_client
@@ -27,6 +28,7 @@ from robot_mcp_kit.correlation import mission_meta
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
+    ElicitationHandler,
     McpServerConfig,
     ServerListener,
     ToolBackend,
@@ -77,6 +79,29 @@ class McpToolBackend(ToolBackend):
         self._lost_listeners: list[ServerListener] = []
         self._closing = False
         self._listener_tasks: set[asyncio.Task[None]] = set()
+        self._elicitation: ElicitationHandler | None = None
+
+    def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
+        """Before ``start``: sessions then declare elicitation and route questions here."""
+        self._elicitation = handler
+
+    def _elicitation_callback(self, server: str) -> Any:
+        handler = self._elicitation
+        if handler is None:
+            return None  # the SDK's default: no capability declared, requests refused
+
+        async def answer(
+            context: ClientRequestContext, params: types.ElicitRequestParams
+        ) -> types.ElicitResult | types.ErrorData:
+            if not isinstance(params, types.ElicitRequestFormParams):
+                return types.ErrorData(
+                    code=types.INVALID_REQUEST, message="only form elicitation is supported"
+                )
+            schema = dict(params.requested_schema)
+            action, content = await handler(server, params.message, schema)
+            return types.ElicitResult(action=action, content=content)
+
+        return answer
 
     # --- port ---------------------------------------------------------------------------
     def list_tools(self) -> list[ToolDefinition]:
@@ -171,7 +196,11 @@ class McpToolBackend(ToolBackend):
                     # asyncio.timeout, not wait_for: anyio scopes must stay in this task.
                     async with asyncio.timeout(self._connect_timeout_s):
                         read, write = await stack.enter_async_context(self._transport(conn.config))
-                        session = await stack.enter_async_context(ClientSession(read, write))
+                        session = await stack.enter_async_context(
+                            ClientSession(
+                                read, write, elicitation_callback=self._elicitation_callback(name)
+                            )
+                        )
                         await session.initialize()
                         listed = await session.list_tools()
                     conn.tools = [
@@ -179,6 +208,11 @@ class McpToolBackend(ToolBackend):
                             name=f"{name}.{t.name}",
                             description=t.description or "",
                             parameters=dict(t.input_schema or {"type": "object"}),
+                            annotations=(
+                                t.annotations.model_dump(by_alias=True, exclude_none=True)
+                                if t.annotations is not None
+                                else None
+                            ),
                         )
                         for t in listed.tools
                     ]

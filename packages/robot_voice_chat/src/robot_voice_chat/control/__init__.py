@@ -1,0 +1,1 @@
+"""Operator control of motion: the latched software stop, the tool policy, approvals."""

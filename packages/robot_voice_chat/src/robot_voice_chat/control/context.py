@@ -1,0 +1,37 @@
+"""Who is dispatching a tool call (a context variable set by the dispatcher, read by the guard).
+
+The guard sits behind the tool port, whose ``call_tool`` knows nothing of missions: the
+mission and step a call belongs to, and whether the caller may wait for a person's answer,
+ride along in this context variable instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DispatchContext:
+    mission_id: str | None = None
+    step_id: str | None = None
+    may_ask: bool = True  # False for prepared reactions: they never wait for a person
+
+
+NO_CONTEXT = DispatchContext()
+_current: ContextVar[DispatchContext | None] = ContextVar("current_dispatch", default=None)
+
+
+def current_dispatch() -> DispatchContext:
+    return _current.get() or NO_CONTEXT
+
+
+@contextmanager
+def dispatching(context: DispatchContext) -> Iterator[None]:
+    token = _current.set(context)
+    try:
+        yield
+    finally:
+        _current.reset(token)

@@ -1,0 +1,190 @@
+"""The one choke point in front of every MCP dispatch of the brain.
+
+Every caller (the mission dispatcher for any planner, prepared reactions, the fast path, the
+memory client, the UI's routes, the stop itself) holds this backend, never the raw one, so a
+call that the latch or the policy refuses is never sent. Refusals are tool errors the planner
+can read and replan on: ``{"error": CODE, "detail": sentence}``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import structlog
+
+from robot_voice_chat.control.context import DispatchContext, current_dispatch
+from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch, latched_sentence
+from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
+from robot_voice_chat.services.llm.base import ToolDefinition
+from robot_voice_chat.services.tools.base import (
+    ConnectionState,
+    ElicitationHandler,
+    McpServerConfig,
+    ServerListener,
+    ToolBackend,
+    ToolOutcome,
+)
+
+logger = structlog.get_logger(__name__)
+# tools of a motion server that stop or observe: never refused by the latch
+TASK_READ_TOOLS = frozenset({"get_task", "list_tasks"})
+STOP_TOOLS = frozenset({"cancel_task"})
+
+
+def refusal(code: str, detail: str, **extra: object) -> ToolOutcome:
+    return ToolOutcome(text=json.dumps({"error": code, "detail": detail, **extra}), is_error=True)
+
+
+@dataclass(frozen=True)
+class ApprovalAnswer:
+    approved: bool
+    detail: str  # "approved by alice", "denied by bob: wrong room", "no answer within 60 s"
+
+
+class ApprovalGate(Protocol):
+    """Asks an operator about one exact call and waits for the answer (approvals.py)."""
+
+    async def ask(
+        self, tool: str, arguments: dict[str, Any], reason: str, context: DispatchContext
+    ) -> ApprovalAnswer: ...
+
+
+class GuardedToolBackend(ToolBackend):
+    """``policy=None`` (test harnesses only) allows every tool; the latch always holds."""
+
+    def __init__(
+        self,
+        inner: ToolBackend,
+        latch: SafetyLatch,
+        policy: ToolPolicy | None = None,
+        approvals: ApprovalGate | None = None,
+    ) -> None:
+        self.inner = inner
+        self.latch = latch
+        self.policy = policy
+        self.approvals = approvals
+
+    def is_stop_tool(self, name: str) -> bool:
+        server, _, tool = name.partition(".")
+        cfg = self.inner.servers().get(server)
+        return tool in STOP_TOOLS or (cfg is not None and tool == cfg.safety_stop_tool)
+
+    def moves(self, name: str) -> bool:
+        """A call that can make the robot move: any tool of a motion server except those
+        that stop it or read from it."""
+        server, _, tool = name.partition(".")
+        cfg = self.inner.servers().get(server)
+        if cfg is None or not cfg.motion or self.is_stop_tool(name) or tool in TASK_READ_TOOLS:
+            return False
+        definition = self.definition(name)
+        hints = definition.annotations if definition is not None else None
+        return not (hints or {}).get("readOnlyHint", False)
+
+    def definition(self, name: str) -> ToolDefinition | None:
+        return next((t for t in self.inner.list_tools() if t.name == name), None)
+
+    def decide(self, name: str, arguments: dict[str, Any]) -> Decision:
+        """The policy's decision for one call (stop tools are never gated)."""
+        if self.policy is None or self.is_stop_tool(name):
+            return Decision("allow", source="default")
+        server = self.inner.servers().get(name.partition(".")[0])
+        definition = self.definition(name)
+        return self.policy.decide(
+            name,
+            arguments,
+            definition.annotations if definition is not None else None,
+            server is not None and server.motion,
+        )
+
+    def vet_reaction(self, name: str, arguments: dict[str, Any]) -> str | None:
+        """A prepared reaction may only call what the policy allows without asking: None if
+        it may, else the refusal (JSON) to give the planner at registration."""
+        decision = self.decide(name, arguments)
+        if decision.action == "allow":
+            return None
+        logger.warning("reaction_refused", tool=name, code=decision.code or POLICY_DENIED)
+        if decision.action == "confirm":
+            detail = (
+                f"a prepared reaction cannot call {name}: the operator's policy wants an "
+                "approval for it, and reactions never wait for one. Call it as a step instead."
+            )
+            return refusal(POLICY_DENIED, detail).text
+        extra = {"bound": decision.bound} if decision.bound else {}
+        return refusal(decision.code or POLICY_DENIED, decision.detail, **extra).text
+
+    def latched_refusal(self, name: str) -> ToolOutcome | None:
+        if not (self.latch.latched and self.moves(name)):
+            return None
+        logger.warning("tool_refused", tool=name, code=SAFETY_STOP_LATCHED)
+        detail = f"{name} was not sent. " + latched_sentence(self.latch.state)
+        return refusal(SAFETY_STOP_LATCHED, detail)
+
+    async def call_tool(
+        self, name: str, arguments: dict[str, object], timeout_s: float | None = None
+    ) -> ToolOutcome:
+        refused = self.latched_refusal(name)
+        if refused is not None:
+            return refused
+        started = time.perf_counter()
+        decision = self.decide(name, arguments)
+        check_ms = round((time.perf_counter() - started) * 1000, 3)
+        if decision.action == "deny":
+            logger.warning(
+                "tool_refused",
+                tool=name,
+                code=decision.code,
+                detail=decision.detail,
+                duration_ms=check_ms,
+            )
+            extra = {"bound": decision.bound} if decision.bound else {}
+            return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
+        if decision.action == "confirm":
+            answer = await self._ask(name, arguments, decision)
+            if not answer.approved:
+                logger.warning("tool_refused", tool=name, code=POLICY_DENIED, detail=answer.detail)
+                text = f"{name} was not sent: {answer.detail}"
+                return refusal(POLICY_DENIED, text, approval="denied")
+            refused = self.latched_refusal(name)  # a stop may have come while we asked
+            if refused is not None:
+                return refused
+        return await self.inner.call_tool(name, arguments, timeout_s)
+
+    async def _ask(
+        self, name: str, arguments: dict[str, Any], decision: Decision
+    ) -> ApprovalAnswer:
+        context = current_dispatch()
+        if self.approvals is None or not context.may_ask:
+            who = "a prepared reaction" if not context.may_ask else "this caller"
+            return ApprovalAnswer(
+                False, f"it needs an operator's approval, which {who} cannot ask for"
+            )
+        reason = decision.detail or "the operator's policy asks for approval"
+        return await self.approvals.ask(name, arguments, reason, context)
+
+    # --- the rest of the port, unchanged -------------------------------------------------
+    def list_tools(self) -> list[ToolDefinition]:
+        return self.inner.list_tools()
+
+    def servers(self) -> dict[str, McpServerConfig]:
+        return self.inner.servers()
+
+    def server_states(self) -> dict[str, ConnectionState]:
+        return self.inner.server_states()
+
+    def add_connect_listener(self, listener: ServerListener) -> None:
+        self.inner.add_connect_listener(listener)
+
+    def has_tool(self, name: str) -> bool:
+        return self.inner.has_tool(name)
+
+    def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
+        self.inner.set_elicitation_handler(handler)
+
+    async def start(self) -> None:
+        await self.inner.start()
+
+    async def aclose(self) -> None:
+        await self.inner.aclose()

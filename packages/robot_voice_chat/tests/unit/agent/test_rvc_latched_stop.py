@@ -1,0 +1,99 @@
+"""While the software stop is latched nothing moves: motion calls refused, no new missions,
+and clearing it resumes nothing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.run import SafetyStopLatchedError
+from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
+from robot_voice_chat.control.latch_store import FileLatchStore
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.testing import make_harness
+
+PLAN = reply(
+    "",
+    ("set_plan", {"steps": [{"id": "s1", "title": "Drive", "tool": "navigation.navigate_to"}]}),
+    ("navigation.navigate_to", {"step_id": "s1", "location": "mailroom"}),
+)
+WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
+
+
+async def test_a_stop_word_latches_and_motion_after_continue_is_refused_unsent(
+    tmp_path: Path,
+) -> None:
+    again = reply("", ("navigation.navigate_to", {"step_id": "s1", "location": "mailroom"}))
+    finish = reply("", ("finish_mission", {"outcome": "failed", "summary": "Stopped."}))
+    planner = FakeLLM([PLAN, WAIT, again, finish])
+    h = make_harness(tmp_path, planner, latch_store=FileLatchStore(tmp_path / "safety"))
+    await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+
+    await h.executor.on_user_turn("stop")
+
+    assert h.latch.latched
+    assert "stop" in (h.latch.state.reason or "")
+    assert FileLatchStore(tmp_path / "safety").load().latched  # persisted before we return
+    await h.executor.on_user_turn("continue")  # the person answers; the latch still holds
+    await h.executor.wait_idle(5)
+    assert len(h.tools.called("navigation.navigate_to")) == 1  # only the drive before the stop
+    answers = [r.content for m in planner.requests[-1][0] for r in m.tool_results]
+    assert any(json.loads(a).get("error") == SAFETY_STOP_LATCHED for a in answers if "{" in a)
+
+
+async def test_stop_and_read_tools_still_pass_while_latched(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([]))
+    await h.executor.safety_stop("test")
+    tools = h.executor.tools
+    assert not (await tools.call_tool("navigation.cancel_task", {"task_id": "x"})).is_error
+    assert not (await tools.call_tool("navigation.stop_navigation", {})).is_error
+    assert not (await tools.call_tool("navigation.list_tasks", {"states": []})).is_error
+    refused = await tools.call_tool("navigation.navigate_to", {"location": "lab"})
+    assert json.loads(refused.text)["error"] == SAFETY_STOP_LATCHED
+
+
+async def test_new_missions_are_refused_with_a_sentence_saying_why(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([PLAN]))
+    await h.executor.safety_stop("Stop robot (operator UI)", by="alice")
+
+    with pytest.raises(SafetyStopLatchedError) as refused:
+        await h.executor.start("go to the kitchen")
+    assert "software stop is latched" in str(refused.value)
+    assert "by alice" in str(refused.value)
+    assert "Clear stop" in str(refused.value)
+    assert h.executor.active is None
+    assert h.tools.called("navigation.navigate_to") == []
+
+
+async def test_clearing_the_stop_resumes_nothing(tmp_path: Path) -> None:
+    planner = FakeLLM([PLAN, WAIT])
+    h = make_harness(tmp_path, planner)
+    mission = await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    await h.executor.on_user_turn("halt")
+    calls_before, requests_before = len(h.tools.calls), len(planner.requests)
+
+    await h.latch.clear("bob", "corridor checked")
+
+    assert not h.latch.latched
+    assert mission.state == "paused"  # still waiting for the person's answer
+    run = h.executor.run
+    assert run is not None
+    assert run.awaiting_user
+    assert len(h.tools.calls) == calls_before  # nothing sent
+    assert len(planner.requests) == requests_before  # no planner step either
+    await h.executor.shutdown()
+
+
+async def test_after_clear_a_new_mission_drives(tmp_path: Path) -> None:
+    h = make_harness(tmp_path, FakeLLM([PLAN, WAIT]))
+    await h.executor.safety_stop("stop", by="alice")
+    await h.latch.clear("alice", "safe again")
+
+    await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.tools.called("navigation.navigate_to"), 5, "drive sent")
+    await h.executor.shutdown()

@@ -1,0 +1,105 @@
+"""REST for operator control: /api/agent/approvals, /api/safety (+ readyz fields)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import httpx
+
+from robot_stack_testing import async_wait_until
+from robot_voice_chat.api.app import create_app
+from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import AppConfig
+from robot_voice_chat.testing import make_harness
+
+PLAN = reply(
+    "",
+    ("set_plan", {"steps": [{"id": "s1", "title": "Drive", "tool": "navigation.navigate_to"}]}),
+    ("navigation.navigate_to", {"step_id": "s1", "location": "kitchen"}),
+)
+WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
+
+
+def brain(tmp_path: Path, planner: FakeLLM) -> tuple[Container, FakeToolBackend]:
+    policy = tmp_path / "policy.yaml"
+    policy.write_text("version: 3\ntools:\n  navigation.navigate_to: confirm\n")
+    config = AppConfig.model_validate(
+        {
+            "llm": {"_target_": "fake"},
+            "speech_output": {"_target_": "fake"},
+            "speech_input": {"_target_": "fake"},
+            "agent": {"memory_server": "", "data_dir": str(tmp_path / "data")},
+            "control": {"policy_file": str(policy)},
+        }
+    )
+    tools = make_harness(tmp_path, FakeLLM([])).tools
+    adapters = Adapters(
+        llm=FakeLLM([]),
+        planner=planner,
+        tools=tools,
+        speech_output=FakeSpeechOutput(),
+        speech_input=FakeSpeechInput(),
+    )
+    return assemble(config, adapters, FakeEventEmitter()), tools
+
+
+async def test_approve_over_rest_drives_once_and_a_replay_is_refused(tmp_path: Path) -> None:
+    container, tools = brain(tmp_path, FakeLLM([PLAN, WAIT]))
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        mission = await container.executor.start("go to the kitchen")
+        pending: list[dict[str, object]] = []
+
+        async def listed() -> bool:
+            pending[:] = (await c.get("/api/agent/approvals")).json()
+            return bool(pending)
+
+        await async_wait_until(listed, 5, "a pending approval")
+        approval_id = str(pending[0]["approval_id"])
+        assert pending[0]["mission_id"] == mission.id
+        assert pending[0]["arguments"] == {"location": "kitchen"}
+        assert mission.state == "awaiting_approval"
+
+        bad = await c.post(f"/api/agent/approvals/{approval_id}", json={"decision": "maybe"})
+        ok = await c.post(f"/api/agent/approvals/{approval_id}", json={"decision": "approve"})
+        replay = await c.post(f"/api/agent/approvals/{approval_id}", json={"decision": "approve"})
+        unknown = await c.post("/api/agent/approvals/ap-nope", json={"decision": "approve"})
+        await async_wait_until(lambda: tools.called("navigation.navigate_to"), 5, "drive")
+        ready = (await c.get("/api/readyz")).json()["data"]
+
+    assert bad.status_code == 422
+    assert ok.status_code == 200
+    assert ok.json()["decision"] == "approve"
+    assert replay.status_code == 409
+    assert unknown.status_code == 404
+    assert tools.called("navigation.navigate_to") == [{"location": "kitchen"}]
+    assert ready["policy"]["version"] == 3
+    assert len(ready["policy"]["digest"]) == 64
+    await container.executor.shutdown()
+
+
+async def test_safety_routes_report_stop_and_clear(tmp_path: Path) -> None:
+    container, tools = brain(tmp_path, FakeLLM([]))
+    app = create_app(container, manage_lifecycle=False)
+    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://t") as c:
+        before = (await c.get("/api/safety")).json()
+        stopped = (await c.post("/api/safety/stop", json={"reason": "person in the way"})).json()
+        ready = (await c.get("/api/readyz")).json()["data"]["safety"]
+        no_reason = await c.post("/api/safety/clear", json={})
+        cleared = await c.post("/api/safety/clear", json={"reason": "corridor checked"})
+        again = await c.post("/api/safety/clear", json={"reason": "corridor checked"})
+
+    assert before == {"latched": False, "since": None, "by": None, "reason": None}
+    assert stopped["latched"] is True
+    assert stopped["reason"] == "person in the way"
+    assert ready == stopped
+    assert tools.called("navigation.stop_navigation") == [{}]
+    assert no_reason.status_code == 422
+    assert cleared.json()["latched"] is False
+    assert again.status_code == 409
+    journal = (tmp_path / "data" / "safety" / "latch.journal").read_text()
+    assert "corridor checked" in journal

@@ -177,6 +177,9 @@ class GuardedToolBackend(ToolBackend):
     def add_connect_listener(self, listener: ServerListener) -> None:
         self.inner.add_connect_listener(listener)
 
+    def add_disconnect_listener(self, listener: ServerListener) -> None:
+        self.inner.add_disconnect_listener(listener)
+
     def has_tool(self, name: str) -> bool:
         return self.inner.has_tool(name)
 

@@ -237,3 +237,17 @@ async def test_the_planner_cannot_arm_a_reaction_that_would_need_an_approval(
     assert not allowed.is_error
     assert [r.call.tool for r in run.reactions.reactions] == ["navigation.stop_navigation"]
     await h.executor.shutdown()
+
+
+async def test_the_guard_passes_server_losses_on_to_the_mission(policy: ToolPolicy) -> None:
+    """The composition root hands everyone the guard: a server lost must still reach the
+    executor's disconnect listener through it (issue 23 item 4)."""
+    guard, fake = guarded(policy)
+    lost: list[str] = []
+
+    async def on_lost(server: str) -> None:
+        lost.append(server)
+
+    guard.add_disconnect_listener(on_lost)
+    await fake.disconnected("navigation")
+    assert lost == ["navigation"]

@@ -49,7 +49,7 @@ class MissionArchive(abc.ABC):
 
     @abc.abstractmethod
     async def live(self) -> list[Mission]:
-        """Missions saved as planning/running/paused (after a crash: interrupted ones)."""
+        """Missions saved in an active state (after a crash: interrupted ones)."""
 
 
 class SqliteMissionArchive(MissionArchive):
@@ -111,10 +111,12 @@ class SqliteMissionArchive(MissionArchive):
         return [from_record(json.loads(r[0])) for r in rows]
 
     async def live(self) -> list[Mission]:
+        states = sorted(ACTIVE_STATES)
+        marks = ", ".join("?" * len(states))
         rows = await self._run(
-            "SELECT body FROM mission WHERE json_extract(body, '$.state') IN (?, ?, ?) "
+            f"SELECT body FROM mission WHERE json_extract(body, '$.state') IN ({marks}) "  # noqa: S608 (placeholders only)
             "ORDER BY created_at",
-            tuple(sorted(ACTIVE_STATES)),
+            tuple(states),
         )
         return [from_record(json.loads(r[0])) for r in rows]
 

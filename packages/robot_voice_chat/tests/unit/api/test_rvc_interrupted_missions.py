@@ -14,17 +14,20 @@ from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import LLMResponse
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import AppConfig
 from robot_voice_chat.socket_events import MissionFinished, MissionPlan
 from robot_voice_chat.testing import make_harness
 
 
-def brain(tmp_path: Path, planner: FakeLLM) -> Container:
-    """One process life of the brain: fresh in-memory state, the same data dir."""
+def brain(tmp_path: Path, planner: FakeLLM, ui: FakeEventEmitter | None = None) -> Container:
+    """One process life of the brain: fresh in-memory state, the same data dir; ui sees
+    what the browser would."""
     h = make_harness(tmp_path, planner)
     config = AppConfig.model_validate(
         {
@@ -41,7 +44,15 @@ def brain(tmp_path: Path, planner: FakeLLM) -> Container:
         speech_output=FakeSpeechOutput(),
         speech_input=FakeSpeechInput(),
     )
-    return assemble(config, adapters, FakeEventEmitter())
+    return assemble(config, adapters, ui or FakeEventEmitter())
+
+
+def fake_tools(container: Container) -> FakeToolBackend:
+    """The fake servers behind the brain's policy guard."""
+    tools = container.adapters.tools
+    inner = tools.inner if isinstance(tools, GuardedToolBackend) else tools
+    assert isinstance(inner, FakeToolBackend)
+    return inner
 
 
 DRIVE: list[LLMResponse | Exception] = [
@@ -71,8 +82,9 @@ async def crash_mid_drive(tmp_path: Path) -> tuple[Container, str]:
 
 async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path: Path) -> None:
     first, mission_id = await crash_mid_drive(tmp_path)
-    second = brain(tmp_path, FakeLLM([]))
-    second.adapters.tools.add(  # type: ignore[attr-defined]
+    ui = FakeEventEmitter()
+    second = brain(tmp_path, FakeLLM([]), ui)
+    fake_tools(second).add(
         "navigation.list_tasks",
         lambda a: {"tasks": [{"task_id": "nav-1", "state": "running"}]},
         states="array",
@@ -96,7 +108,7 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
         assert listing["active"] is None
         assert listing["missions"][0]["state"] == "failed"
         # the UI is told, the trace closed
-        events = second.emitter.inner.events  # type: ignore[attr-defined]
+        events = ui.events
         assert any(isinstance(e, MissionFinished) and e.mission_id == mission_id for e in events)
         assert any(isinstance(e, MissionPlan) and e.state == "failed" for e in events)
         final = [r for r in await second.trace.read(mission_id) if r["kind"] == "final"]
@@ -106,9 +118,7 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
         # the task it owned is cancelled when navigation (re)connects, also mid-mission
         second.executor.run = first.executor.run  # any live mission: still cancelled
         await second.executor.reconcile("navigation")
-        assert second.adapters.tools.called("navigation.cancel_task") == [  # type: ignore[attr-defined]
-            {"task_id": "nav-1"}
-        ]
+        assert fake_tools(second).called("navigation.cancel_task") == [{"task_id": "nav-1"}]
         second.executor.run = None
         # its late events are acknowledged (False = orphan, 200) and not kept for replay
         late = TaskEvent(

@@ -179,6 +179,7 @@ class MissionExecutor:
             answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
             if answer is not None:
                 await self.output.log_line(run, "user_turn", text)
+                await self.output.say(run, answer)  # spoken: the person may be talking
                 return answer
         await self.output.log_line(run, "user_turn", text)
         self.trace.record(mission.id, "user_turn", text=text)

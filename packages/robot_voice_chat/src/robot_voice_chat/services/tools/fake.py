@@ -44,16 +44,16 @@ class FakeToolBackend(ToolBackend):
             parameters=schema,
             annotations=previous.annotations if previous else None,
         )
+        server = name.split(".", 1)[0]
+        if server not in self._servers:
+            self._servers[server] = McpServerConfig(name=server, url="http://127.0.0.1:1/sse")
+            self.states[server] = "connected"
 
     def annotate(self, name: str, annotations: dict[str, Any]) -> None:
         """Publish MCP tool annotations for ``name`` as its server would."""
         self._definitions[name] = self._definitions[name].model_copy(
             update={"annotations": annotations}
         )
-        server = name.split(".", 1)[0]
-        if server not in self._servers:
-            self._servers[server] = McpServerConfig(name=server, url="http://127.0.0.1:1/sse")
-            self.states[server] = "connected"
 
     def list_tools(self) -> list[ToolDefinition]:
         return list(self._definitions.values())

@@ -43,6 +43,7 @@ SECRETS_OF = {
     "robot-mcp-perception": set(),
     "mcp-skill-control": set(),
     "robot-mcp-memory": set(),
+    "robot-mcp-episodic": set(),
 }
 
 
@@ -200,8 +201,8 @@ def test_adding_a_service_is_its_unit_file_and_one_line(tmp_path: Path) -> None:
     nav = (source / "deploy/robot-mcp-navigation.service").read_text()
     (source / "deploy/robot-sim.service").write_text(
         nav.replace("robot-mcp-navigation", "robot-sim").replace(
-            "EnvironmentFile=/etc/robot-stack/navigation.env",
-            "EnvironmentFile=/etc/robot-stack/ros.env\nEnvironmentFile=/etc/robot-stack/sim.env",
+            "EnvironmentFile=/etc/robot-stack/navigation.env",  # ros.env it reads already
+            "EnvironmentFile=/etc/robot-stack/sim.env",
         )
     )
     script = source / "deploy/install.sh"

@@ -72,9 +72,9 @@ async def test_kill_9_of_the_brain_mid_drive_closes_the_mission_and_stops_the_ro
             assert started["route"] == "mission_started", started
             mission_id = started["mission_id"]
 
-            async def driving() -> bool:
-                step = (await snapshot())["steps"][0]
-                return bool(step["status"] == "running" and "%" in step["detail"])
+            async def driving() -> bool:  # the plan comes once the planner read the places
+                steps = (await snapshot())["steps"]
+                return bool(steps and steps[0]["status"] == "running" and "%" in steps[0]["detail"])
 
             await async_wait_until(driving, 60, "the drive reports progress", interval_s=0.2)
             task_id = (await snapshot())["steps"][0]["task_id"]

@@ -50,7 +50,9 @@ def brain(tmp_path: Path, planner: FakeLLM) -> tuple[Container, FakeToolBackend]
 async def test_approve_over_rest_drives_once_and_a_replay_is_refused(tmp_path: Path) -> None:
     container, tools = brain(tmp_path, FakeLLM([PLAN, WAIT]))
     app = create_app(container, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://127.0.0.1") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         mission = await container.executor.start("go to the kitchen")
         pending: list[dict[str, object]] = []
 
@@ -85,7 +87,9 @@ async def test_approve_over_rest_drives_once_and_a_replay_is_refused(tmp_path: P
 async def test_safety_routes_report_stop_and_clear(tmp_path: Path) -> None:
     container, tools = brain(tmp_path, FakeLLM([]))
     app = create_app(container, manage_lifecycle=False)
-    async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://127.0.0.1") as c:
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
         before = (await c.get("/api/safety")).json()
         stopped = (await c.post("/api/safety/stop", json={"reason": "person in the way"})).json()
         ready = (await c.get("/api/readyz")).json()["data"]["safety"]

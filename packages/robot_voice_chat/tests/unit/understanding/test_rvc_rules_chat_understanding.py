@@ -103,3 +103,25 @@ async def test_questions_are_answered_from_the_tools(understanding: Understandin
         TOOLS,
     )  # fmt: skip
     assert answer.text == "I'm at the kitchen."
+
+
+async def test_call_ids_renamed_on_the_way_still_reach_the_right_step(
+    understanding: Understanding,
+) -> None:
+    """Behind an OpenAI-compatible API the server names the calls (the robot preset's fast
+    path): the places answer must still be read as the places, not as 'Done.'."""
+    chat = RulesChat(understanding)
+    messages = [Message(role="user", content="Please fetch the package from the mailroom.")]
+    first = await chat.chat(messages, TOOLS)
+    renamed = first.tool_calls[0].model_copy(update={"id": "call_from_the_server"})
+    messages += [
+        Message(role="assistant", tool_calls=[renamed]),
+        Message(
+            role="user",
+            tool_results=[
+                ToolResult(tool_call_id="call_from_the_server", content=OFFICE_LIST_LOCATIONS)
+            ],
+        ),
+    ]
+    reply = await chat.chat(messages, TOOLS)
+    assert [c.name for c in reply.tool_calls] == ["start_mission"]

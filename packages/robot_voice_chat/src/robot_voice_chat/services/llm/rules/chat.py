@@ -87,7 +87,7 @@ class RulesChat(LLMProvider):
     def _on_result(
         self, result: ToolResult, messages: list[Message], names: set[str]
     ) -> LLMResponse:
-        purpose = self._calls.pop(result.tool_call_id, "")
+        purpose = self._calls.pop(result.tool_call_id, "") or _purpose_of(result, messages)
         request = next(
             (m.content for m in reversed(messages) if m.role == "user" and m.content), ""
         )
@@ -193,3 +193,27 @@ def _where(result: ToolResult) -> str:
     if isinstance(x, int | float) and isinstance(y, int | float):
         return f"I'm between places, at x={x:.1f} m, y={y:.1f} m on the map."
     return "I can't tell where I am right now."
+
+
+_PURPOSE_OF_TOOL = {
+    LIST_LOCATIONS: "places",
+    GET_POSE: "pose",
+    "start_mission": "mission",
+    "stop_mission": "stop",
+}
+
+
+def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
+    """Why we made a call whose id we did not give (an API between us and the brain, e.g. an
+    OpenAI-compatible server, names the calls itself): the called tool tells."""
+    name = next(
+        (
+            call.name
+            for m in messages
+            if m.role == "assistant"
+            for call in m.tool_calls
+            if call.id == result.tool_call_id
+        ),
+        "",
+    )
+    return _PURPOSE_OF_TOOL.get(name, "")

@@ -2,7 +2,8 @@
 process left ``running`` is closed as interrupted by the restart, its drive is cancelled at the
 navigation server (the robot stops), and the events the navigation outbox delivers to the new
 brain are acknowledged, not retried forever. Real OS processes from deploy/local-stack.yaml:
-memory, navigation (in-process simulated base) and the brain on the dev preset (rules)."""
+robot-sim (Nav2 as navigation drives it), memory, navigation and the brain on the dev preset
+(rules)."""
 
 from __future__ import annotations
 
@@ -54,7 +55,7 @@ async def test_kill_9_of_the_brain_mid_drive_closes_the_mission_and_stops_the_ro
         var,
         stack_env(fresh_secret()),
         overrides=placeholders,
-        only={"memory", "navigation", "brain"},
+        only={"robot_sim", "memory", "navigation", "brain"},
     ) as services:
         async with httpx.AsyncClient(base_url=brain_url, timeout=30.0) as http:
 

@@ -59,9 +59,9 @@ def main(args: list[str] | None = None) -> None:
     except (KeyboardInterrupt, ExternalShutdownException):
         logger.info("robot_sim_interrupted")
     finally:
+        executor.shutdown(timeout_sec=2.0)  # no callback runs on the node once it is destroyed
         if node is not None:
             node.destroy_node()
-        executor.shutdown(timeout_sec=2.0)
         rclpy.try_shutdown()
 
 

@@ -133,9 +133,11 @@ def sim(settings: SimSettings) -> Iterator[Sim]:
     try:
         yield Sim(node, client, context, action, amcl, odom, images)
     finally:
+        # stop spinning before anything is destroyed: a callback still running on a destroyed
+        # action client or server raises in the spin thread ("destruction was requested")
+        executor.shutdown(timeout_sec=2.0)
+        spinner.join(timeout=5.0)
         action.destroy()
         node.destroy_node()
         client.destroy_node()
-        executor.shutdown(timeout_sec=2.0)
         rclpy.try_shutdown(context=context)
-        spinner.join(timeout=5.0)

@@ -128,15 +128,26 @@ def sim(settings: SimSettings) -> Iterator[Sim]:
     action = ActionClient(client, NavigateToPose, settings.action_name)
     executor.add_node(node)
     executor.add_node(client)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    stopping = threading.Event()
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except Exception:
+            if not stopping.is_set():
+                raise
+            # teardown: rclpy may still hand the spin loop a handle it is destroying
+
+    spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
         yield Sim(node, client, context, action, amcl, odom, images)
     finally:
         # stop spinning before anything is destroyed: a callback still running on a destroyed
         # action client or server raises in the spin thread ("destruction was requested")
-        executor.shutdown(timeout_sec=2.0)
-        spinner.join(timeout=5.0)
+        stopping.set()
+        executor.shutdown(timeout_sec=10.0)
+        spinner.join(timeout=10.0)
         action.destroy()
         node.destroy_node()
         client.destroy_node()

@@ -56,7 +56,7 @@ class NodeSettings(_Strict):
     stats_period_s: float = Field(2.0, gt=0)
     frame_stale_after_s: float = Field(5.0, gt=0)
     """/healthz reports ``degraded`` (HTTP 503) when the newest frame arrived longer ago."""
-    fresh_frame_wait_s: float = Field(1.0, ge=0, le=30)
+    fresh_frame_wait_s: float = Field(3.0, ge=0, le=30)
     """A new (or re-enabled) skill's first run waits up to this long for a frame captured
     (header stamp) after the node took the skill up, so "look now" never answers from a
     frame taken before — e.g. the corridor seen while driving, for a skill started on

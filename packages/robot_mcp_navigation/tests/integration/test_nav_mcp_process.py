@@ -8,106 +8,36 @@ import math
 import os
 import signal
 import sys
-import threading
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pytest
-import uvicorn
 from mcp import Client
 from mcp.client.sse import sse_client
 from mcp_types import CallToolResult, TextContent
-from starlette.applications import Starlette
-from starlette.requests import Request
-from starlette.responses import JSONResponse
-from starlette.routing import Route
 
-from robot_mcp_kit.models import TaskEvent
-from robot_mcp_kit.signing import (
-    HEADER_SERVER,
-    HEADER_SIGNATURE,
-    HEADER_TIMESTAMP,
-    SignatureError,
-    verify,
-)
+from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
     async_wait_until,
     free_tcp_port,
     wait_for_tcp_port,
-    wait_until,
 )
 
 SECRET = "integration-test-secret"
 
 
-@dataclass
-class Receiver:
-    url: str
-    events: list[TaskEvent] = field(default_factory=list)
-    rejected: list[str] = field(default_factory=list)
-
-    def unique(self, task_id: str) -> list[TaskEvent]:
-        """The task's events in arrival order, duplicates (same event_id) dropped."""
-        seen: set[str] = set()
-        out: list[TaskEvent] = []
-        for event in list(self.events):
-            if event.task_id == task_id and event.event_id not in seen:
-                seen.add(event.event_id)
-                out.append(event)
-        return out
-
-    def terminal(self, task_id: str) -> TaskEvent | None:
-        return next(
-            (e for e in self.unique(task_id) if e.type in ("task_done", "task_failed")), None
-        )
-
-
-def _app(receiver: Receiver) -> Starlette:
-    async def ingest(request: Request) -> JSONResponse:
-        body = await request.body()
-        try:
-            verify(
-                SECRET,
-                request.headers.get(HEADER_TIMESTAMP, ""),
-                body,
-                request.headers.get(HEADER_SIGNATURE, ""),
-            )
-        except SignatureError as exc:
-            receiver.rejected.append(exc.reason)
-            return JSONResponse({"error": exc.reason}, status_code=401)
-        event = TaskEvent.model_validate_json(body)
-        if request.headers.get(HEADER_SERVER) != event.server:
-            receiver.rejected.append("server_mismatch")
-            return JSONResponse({"error": "server_mismatch"}, status_code=401)
-        receiver.events.append(event)
-        return JSONResponse({"status": "ok"})
-
-    return Starlette(routes=[Route("/api/agent/events", ingest, methods=["POST"])])
-
-
 @pytest.fixture
-def receiver(tcp_port: int) -> Iterator[Receiver]:
-    recv = Receiver(url=f"http://127.0.0.1:{tcp_port}/api/agent/events")
-    server = uvicorn.Server(
-        uvicorn.Config(_app(recv), host="127.0.0.1", port=tcp_port, log_level="warning")
-    )
-    thread = threading.Thread(target=server.run, name="event-receiver", daemon=True)
-    thread.start()
-    wait_until(lambda: server.started, 10, "the event receiver to start")
-    try:
+def receiver(tcp_port: int) -> Iterator[EventReceiver]:
+    with running_receiver(tcp_port, SECRET) as recv:
         yield recv
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
 
 
 def start_navigation(
     launcher: ProcessLauncher,
-    receiver: Receiver,
+    receiver: EventReceiver,
     port: int,
     tmp_path: Path,
     transport: str,
@@ -141,14 +71,14 @@ def payload(result: CallToolResult) -> dict[str, Any]:
     return value
 
 
-def assert_ordered(receiver: Receiver, task_id: str) -> None:
+def assert_ordered(receiver: EventReceiver, task_id: str) -> None:
     seqs = [e.seq for e in receiver.unique(task_id)]
     assert seqs == sorted(seqs), f"events of {task_id} arrived out of order: {seqs}"
     assert len(set(seqs)) == len(seqs), f"seq reused in {task_id}: {seqs}"
 
 
 async def test_navigation_over_streamable_http_posts_signed_ordered_events_and_fires_triggers(
-    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+    launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
     start_navigation(launcher, receiver, port, tmp_path, "streamable-http")
@@ -182,7 +112,7 @@ async def test_navigation_over_streamable_http_posts_signed_ordered_events_and_f
 
 
 async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse(
-    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+    launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
     start_navigation(launcher, receiver, port, tmp_path, "sse")
@@ -211,7 +141,7 @@ async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse
 
 
 async def test_stop_navigation_mid_drive_cancels_the_task_and_ends_its_events(
-    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+    launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
     start_navigation(
@@ -255,7 +185,7 @@ async def test_stop_navigation_mid_drive_cancels_the_task_and_ends_its_events(
 
 
 async def test_a_navigation_server_killed_mid_drive_restarts_where_the_robot_was(
-    launcher: ProcessLauncher, receiver: Receiver, tmp_path: Path
+    launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     """Issue 23 item 7: kill -9 mid-drive and a restart must not teleport the base to the
     dock; it reports the pose it had reached (kept in NAV_POSE_PATH)."""

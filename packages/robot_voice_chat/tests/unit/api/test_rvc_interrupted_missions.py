@@ -13,46 +13,17 @@ import httpx
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
-from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.composition import Container
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import LLMResponse
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
-from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import AppConfig
 from robot_voice_chat.socket_events import MissionFinished, MissionPlan
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing_brain import brain_life, fake_servers
 
 
 def brain(tmp_path: Path, planner: FakeLLM, ui: FakeEventEmitter | None = None) -> Container:
-    """One process life of the brain: fresh in-memory state, the same data dir; ui sees
-    what the browser would."""
-    h = make_harness(tmp_path, planner)
-    config = AppConfig.model_validate(
-        {
-            "llm": {"_target_": "fake"},
-            "speech_output": {"_target_": "fake"},
-            "speech_input": {"_target_": "fake"},
-            "agent": {"memory_server": ""},
-        }
-    )
-    adapters = Adapters(
-        llm=FakeLLM([]),
-        planner=planner,
-        tools=h.tools,
-        speech_output=FakeSpeechOutput(),
-        speech_input=FakeSpeechInput(),
-    )
-    return assemble(config, adapters, ui or FakeEventEmitter())
-
-
-def fake_tools(container: Container) -> FakeToolBackend:
-    """The fake servers behind the brain's policy guard."""
-    tools = container.adapters.tools
-    inner = tools.inner if isinstance(tools, GuardedToolBackend) else tools
-    assert isinstance(inner, FakeToolBackend)
-    return inner
+    """One process life of the brain: fresh in-memory state, the same data dir."""
+    return brain_life(tmp_path, planner, ui)
 
 
 DRIVE: list[LLMResponse | Exception] = [
@@ -84,7 +55,7 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
     first, mission_id = await crash_mid_drive(tmp_path)
     ui = FakeEventEmitter()
     second = brain(tmp_path, FakeLLM([]), ui)
-    fake_tools(second).add(
+    fake_servers(second).add(
         "navigation.list_tasks",
         lambda a: {"tasks": [{"task_id": "nav-1", "state": "running"}]},
         states="array",
@@ -118,7 +89,7 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
         # the task it owned is cancelled when navigation (re)connects, also mid-mission
         second.executor.run = first.executor.run  # any live mission: still cancelled
         await second.executor.reconcile("navigation")
-        assert fake_tools(second).called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+        assert fake_servers(second).called("navigation.cancel_task") == [{"task_id": "nav-1"}]
         second.executor.run = None
         # its late events are acknowledged (False = orphan, 200) and not kept for replay
         late = TaskEvent(

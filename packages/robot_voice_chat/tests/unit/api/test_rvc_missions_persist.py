@@ -8,14 +8,12 @@ import httpx
 import pytest
 
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble, compose_config
-from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.composition import Container, compose_config
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
-from robot_voice_chat.settings import AgentConfig, AppConfig, data_dir
+from robot_voice_chat.settings import AgentConfig, data_dir
 from robot_voice_chat.socket_events import MissionEventLine
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing_brain import brain_life
 
 PLAN = [
     reply(
@@ -34,23 +32,7 @@ PLAN = [
 
 def brain(tmp_path: Path, planner: FakeLLM) -> Container:
     """One process life of the brain: fresh in-memory state, same data dir."""
-    h = make_harness(tmp_path, planner)
-    config = AppConfig.model_validate(
-        {
-            "llm": {"_target_": "fake"},
-            "speech_output": {"_target_": "fake"},
-            "speech_input": {"_target_": "fake"},
-            "agent": {"memory_server": ""},
-        }
-    )
-    adapters = Adapters(
-        llm=FakeLLM([]),
-        planner=planner,
-        tools=h.tools,
-        speech_output=FakeSpeechOutput(),
-        speech_input=FakeSpeechInput(),
-    )
-    return assemble(config, adapters, FakeEventEmitter())
+    return brain_life(tmp_path, planner)
 
 
 async def test_a_mission_and_its_log_are_served_after_a_restart(tmp_path: Path) -> None:

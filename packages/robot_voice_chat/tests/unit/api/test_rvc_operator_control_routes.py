@@ -8,13 +8,10 @@ import httpx
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
-from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.composition import Container
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import AppConfig
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing_brain import brain_life, fake_servers
 
 PLAN = reply(
     "",
@@ -27,24 +24,13 @@ WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
 def brain(tmp_path: Path, planner: FakeLLM) -> tuple[Container, FakeToolBackend]:
     policy = tmp_path / "policy.yaml"
     policy.write_text("version: 3\ntools:\n  navigation.navigate_to: confirm\n")
-    config = AppConfig.model_validate(
-        {
-            "llm": {"_target_": "fake"},
-            "speech_output": {"_target_": "fake"},
-            "speech_input": {"_target_": "fake"},
-            "agent": {"memory_server": "", "data_dir": str(tmp_path / "data")},
-            "control": {"policy_file": str(policy)},
-        }
+    container = brain_life(
+        tmp_path,
+        planner,
+        agent={"memory_server": "", "data_dir": str(tmp_path / "data")},
+        control={"policy_file": str(policy)},
     )
-    tools = make_harness(tmp_path, FakeLLM([])).tools
-    adapters = Adapters(
-        llm=FakeLLM([]),
-        planner=planner,
-        tools=tools,
-        speech_output=FakeSpeechOutput(),
-        speech_input=FakeSpeechInput(),
-    )
-    return assemble(config, adapters, FakeEventEmitter()), tools
+    return container, fake_servers(container)
 
 
 async def test_approve_over_rest_drives_once_and_a_replay_is_refused(tmp_path: Path) -> None:

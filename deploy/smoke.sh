@@ -9,7 +9,8 @@
 #
 # Environment (defaults are the robot's units):
 #   SMOKE_BRAIN_PORT=8000 SMOKE_NAVIGATION_PORT=9101 SMOKE_MEMORY_PORT=9103
-#   SMOKE_SKILL_CONTROL_PORT=9201 SMOKE_PERCEPTION_PORT=9202 SMOKE_VISION_PORT=9112
+#   SMOKE_SKILL_CONTROL_PORT=9201 SMOKE_PERCEPTION_PORT=9202 SMOKE_EPISODIC_PORT=9203
+#   SMOKE_VISION_PORT=9112
 #   SMOKE_USER=operator SMOKE_PASSWORD=...   operator login when the brain requires one
 #   SMOKE_LOG_CMD="journalctl -u robot-voice-chat -o cat --no-pager"   the brain's log
 #   SMOKE_PYTHON=/opt/robot-stack/.venv/bin/python   SMOKE_TIMEOUT=120
@@ -21,7 +22,8 @@ root="$(cd "$here/.." && pwd)"
 BRAIN="http://127.0.0.1:${SMOKE_BRAIN_PORT:-8000}"
 NAV_PORT="${SMOKE_NAVIGATION_PORT:-9101}"
 PORTS=("navigation:$NAV_PORT" "memory:${SMOKE_MEMORY_PORT:-9103}"
-       "skill_control:${SMOKE_SKILL_CONTROL_PORT:-9201}" "perception:${SMOKE_PERCEPTION_PORT:-9202}")
+       "skill_control:${SMOKE_SKILL_CONTROL_PORT:-9201}" "perception:${SMOKE_PERCEPTION_PORT:-9202}"
+       "episodic:${SMOKE_EPISODIC_PORT:-9203}")
 VISION="http://127.0.0.1:${SMOKE_VISION_PORT:-9112}"
 LOG_CMD="${SMOKE_LOG_CMD:-journalctl -u robot-voice-chat -o cat --no-pager}"
 PYTHON="${SMOKE_PYTHON:-$root/.venv/bin/python}"
@@ -132,6 +134,21 @@ step_stop() {  # 6b: "stop" mid-drive → motion cancelled, paused, asks continu
   functional stop >/dev/null
 }
 
+latched_note() {  # "stop" latches the software stop (issue 21); the smoke never clears it
+  if [[ ",$steps," == *,repeat,* || ",$steps," == *,stop,* ]]; then
+    echo "note the software stop is now latched by the smoke's \"stop\"; an operator clears it in the UI (Clear stop)"
+  fi
+}
+
+not_latched() {  # a latched software stop refuses every drive: say so before any step
+  local state
+  state="$(curl -sf -m 5 "$BRAIN/api/readyz" | jq -c .data.safety || true)"
+  if jq -e '.latched == true' <<<"${state:-null}" >/dev/null 2>&1; then
+    fail "the software stop is latched ($(jq -r '"since \(.since) by \(.by): \(.reason)"' <<<"$state")); an operator clears it in the UI (Clear stop) when it is safe to move, then run the smoke again"
+  fi
+}
+
+not_latched
 IFS=, read -r -a selected <<<"$steps"
 for step in "${selected[@]}"; do
   case "$step" in
@@ -140,3 +157,4 @@ for step in "${selected[@]}"; do
   esac
 done
 echo "smoke: all passed ($steps)"
+latched_note

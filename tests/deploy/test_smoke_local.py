@@ -41,7 +41,9 @@ def stack(tmp_path: Path) -> Iterator[RunningStack]:
         yield running
 
 
-def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
+def run_smoke(
+    stack: RunningStack, tmp_path: Path, steps: str, **extra: str
+) -> subprocess.CompletedProcess[str]:
     ports = stack.placeholders
     env = {
         **os.environ,
@@ -50,6 +52,7 @@ def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
         "SMOKE_MEMORY_PORT": ports["memory_port"],
         "SMOKE_SKILL_CONTROL_PORT": ports["skill_control_port"],
         "SMOKE_PERCEPTION_PORT": ports["perception_port"],
+        "SMOKE_EPISODIC_PORT": ports["episodic_port"],
         "SMOKE_VISION_PORT": ports["vision_port"],
         "SMOKE_LOG_CMD": f"cat {tmp_path}/var/brain-*.log",
         "SMOKE_PYTHON": sys.executable,
@@ -57,7 +60,7 @@ def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
         "SMOKE_TIMEOUT": "90",
         **extra,
     }
-    result = subprocess.run(
+    return subprocess.run(
         ["bash", str(SMOKE), "--steps", steps],
         env=env,
         capture_output=True,
@@ -65,6 +68,10 @@ def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
         timeout=600,
         check=False,
     )
+
+
+def smoke(stack: RunningStack, tmp_path: Path, steps: str, **extra: str) -> str:
+    result = run_smoke(stack, tmp_path, steps, **extra)
     output = result.stdout + result.stderr
     assert result.returncode == 0, output
     assert f"smoke: all passed ({steps})" in output
@@ -109,6 +116,14 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
     assert "the taught process injected" in again
     assert "ok   mission paused after 'stop'" in again
     assert "ok   robot asks: continue or abort?" in again
+    # "stop" latched the software stop; the smoke says so and never clears it itself ...
+    assert "note the software stop is now latched" in again
+    # ... so the next run refuses before any step, saying who latched it and how to clear it
+    refused = run_smoke(stack, tmp_path, "http", SMOKE_PASSWORD=PASSWORD)
+    assert refused.returncode == 1, refused.stdout + refused.stderr
+    assert "FAIL the software stop is latched (since " in refused.stdout
+    assert "(Clear stop)" in refused.stdout
+    assert "--- http" not in refused.stdout
 
 
 @pytest.mark.timeout(300)

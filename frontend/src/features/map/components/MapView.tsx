@@ -1,17 +1,22 @@
 import { useCallback, useMemo, useState } from 'react';
 import { Panel } from '@/components/ui/Panel';
 import { usePolling } from '@/lib/usePolling';
+import { localClock, type RobotPose, type Sighting } from '@/features/history/api/history';
+import { Button } from '@/components/ui/Button';
 import { useChatStore } from '@/stores/chatStore';
+import { useHistoryStore } from '@/stores/historyStore';
 import { fetchLocations, fetchPose, type LocationList, type Pose } from '../api/map';
 
 const POSE_PERIOD_MS = 400; // 2.5 Hz
 const WIDTH = 300;
 const PAD = 34;
 
+type Point = { x: number; y: number };
+
 /** Map metres → SVG pixels (y up in the map, down on screen); the height follows the map. */
-function projection(list: LocationList, pose: Pose | null) {
-  const xs = list.locations.map((l) => l.x).concat(pose ? [pose.x] : []);
-  const ys = list.locations.map((l) => l.y).concat(pose ? [pose.y] : []);
+function projection(list: LocationList, points: Point[]) {
+  const xs = list.locations.map((l) => l.x).concat(points.map((p) => p.x));
+  const ys = list.locations.map((l) => l.y).concat(points.map((p) => p.y));
   const [minX, maxX, minY, maxY] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
   const scale = (WIDTH - 2 * PAD) / Math.max(maxX - minX, maxY - minY, 1);
   const height = Math.min(WIDTH, Math.max(140, 2 * PAD + (maxY - minY) * scale));
@@ -47,6 +52,8 @@ export function MapView() {
   const [pose, setPose] = useState<Pose | null>(null);
   const [error, setError] = useState<string | null>(null);
   const setDraft = useChatStore((s) => s.setDraft);
+  const past = useHistoryStore((s) => s.selected);
+  const clearPast = useHistoryStore((s) => s.select);
 
   const tick = useCallback(async () => {
     try {
@@ -60,7 +67,12 @@ export function MapView() {
   }, [list]);
   usePolling(tick, list ? POSE_PERIOD_MS : 3000);
 
-  const view = useMemo(() => (list ? projection(list, pose) : null), [list, pose]);
+  // A sighting recorded on another map has no place on this one: it is named, not drawn.
+  const pastPose = past?.pose && list && (past.pose.map === null || past.pose.map === list.map) ? past.pose : null;
+  const view = useMemo(
+    () => (list ? projection(list, [...(pose ? [pose] : []), ...(pastPose ? [pastPose] : [])]) : null),
+    [list, pose, pastPose],
+  );
   const project = view?.project ?? null;
   const labels = useMemo(
     () =>
@@ -113,6 +125,10 @@ export function MapView() {
               </g>
             );
           })}
+          {/* Under the live robot, so the robot stays visible where both coincide. */}
+          {past && pastPose && (
+            <HistoryMarker sighting={past} pose={pastPose} at={project(pastPose.x, pastPose.y)} height={view?.height ?? WIDTH} />
+          )}
           {pose &&
             (() => {
               const [x, y] = project(pose.x, pose.y);
@@ -140,6 +156,69 @@ export function MapView() {
           click a place to fill “Go to …”
         </p>
       )}
+      {past && (
+        <p className="flex items-center justify-between gap-2 border-t border-line px-3 py-1 text-xs">
+          <span className="min-w-0 truncate">
+            <span aria-hidden="true" className="text-history">
+              ◆{' '}
+            </span>
+            {pastPose
+              ? `Robot when it saw ${past.label}, ${localClock(past.first_seen)}`
+              : past.pose
+                ? `${past.label} was seen on map ${past.pose.map}, not this one`
+                : `No position recorded for ${past.label}`}
+          </span>
+          <Button variant="ghost" className="shrink-0 px-2 py-0.5 text-xs" onClick={() => clearPast(null)}>
+            Clear history marker
+          </Button>
+        </p>
+      )}
     </Panel>
+  );
+}
+
+/** Where the robot stood when it saw a sighting: a ring with its heading, in the history
+ *  colour, and the label + local time beside it (kept inside the map). */
+function HistoryMarker({
+  sighting,
+  pose,
+  at,
+  height,
+}: {
+  sighting: Sighting;
+  pose: RobotPose;
+  at: readonly [number, number];
+  height: number;
+}) {
+  const [x, y] = at;
+  const clock = localClock(sighting.first_seen);
+  const deg = (-pose.yaw * 180) / Math.PI;
+  const anchor = x < 70 ? 'start' : x > WIDTH - 70 ? 'end' : 'middle';
+  const dx = anchor === 'start' ? -8 : anchor === 'end' ? 8 : 0;
+  const textY = y < 36 ? y + 28 : y - 18;
+  return (
+    <g
+      data-testid="history-marker"
+      data-x={pose.x}
+      data-y={pose.y}
+      role="img"
+      aria-label={`Robot was here at ${clock} when it saw ${sighting.label}${sighting.place ? ` (${sighting.place})` : ''}`}
+    >
+      <g transform={`translate(${x} ${y}) rotate(${deg})`}>
+        <circle r={13} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
+        <path d="M 13 -4 L 19 0 L 13 4 Z" className="fill-history" />
+        <circle r={3} className="fill-history" />
+      </g>
+      <text
+        x={Math.min(Math.max(x + dx, 4), WIDTH - 4)}
+        y={Math.min(textY, height - 4)}
+        textAnchor={anchor}
+        className="fill-history stroke-map-floor text-[10px] font-semibold"
+        strokeWidth={3}
+        style={{ paintOrder: 'stroke' }}
+      >
+        {sighting.label} · {clock}
+      </text>
+    </g>
   );
 }

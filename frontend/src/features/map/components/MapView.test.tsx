@@ -3,7 +3,7 @@ import userEvent from '@testing-library/user-event';
 import { afterEach, describe, expect, it, vi } from 'vitest';
 import { localClock, type Sighting } from '@/features/history/api/history';
 import { useHistoryStore } from '@/stores/historyStore';
-import { MapView } from './MapView';
+import { MapView, placeLabels } from './MapView';
 
 const LOCATIONS = {
   map: 'office',
@@ -76,5 +76,19 @@ describe('map: where the robot was when it saw something', () => {
     const map = screen.getByRole('region', { name: 'Map' });
     await waitFor(() => expect(map).toHaveTextContent('yellow package was seen on map warehouse, not this one'));
     expect(within(map).queryByTestId('history-marker')).toBeNull();
+  });
+});
+
+describe('placeLabels', () => {
+  it('puts a history label beside a place, never over its name, and inside the map', () => {
+    const placed = placeLabels([
+      { name: 'mailroom', cx: 280, cy: 100 },
+      { name: 'yellow package · 23:54:33', cx: 280, cy: 100, r: 17, charWidth: 6.2 },
+    ]);
+    const [nx, ny] = placed.get('mailroom')!;
+    expect([nx, ny]).toEqual([280, 88]); // the place keeps its spot above the dot
+    const [hx, hy, anchor] = placed.get('yellow package · 23:54:33')!;
+    expect(hy).toBeGreaterThan(ny + 12); // not on the name's line
+    expect(anchor === 'end' || hx + (25 * 6.2) / 2 <= 300).toBe(true);
   });
 });

@@ -27,25 +27,39 @@ function projection(list: LocationList, points: Point[]) {
 type Box = { x0: number; y0: number; x1: number; y1: number };
 const overlaps = (a: Box, b: Box) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
 
-/** Name positions (label baselines) that avoid each other: above, below, right, left. */
-export function placeLabels(points: { name: string; cx: number; cy: number }[]): Map<string, [number, number, 'middle' | 'start' | 'end']> {
-  const placed: Box[] = points.map((p) => ({ x0: p.cx - 7, y0: p.cy - 7, x1: p.cx + 7, y1: p.cy + 7 }));
-  const result = new Map<string, [number, number, 'middle' | 'start' | 'end']>();
+type Anchor = 'middle' | 'start' | 'end';
+type LabelPoint = { name: string; cx: number; cy: number; r?: number; charWidth?: number };
+
+/** Name positions (label baselines) that avoid each other and the dots (radius `r`, 7 by
+ *  default): above, below, right, left — inside the map's width when one of them fits. */
+export function placeLabels(points: LabelPoint[], width = WIDTH): Map<string, [number, number, Anchor]> {
+  const placed: Box[] = points.map((p) => {
+    const r = p.r ?? 7;
+    return { x0: p.cx - r, y0: p.cy - r, x1: p.cx + r, y1: p.cy + r };
+  });
+  const result = new Map<string, [number, number, Anchor]>();
   for (const p of points) {
-    const w = p.name.length * 5.6;
-    const options: [number, number, 'middle' | 'start' | 'end', Box][] = [
-      [p.cx, p.cy - 12, 'middle', { x0: p.cx - w / 2, y0: p.cy - 22, x1: p.cx + w / 2, y1: p.cy - 10 }],
-      [p.cx, p.cy + 20, 'middle', { x0: p.cx - w / 2, y0: p.cy + 10, x1: p.cx + w / 2, y1: p.cy + 22 }],
-      [p.cx + 10, p.cy + 4, 'start', { x0: p.cx + 10, y0: p.cy - 6, x1: p.cx + 10 + w, y1: p.cy + 6 }],
-      [p.cx - 10, p.cy + 4, 'end', { x0: p.cx - 10 - w, y0: p.cy - 6, x1: p.cx - 10, y1: p.cy + 6 }],
+    const w = p.name.length * (p.charWidth ?? 5.6);
+    const r = p.r ?? 7;
+    const options: [number, number, Anchor, Box][] = [
+      [p.cx, p.cy - r - 5, 'middle', { x0: p.cx - w / 2, y0: p.cy - r - 15, x1: p.cx + w / 2, y1: p.cy - r - 3 }],
+      [p.cx, p.cy + r + 13, 'middle', { x0: p.cx - w / 2, y0: p.cy + r + 3, x1: p.cx + w / 2, y1: p.cy + r + 15 }],
+      [p.cx + r + 3, p.cy + 4, 'start', { x0: p.cx + r + 3, y0: p.cy - 6, x1: p.cx + r + 3 + w, y1: p.cy + 6 }],
+      [p.cx - r - 3, p.cy + 4, 'end', { x0: p.cx - r - 3 - w, y0: p.cy - 6, x1: p.cx - r - 3, y1: p.cy + 6 }],
     ];
-    const free = options.find(([, , , box]) => !placed.some((b) => overlaps(b, box))) ?? options[0];
-    if (!free) continue;
-    placed.push(free[3]);
-    result.set(p.name, [free[0], free[1], free[2]]);
+    const free = (box: Box) => !placed.some((b) => overlaps(b, box));
+    const inside = (box: Box) => box.x0 >= 2 && box.x1 <= width - 2 && box.y0 >= 0;
+    const best =
+      options.find(([, , , box]) => free(box) && inside(box)) ?? options.find(([, , , box]) => free(box)) ?? options[0];
+    if (!best) continue;
+    placed.push(best[3]);
+    result.set(p.name, [best[0], best[1], best[2]]);
   }
   return result;
 }
+
+const HISTORY_KEY = '\u0000history'; // never a location's name
+const HISTORY_RING = 14;
 
 export function MapView() {
   const [list, setList] = useState<LocationList | null>(null);
@@ -74,13 +88,23 @@ export function MapView() {
     [list, pose, pastPose],
   );
   const project = view?.project ?? null;
-  const labels = useMemo(
-    () =>
-      list && view
-        ? placeLabels(list.locations.map((l) => ({ name: l.name, cx: view.project(l.x, l.y)[0], cy: view.project(l.x, l.y)[1] })))
-        : new Map<string, [number, number, 'middle' | 'start' | 'end']>(),
-    [list, view],
-  );
+  const pastText = past && pastPose ? `${past.label} · ${localClock(past.first_seen)}` : null;
+  const labels = useMemo(() => {
+    if (!list || !view) return new Map<string, [number, number, Anchor]>();
+    const points: LabelPoint[] = list.locations.map((l) => {
+      const [cx, cy] = view.project(l.x, l.y);
+      return { name: l.name, cx, cy };
+    });
+    if (pastPose && pastText) {
+      // Placed last: the history label moves around the places' names, never over them.
+      const [cx, cy] = view.project(pastPose.x, pastPose.y);
+      points.push({ name: pastText, cx, cy, r: HISTORY_RING + 3, charWidth: 6.2 });
+    }
+    const placed = placeLabels(points);
+    const history = pastText ? placed.get(pastText) : undefined;
+    if (history) placed.set(HISTORY_KEY, history);
+    return placed;
+  }, [list, view, pastPose, pastText]);
   const destination = pose?.destination ?? null;
 
   return (
@@ -127,7 +151,12 @@ export function MapView() {
           })}
           {/* Under the live robot, so the robot stays visible where both coincide. */}
           {past && pastPose && (
-            <HistoryMarker sighting={past} pose={pastPose} at={project(pastPose.x, pastPose.y)} height={view?.height ?? WIDTH} />
+            <HistoryMarker
+              sighting={past}
+              pose={pastPose}
+              at={project(pastPose.x, pastPose.y)}
+              label={labels.get(HISTORY_KEY) ?? [project(pastPose.x, pastPose.y)[0], project(pastPose.x, pastPose.y)[1] - 22, 'middle']}
+            />
           )}
           {pose &&
             (() => {
@@ -158,18 +187,23 @@ export function MapView() {
       )}
       {past && (
         <p className="flex items-center justify-between gap-2 border-t border-line px-3 py-1 text-xs">
-          <span className="min-w-0 truncate">
+          <span className="min-w-0 truncate" title={past.label}>
             <span aria-hidden="true" className="text-history">
               ◆{' '}
             </span>
             {pastPose
-              ? `Robot when it saw ${past.label}, ${localClock(past.first_seen)}`
+              ? `Where the robot saw ${past.label} · ${localClock(past.first_seen)}`
               : past.pose
                 ? `${past.label} was seen on map ${past.pose.map}, not this one`
                 : `No position recorded for ${past.label}`}
           </span>
-          <Button variant="ghost" className="shrink-0 px-2 py-0.5 text-xs" onClick={() => clearPast(null)}>
-            Clear history marker
+          <Button
+            variant="ghost"
+            aria-label="Clear history marker"
+            className="shrink-0 px-2 py-0.5 text-xs"
+            onClick={() => clearPast(null)}
+          >
+            Clear
           </Button>
         </p>
       )}
@@ -177,25 +211,23 @@ export function MapView() {
   );
 }
 
-/** Where the robot stood when it saw a sighting: a ring with its heading, in the history
- *  colour, and the label + local time beside it (kept inside the map). */
+/** Where the robot stood when it saw a sighting: a dashed ring with its heading in the history
+ *  colour, and the label + local time where `label` says (placed around the places' names). */
 function HistoryMarker({
   sighting,
   pose,
   at,
-  height,
+  label,
 }: {
   sighting: Sighting;
   pose: RobotPose;
   at: readonly [number, number];
-  height: number;
+  label: [number, number, Anchor];
 }) {
   const [x, y] = at;
+  const [lx, ly, anchor] = label;
   const clock = localClock(sighting.first_seen);
   const deg = (-pose.yaw * 180) / Math.PI;
-  const anchor = x < 70 ? 'start' : x > WIDTH - 70 ? 'end' : 'middle';
-  const dx = anchor === 'start' ? -8 : anchor === 'end' ? 8 : 0;
-  const textY = y < 36 ? y + 28 : y - 18;
   return (
     <g
       data-testid="history-marker"
@@ -205,13 +237,13 @@ function HistoryMarker({
       aria-label={`Robot was here at ${clock} when it saw ${sighting.label}${sighting.place ? ` (${sighting.place})` : ''}`}
     >
       <g transform={`translate(${x} ${y}) rotate(${deg})`}>
-        <circle r={13} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
-        <path d="M 13 -4 L 19 0 L 13 4 Z" className="fill-history" />
+        <circle r={HISTORY_RING - 1} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
+        <path d={`M ${HISTORY_RING - 1} -4 L ${HISTORY_RING + 5} 0 L ${HISTORY_RING - 1} 4 Z`} className="fill-history" />
         <circle r={3} className="fill-history" />
       </g>
       <text
-        x={Math.min(Math.max(x + dx, 4), WIDTH - 4)}
-        y={Math.min(textY, height - 4)}
+        x={lx}
+        y={ly}
         textAnchor={anchor}
         className="fill-history stroke-map-floor text-[10px] font-semibold"
         strokeWidth={3}

@@ -81,14 +81,24 @@ describe('map: where the robot was when it saw something', () => {
 
 describe('placeLabels', () => {
   it('puts a history label beside a place, never over its name, and inside the map', () => {
+    const history = 'yellow package · 23:54:33';
     const placed = placeLabels([
-      { name: 'mailroom', cx: 280, cy: 100 },
-      { name: 'yellow package · 23:54:33', cx: 280, cy: 100, r: 17, charWidth: 6.2 },
+      { name: 'mailroom', cx: 266, cy: 130 },
+      { name: 'reception', cx: 89, cy: 150 },
+      { name: history, cx: 266, cy: 130, r: 17, charWidth: 6.2 },
     ]);
-    const [nx, ny] = placed.get('mailroom')!;
-    expect([nx, ny]).toEqual([280, 88]); // the place keeps its spot above the dot
-    const [hx, hy, anchor] = placed.get('yellow package · 23:54:33')!;
-    expect(hy).toBeGreaterThan(ny + 12); // not on the name's line
-    expect(anchor === 'end' || hx + (25 * 6.2) / 2 <= 300).toBe(true);
+    const box = (name: string, charWidth: number) => {
+      const [x, y, anchor] = placed.get(name)!;
+      const w = name.length * charWidth;
+      const x0 = anchor === 'start' ? x : anchor === 'end' ? x - w : x - w / 2;
+      return { x0, x1: x0 + w, y0: y - 10, y1: y + 2 };
+    };
+    const label = box(history, 6.2);
+    expect(label.x0).toBeGreaterThanOrEqual(2);
+    expect(label.x1).toBeLessThanOrEqual(298);
+    for (const other of [box('mailroom', 5.6), box('reception', 5.6)]) {
+      const apart = label.x1 <= other.x0 || other.x1 <= label.x0 || label.y1 <= other.y0 || other.y1 <= label.y0;
+      expect(apart).toBe(true);
+    }
   });
 });

@@ -31,7 +31,7 @@ type Anchor = 'middle' | 'start' | 'end';
 type LabelPoint = { name: string; cx: number; cy: number; r?: number; charWidth?: number };
 
 /** Name positions (label baselines) that avoid each other and the dots (radius `r`, 7 by
- *  default): above, below, right, left — inside the map's width when one of them fits. */
+ *  default): above, below, right, left — inside the map's width (a centred name slides in). */
 export function placeLabels(points: LabelPoint[], width = WIDTH): Map<string, [number, number, Anchor]> {
   const placed: Box[] = points.map((p) => {
     const r = p.r ?? 7;
@@ -47,6 +47,13 @@ export function placeLabels(points: LabelPoint[], width = WIDTH): Map<string, [n
       [p.cx + r + 3, p.cy + 4, 'start', { x0: p.cx + r + 3, y0: p.cy - 6, x1: p.cx + r + 3 + w, y1: p.cy + 6 }],
       [p.cx - r - 3, p.cy + 4, 'end', { x0: p.cx - r - 3 - w, y0: p.cy - 6, x1: p.cx - r - 3, y1: p.cy + 6 }],
     ];
+    for (const option of options) {
+      // A centred name that would leave the map slides back inside it.
+      const box = option[3];
+      const shift = option[2] !== 'middle' ? 0 : box.x0 < 2 ? 2 - box.x0 : box.x1 > width - 2 ? width - 2 - box.x1 : 0;
+      option[0] += shift;
+      option[3] = { ...box, x0: box.x0 + shift, x1: box.x1 + shift };
+    }
     const free = (box: Box) => !placed.some((b) => overlaps(b, box));
     const inside = (box: Box) => box.x0 >= 2 && box.x1 <= width - 2 && box.y0 >= 0;
     const best =
@@ -192,7 +199,7 @@ export function MapView() {
               ◆{' '}
             </span>
             {pastPose
-              ? `Where the robot saw ${past.label} · ${localClock(past.first_seen)}`
+              ? `Robot when it saw ${past.label}`
               : past.pose
                 ? `${past.label} was seen on map ${past.pose.map}, not this one`
                 : `No position recorded for ${past.label}`}

@@ -64,6 +64,27 @@ describe('History panel', () => {
     expect(within(panel).queryByRole('list')).toBeNull();
   });
 
+  it('asks an absent memory server again every 30 s, not every 5 s', async () => {
+    vi.useFakeTimers({ shouldAdvanceTime: true });
+    const fetchMock = answer(503, { error: 'episodic_unavailable', detail: 'not connected' });
+    render(<HistoryPanel />);
+    await screen.findByText(/Memory unavailable/);
+    const calls = fetchMock.mock.calls.length;
+    await act(async () => {
+      await vi.advanceTimersByTimeAsync(6000);
+    });
+    expect(fetchMock.mock.calls.length).toBeLessThanOrEqual(calls + 1); // the switch to 30 s may ask once
+    const settled = fetchMock.mock.calls.length;
+    await act(async () => {
+      await vi.advanceTimersByTimeAsync(20_000);
+    });
+    expect(fetchMock.mock.calls.length).toBe(settled);
+    await act(async () => {
+      await vi.advanceTimersByTimeAsync(11_000);
+    });
+    expect(fetchMock.mock.calls.length).toBe(settled + 1);
+  });
+
   it('shows a memory server error with its message', async () => {
     answer(502, { error: 'episodic_error', detail: 'what_happened: database is locked' });
     render(<HistoryPanel />);

@@ -7,6 +7,7 @@ import { useHistoryStore } from '@/stores/historyStore';
 import { fetchHistory, localClock, type History, type Sighting } from '../api/history';
 
 const PERIOD_MS = 5000;
+const UNAVAILABLE_PERIOD_MS = 30_000; // an absent memory server is asked again, less often
 
 type Failure = { kind: 'unavailable' | 'error'; detail: string };
 
@@ -31,7 +32,7 @@ export function HistoryPanel() {
       setLoading(false);
     }
   }, []);
-  usePolling(refresh, PERIOD_MS);
+  usePolling(refresh, failure?.kind === 'unavailable' ? UNAVAILABLE_PERIOD_MS : PERIOD_MS);
 
   const choose = (sighting: Sighting) => select(selected?.id === sighting.id ? null : sighting);
 

@@ -11,6 +11,8 @@ Screenshots of each state land in build/ui-screenshots/.
 from __future__ import annotations
 
 import asyncio
+import math
+import re
 import shutil
 import subprocess
 import sys
@@ -251,8 +253,49 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     assert camera_room(page, stack) == "mailroom"
     shoot(page, "06-finished")
     shoot(tablet, "06-finished")
+
+    # The History panel lists what the episodic server recorded; choosing the parcel's
+    # sighting marks on the map where the robot stood, next to the live robot marker.
+    mailroom = next(
+        loc
+        for loc in httpx.get(stack.url("brain", "/api/map/locations"), timeout=5).json()[
+            "locations"
+        ]
+        if loc["name"] == "mailroom"
+    )
+    for p in (page, tablet):
+        show_where_the_parcel_was_seen(p, mailroom)
     assert errors == [], errors
     assert tablet_errors == [], tablet_errors
+
+
+def show_where_the_parcel_was_seen(page: Page, mailroom: dict[str, Any]) -> None:
+    history = page.get_by_role("region", name="History")
+    parcel = history.get_by_role("button", name=re.compile("yellow package"))
+    expect(parcel.first).to_be_visible(timeout=20_000)  # the panel polls every 5 s
+    expect(parcel.first).to_contain_text("mailroom")
+    expect(parcel.first).to_contain_text(re.compile(r"\d{2}:\d{2}:\d{2}"))
+    expect(parcel.first).to_contain_text(re.compile(r"\d+ (s|min) ago"))
+    parcel.first.click()
+    expect(parcel.first).to_have_attribute("aria-pressed", "true")
+    map_region = page.get_by_role("region", name="Map")
+    marker = map_region.get_by_test_id("history-marker")
+    expect(marker).to_be_visible()
+    expect(marker).to_have_accessible_name(re.compile("when it saw yellow package"))
+    seen_at = (
+        float(marker.get_attribute("data-x") or "nan"),
+        float(marker.get_attribute("data-y") or "nan"),
+    )
+    # robot-sim stood in the mailroom (episodic's place radius is 2.5 m) when it saw it
+    assert math.dist(seen_at, (mailroom["x"], mailroom["y"])) < 2.5, (seen_at, mailroom)
+    expect(map_region.locator("[data-testid=robot]")).to_be_attached()  # the live robot stays
+    map_region.scroll_into_view_if_needed()
+    shoot(page, "14-history-marker")
+    history.scroll_into_view_if_needed()
+    shoot(page, "15-history-panel")
+    map_region.get_by_role("button", name="Clear history marker").click()
+    expect(marker).to_have_count(0)
+    expect(parcel.first).to_have_attribute("aria-pressed", "false")
 
 
 @pytest.fixture

@@ -3,6 +3,7 @@ import { Toasts } from '@/components/ui/Toasts';
 import { CameraView } from '@/features/camera/components/CameraView';
 import { Conversation, LiveAnnouncer } from '@/features/chat/components/Conversation';
 import { MessageBox } from '@/features/chat/components/MessageBox';
+import { HistoryPanel } from '@/features/history/components/HistoryPanel';
 import { MapView } from '@/features/map/components/MapView';
 import { MissionPanel } from '@/features/mission/components/MissionPanel';
 import { SafetyBanner } from '@/features/safety/components/SafetyBanner';
@@ -34,6 +35,7 @@ export function App() {
         <aside className="grid grid-cols-1 content-start gap-3 md:grid-cols-2 lg:grid-cols-1 lg:overflow-y-auto">
           <CameraView />
           <MapView />
+          <HistoryPanel />
         </aside>
       </main>
       <StatusBar />

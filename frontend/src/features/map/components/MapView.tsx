@@ -1,17 +1,22 @@
 import { useCallback, useMemo, useState } from 'react';
 import { Panel } from '@/components/ui/Panel';
 import { usePolling } from '@/lib/usePolling';
+import { localClock, type RobotPose, type Sighting } from '@/features/history/api/history';
+import { Button } from '@/components/ui/Button';
 import { useChatStore } from '@/stores/chatStore';
+import { useHistoryStore } from '@/stores/historyStore';
 import { fetchLocations, fetchPose, type LocationList, type Pose } from '../api/map';
 
 const POSE_PERIOD_MS = 400; // 2.5 Hz
 const WIDTH = 300;
 const PAD = 34;
 
+type Point = { x: number; y: number };
+
 /** Map metres → SVG pixels (y up in the map, down on screen); the height follows the map. */
-function projection(list: LocationList, pose: Pose | null) {
-  const xs = list.locations.map((l) => l.x).concat(pose ? [pose.x] : []);
-  const ys = list.locations.map((l) => l.y).concat(pose ? [pose.y] : []);
+function projection(list: LocationList, points: Point[]) {
+  const xs = list.locations.map((l) => l.x).concat(points.map((p) => p.x));
+  const ys = list.locations.map((l) => l.y).concat(points.map((p) => p.y));
   const [minX, maxX, minY, maxY] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
   const scale = (WIDTH - 2 * PAD) / Math.max(maxX - minX, maxY - minY, 1);
   const height = Math.min(WIDTH, Math.max(140, 2 * PAD + (maxY - minY) * scale));
@@ -22,31 +27,54 @@ function projection(list: LocationList, pose: Pose | null) {
 type Box = { x0: number; y0: number; x1: number; y1: number };
 const overlaps = (a: Box, b: Box) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
 
-/** Name positions (label baselines) that avoid each other: above, below, right, left. */
-export function placeLabels(points: { name: string; cx: number; cy: number }[]): Map<string, [number, number, 'middle' | 'start' | 'end']> {
-  const placed: Box[] = points.map((p) => ({ x0: p.cx - 7, y0: p.cy - 7, x1: p.cx + 7, y1: p.cy + 7 }));
-  const result = new Map<string, [number, number, 'middle' | 'start' | 'end']>();
+type Anchor = 'middle' | 'start' | 'end';
+type LabelPoint = { name: string; cx: number; cy: number; r?: number; charWidth?: number };
+
+/** Name positions (label baselines) that avoid each other and the dots (radius `r`, 7 by
+ *  default): above, below, right, left — inside the map's width (a centred name slides in). */
+export function placeLabels(points: LabelPoint[], width = WIDTH): Map<string, [number, number, Anchor]> {
+  const placed: Box[] = points.map((p) => {
+    const r = p.r ?? 7;
+    return { x0: p.cx - r, y0: p.cy - r, x1: p.cx + r, y1: p.cy + r };
+  });
+  const result = new Map<string, [number, number, Anchor]>();
   for (const p of points) {
-    const w = p.name.length * 5.6;
-    const options: [number, number, 'middle' | 'start' | 'end', Box][] = [
-      [p.cx, p.cy - 12, 'middle', { x0: p.cx - w / 2, y0: p.cy - 22, x1: p.cx + w / 2, y1: p.cy - 10 }],
-      [p.cx, p.cy + 20, 'middle', { x0: p.cx - w / 2, y0: p.cy + 10, x1: p.cx + w / 2, y1: p.cy + 22 }],
-      [p.cx + 10, p.cy + 4, 'start', { x0: p.cx + 10, y0: p.cy - 6, x1: p.cx + 10 + w, y1: p.cy + 6 }],
-      [p.cx - 10, p.cy + 4, 'end', { x0: p.cx - 10 - w, y0: p.cy - 6, x1: p.cx - 10, y1: p.cy + 6 }],
+    const w = p.name.length * (p.charWidth ?? 5.6);
+    const r = p.r ?? 7;
+    const options: [number, number, Anchor, Box][] = [
+      [p.cx, p.cy - r - 5, 'middle', { x0: p.cx - w / 2, y0: p.cy - r - 15, x1: p.cx + w / 2, y1: p.cy - r - 3 }],
+      [p.cx, p.cy + r + 13, 'middle', { x0: p.cx - w / 2, y0: p.cy + r + 3, x1: p.cx + w / 2, y1: p.cy + r + 15 }],
+      [p.cx + r + 3, p.cy + 4, 'start', { x0: p.cx + r + 3, y0: p.cy - 6, x1: p.cx + r + 3 + w, y1: p.cy + 6 }],
+      [p.cx - r - 3, p.cy + 4, 'end', { x0: p.cx - r - 3 - w, y0: p.cy - 6, x1: p.cx - r - 3, y1: p.cy + 6 }],
     ];
-    const free = options.find(([, , , box]) => !placed.some((b) => overlaps(b, box))) ?? options[0];
-    if (!free) continue;
-    placed.push(free[3]);
-    result.set(p.name, [free[0], free[1], free[2]]);
+    for (const option of options) {
+      // A centred name that would leave the map slides back inside it.
+      const box = option[3];
+      const shift = option[2] !== 'middle' ? 0 : box.x0 < 2 ? 2 - box.x0 : box.x1 > width - 2 ? width - 2 - box.x1 : 0;
+      option[0] += shift;
+      option[3] = { ...box, x0: box.x0 + shift, x1: box.x1 + shift };
+    }
+    const free = (box: Box) => !placed.some((b) => overlaps(b, box));
+    const inside = (box: Box) => box.x0 >= 2 && box.x1 <= width - 2 && box.y0 >= 0;
+    const best =
+      options.find(([, , , box]) => free(box) && inside(box)) ?? options.find(([, , , box]) => free(box)) ?? options[0];
+    if (!best) continue;
+    placed.push(best[3]);
+    result.set(p.name, [best[0], best[1], best[2]]);
   }
   return result;
 }
+
+const HISTORY_KEY = '\u0000history'; // never a location's name
+const HISTORY_RING = 14;
 
 export function MapView() {
   const [list, setList] = useState<LocationList | null>(null);
   const [pose, setPose] = useState<Pose | null>(null);
   const [error, setError] = useState<string | null>(null);
   const setDraft = useChatStore((s) => s.setDraft);
+  const past = useHistoryStore((s) => s.selected);
+  const clearPast = useHistoryStore((s) => s.select);
 
   const tick = useCallback(async () => {
     try {
@@ -60,15 +88,30 @@ export function MapView() {
   }, [list]);
   usePolling(tick, list ? POSE_PERIOD_MS : 3000);
 
-  const view = useMemo(() => (list ? projection(list, pose) : null), [list, pose]);
-  const project = view?.project ?? null;
-  const labels = useMemo(
-    () =>
-      list && view
-        ? placeLabels(list.locations.map((l) => ({ name: l.name, cx: view.project(l.x, l.y)[0], cy: view.project(l.x, l.y)[1] })))
-        : new Map<string, [number, number, 'middle' | 'start' | 'end']>(),
-    [list, view],
+  // A sighting recorded on another map has no place on this one: it is named, not drawn.
+  const pastPose = past?.pose && list && (past.pose.map === null || past.pose.map === list.map) ? past.pose : null;
+  const view = useMemo(
+    () => (list ? projection(list, [...(pose ? [pose] : []), ...(pastPose ? [pastPose] : [])]) : null),
+    [list, pose, pastPose],
   );
+  const project = view?.project ?? null;
+  const pastText = past && pastPose ? `${past.label} · ${localClock(past.first_seen)}` : null;
+  const labels = useMemo(() => {
+    if (!list || !view) return new Map<string, [number, number, Anchor]>();
+    const points: LabelPoint[] = list.locations.map((l) => {
+      const [cx, cy] = view.project(l.x, l.y);
+      return { name: l.name, cx, cy };
+    });
+    if (pastPose && pastText) {
+      // Placed last: the history label moves around the places' names, never over them.
+      const [cx, cy] = view.project(pastPose.x, pastPose.y);
+      points.push({ name: pastText, cx, cy, r: HISTORY_RING + 3, charWidth: 6.2 });
+    }
+    const placed = placeLabels(points);
+    const history = pastText ? placed.get(pastText) : undefined;
+    if (history) placed.set(HISTORY_KEY, history);
+    return placed;
+  }, [list, view, pastPose, pastText]);
   const destination = pose?.destination ?? null;
 
   return (
@@ -113,6 +156,15 @@ export function MapView() {
               </g>
             );
           })}
+          {/* Under the live robot, so the robot stays visible where both coincide. */}
+          {past && pastPose && (
+            <HistoryMarker
+              sighting={past}
+              pose={pastPose}
+              at={project(pastPose.x, pastPose.y)}
+              label={labels.get(HISTORY_KEY) ?? [project(pastPose.x, pastPose.y)[0], project(pastPose.x, pastPose.y)[1] - 22, 'middle']}
+            />
+          )}
           {pose &&
             (() => {
               const [x, y] = project(pose.x, pose.y);
@@ -140,6 +192,72 @@ export function MapView() {
           click a place to fill “Go to …”
         </p>
       )}
+      {past && (
+        <p className="flex items-center justify-between gap-2 border-t border-line px-3 py-1 text-xs">
+          <span className="min-w-0 truncate" title={past.label}>
+            <span aria-hidden="true" className="text-history">
+              ◆{' '}
+            </span>
+            {pastPose
+              ? `Robot when it saw ${past.label}`
+              : past.pose
+                ? `${past.label} was seen on map ${past.pose.map}, not this one`
+                : `No position recorded for ${past.label}`}
+          </span>
+          <Button
+            variant="ghost"
+            aria-label="Clear history marker"
+            className="shrink-0 px-2 py-0.5 text-xs"
+            onClick={() => clearPast(null)}
+          >
+            Clear
+          </Button>
+        </p>
+      )}
     </Panel>
+  );
+}
+
+/** Where the robot stood when it saw a sighting: a dashed ring with its heading in the history
+ *  colour, and the label + local time where `label` says (placed around the places' names). */
+function HistoryMarker({
+  sighting,
+  pose,
+  at,
+  label,
+}: {
+  sighting: Sighting;
+  pose: RobotPose;
+  at: readonly [number, number];
+  label: [number, number, Anchor];
+}) {
+  const [x, y] = at;
+  const [lx, ly, anchor] = label;
+  const clock = localClock(sighting.first_seen);
+  const deg = (-pose.yaw * 180) / Math.PI;
+  return (
+    <g
+      data-testid="history-marker"
+      data-x={pose.x}
+      data-y={pose.y}
+      role="img"
+      aria-label={`Robot was here at ${clock} when it saw ${sighting.label}${sighting.place ? ` (${sighting.place})` : ''}`}
+    >
+      <g transform={`translate(${x} ${y}) rotate(${deg})`}>
+        <circle r={HISTORY_RING - 1} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
+        <path d={`M ${HISTORY_RING - 1} -4 L ${HISTORY_RING + 5} 0 L ${HISTORY_RING - 1} 4 Z`} className="fill-history" />
+        <circle r={3} className="fill-history" />
+      </g>
+      <text
+        x={lx}
+        y={ly}
+        textAnchor={anchor}
+        className="fill-history stroke-map-floor text-[10px] font-semibold"
+        strokeWidth={3}
+        style={{ paintOrder: 'stroke' }}
+      >
+        {sighting.label} · {clock}
+      </text>
+    </g>
   );
 }

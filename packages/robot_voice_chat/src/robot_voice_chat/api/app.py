@@ -21,6 +21,7 @@ from robot_voice_chat.api.routes import (
     chat,
     chat_history,
     health,
+    history,
     robot_map,
     safety,
     ui,
@@ -84,7 +85,13 @@ def create_app(
     app.include_router(safety.router)
     app.include_router(approvals.router)
     app.include_router(agent.build_router(container.config.api))
-    for router in (chat_history.router, camera.router, robot_map.router, ui.router):
+    for router in (
+        chat_history.router,
+        camera.router,
+        robot_map.router,
+        history.router,
+        ui.router,
+    ):
         app.include_router(router)
     ui.mount_ui(app, ui.static_dir(container.config.ui.static_dir))  # last: "/" catch-all
     return app

@@ -57,7 +57,7 @@ async def test_rest_without_a_session_gets_401_but_health_stays_public(
 ) -> None:
     address, _ = served
     async with httpx.AsyncClient(base_url=f"http://{address}") as http:
-        for path in ("/api/agent/missions", "/api/agent/teaching", "/openapi.json"):
+        for path in ("/api/agent/missions", "/api/agent/teaching", "/api/history", "/openapi.json"):
             response = await http.get(path)
             assert response.status_code == 401, path
             assert response.json() == {"detail": "login required"}

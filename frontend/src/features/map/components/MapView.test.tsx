@@ -1,0 +1,104 @@
+import { render, screen, waitFor, within } from '@testing-library/react';
+import userEvent from '@testing-library/user-event';
+import { afterEach, describe, expect, it, vi } from 'vitest';
+import { localClock, type Sighting } from '@/features/history/api/history';
+import { useHistoryStore } from '@/stores/historyStore';
+import { MapView, placeLabels } from './MapView';
+
+const LOCATIONS = {
+  map: 'office',
+  locations: [
+    { name: 'dock', description: '', x: 0, y: 0 },
+    { name: 'kitchen', description: '', x: 6, y: 4 },
+    { name: 'mailroom', description: '', x: 9, y: -3 },
+  ],
+};
+const POSE = { x: 0, y: 0, theta: 0, at_location: 'dock', moving: false, destination: null };
+const parcel: Sighting = {
+  id: 's-2',
+  label: 'yellow package',
+  skill: 'find_object',
+  first_seen: '2026-11-24T14:03:12.000Z',
+  last_seen: null,
+  ago: '2 min ago',
+  t: null,
+  seen_for: null,
+  place: 'mailroom',
+  pose: { x: 8.5, y: -2.5, yaw: 1.2, map: 'office' },
+  score: 0.9,
+  count: 3,
+};
+
+function serveMap() {
+  vi.stubGlobal(
+    'fetch',
+    vi.fn(async (url: string) => new Response(JSON.stringify(url.endsWith('/locations') ? LOCATIONS : POSE), { status: 200 })),
+  );
+}
+
+afterEach(() => {
+  vi.unstubAllGlobals();
+  useHistoryStore.setState({ selected: null });
+});
+
+describe('map: where the robot was when it saw something', () => {
+  it('marks the chosen sighting next to the live robot, and Clear removes only that marker', async () => {
+    serveMap();
+    useHistoryStore.setState({ selected: parcel });
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    const marker = await within(map).findByTestId('history-marker');
+    expect(marker).toHaveAttribute('data-x', '8.5');
+    expect(marker).toHaveAttribute('data-y', '-2.5');
+    expect(marker).toHaveAccessibleName(`Robot was here at ${localClock(parcel.first_seen)} when it saw yellow package (mailroom)`);
+    expect(marker).toHaveTextContent(`yellow package · ${localClock(parcel.first_seen)}`);
+    expect(within(map).getByTestId('robot')).toHaveAttribute('data-x', '0');
+
+    await userEvent.click(within(map).getByRole('button', { name: 'Clear history marker' }));
+    expect(within(map).queryByTestId('history-marker')).toBeNull();
+    expect(within(map).getByTestId('robot')).toBeInTheDocument();
+    expect(useHistoryStore.getState().selected).toBeNull();
+  });
+
+  it('draws no marker without a chosen sighting', async () => {
+    serveMap();
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    await within(map).findByTestId('robot');
+    expect(within(map).queryByTestId('history-marker')).toBeNull();
+    expect(within(map).queryByRole('button', { name: 'Clear history marker' })).toBeNull();
+  });
+
+  it('names but does not draw a pose recorded on another map', async () => {
+    serveMap();
+    useHistoryStore.setState({ selected: { ...parcel, pose: { ...parcel.pose!, map: 'warehouse' } } });
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    await waitFor(() => expect(map).toHaveTextContent('yellow package was seen on map warehouse, not this one'));
+    expect(within(map).queryByTestId('history-marker')).toBeNull();
+  });
+});
+
+describe('placeLabels', () => {
+  it('puts a history label beside a place, never over its name, and inside the map', () => {
+    const history = 'yellow package · 23:54:33';
+    const placed = placeLabels([
+      { name: 'mailroom', cx: 266, cy: 130 },
+      { name: 'reception', cx: 89, cy: 150 },
+      { name: history, cx: 266, cy: 130, r: 17, charWidth: 6.2 },
+    ]);
+    const box = (name: string, charWidth: number) => {
+      const [x, y, anchor] = placed.get(name)!;
+      const w = name.length * charWidth;
+      const x0 = anchor === 'start' ? x : anchor === 'end' ? x - w : x - w / 2;
+      return { x0, x1: x0 + w, y0: y - 10, y1: y + 2 };
+    };
+    const label = box(history, 6.2);
+    expect(label.x0).toBeGreaterThanOrEqual(2);
+    expect(label.x1).toBeLessThanOrEqual(298);
+    for (const other of [box('mailroom', 5.6), box('reception', 5.6)]) {
+      const apart = label.x1 <= other.x0 || other.x1 <= label.x0 || label.y1 <= other.y0 || other.y1 <= label.y0;
+      expect(apart).toBe(true);
+    }
+  });
+});

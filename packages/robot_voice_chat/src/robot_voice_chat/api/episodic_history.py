@@ -1,0 +1,133 @@
+"""What the UI's History panel shows, read from the episodic memory server (pure helpers).
+
+The server's ``what_happened`` lists the sightings of a window (label, skill, first seen,
+place); its ``last_seen`` adds what a row on the map needs (the robot's pose when it first saw
+the thing, last seen, best score, count). The route calls both and :func:`sighting_rows`
+joins them by sighting id, newest first.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from datetime import UTC, datetime
+from typing import Any
+
+from robot_mcp_kit.mcp_runtime import parse_tool_error
+
+SERVER = "episodic"
+DEFAULT_SINCE = "-1h"
+MAX_LIMIT = 100
+MAX_SINCE_CHARS = 40
+LAST_SEEN_N = 50  # the server's maximum: every row of one label in a window of MAX_LIMIT rows
+_RELATIVE = re.compile(r"^-(\d+(?:\.\d+)?)(s|m|min|h|d)$")
+SINCE_FORMS = "a relative time (-30s, -10m, -2h, -1d) or an ISO 8601 time (2026-11-24T15:00:00Z)"
+QUERY_ERRORS = frozenset({"invalid_time", "invalid_range"})
+
+
+class HistoryError(Exception):
+    """A request the panel cannot answer: ``status`` (422 / 502 / 503), a code, a sentence."""
+
+    def __init__(self, status: int, error: str, detail: str, tool_code: str = "") -> None:
+        super().__init__(detail)
+        self.status = status
+        self.error = error
+        self.detail = detail
+        self.tool_code = tool_code  # the episodic tool's own error code, if it sent one
+
+    def body(self) -> dict[str, str]:
+        return {"error": self.error, "detail": self.detail}
+
+
+def not_connected() -> HistoryError:
+    return HistoryError(
+        503,
+        "episodic_unavailable",
+        "The episodic memory server is not connected, so the robot's history cannot be shown.",
+    )
+
+
+def check_since(text: str, now: float) -> str:
+    """``since`` as the episodic server reads it, or a 422 that says which forms work."""
+    value = text.strip()
+    if not value or len(value) > MAX_SINCE_CHARS:
+        raise HistoryError(422, "invalid_query", f"since must be {SINCE_FORMS}")
+    if _RELATIVE.match(value):
+        return value
+    try:
+        parsed = datetime.fromisoformat(value.replace("Z", "+00:00"))
+    except ValueError:
+        raise HistoryError(
+            422, "invalid_query", f"since {text!r} is not a time: use {SINCE_FORMS}"
+        ) from None
+    if parsed.tzinfo is None:  # as the server reads it: no zone = UTC
+        parsed = parsed.replace(tzinfo=UTC)
+    if parsed.timestamp() > now:
+        raise HistoryError(422, "invalid_query", f"since {text!r} is in the future")
+    return value
+
+
+def check_limit(limit: int) -> int:
+    if not 1 <= limit <= MAX_LIMIT:
+        raise HistoryError(422, "invalid_query", f"limit must be between 1 and {MAX_LIMIT}")
+    return limit
+
+
+def tool_failure(tool: str, text: str) -> HistoryError:
+    """An episodic tool error: a time the server cannot use is the caller's (422), anything
+    else the server's (502), with its sentence."""
+    parsed = parse_tool_error(text)
+    if parsed is None:
+        return HistoryError(502, "episodic_error", f"{tool}: {text.strip()[:300]}")
+    code = parsed["error"]
+    if code in QUERY_ERRORS:
+        return HistoryError(422, "invalid_query", parsed["detail"], code)
+    return HistoryError(502, "episodic_error", f"{tool}: {parsed['detail']}", code)
+
+
+def labels_of(happened: dict[str, Any]) -> list[str]:
+    """The distinct labels of the window's sightings, in the order they appear."""
+    return list(dict.fromkeys(str(item["label"]) for item in _sightings(happened)))
+
+
+def sighting_rows(happened: dict[str, Any], details: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``what_happened``'s sightings, newest first, each joined with its ``last_seen`` result
+    (``details``: every label's results) for the pose, last seen, score and count."""
+    by_id = {str(r["id"]): r for answer in details for r in answer.get("results") or []}
+    rows = []
+    for item in reversed(_sightings(happened)):
+        found = by_id.get(str(item["id"]), {})
+        last = found.get("last_seen") or {}
+        rows.append(
+            {
+                "id": str(item["id"]),
+                "label": str(item["label"]),
+                "skill": item.get("skill"),
+                "first_seen": item["time"],
+                "last_seen": last.get("time") or item.get("until"),
+                "ago": item.get("ago"),
+                "t": item.get("t"),
+                "seen_for": found.get("seen_for"),
+                "place": item.get("place"),
+                "pose": _pose(found.get("robot_pose")),
+                "score": found.get("best_score"),
+                "count": found.get("count"),
+            }
+        )
+    return rows
+
+
+def _sightings(happened: dict[str, Any]) -> list[dict[str, Any]]:
+    return [i for i in happened.get("items") or [] if i.get("kind") == "sighting"]
+
+
+def _pose(pose: Any) -> dict[str, Any] | None:
+    if not isinstance(pose, dict):
+        return None
+    try:
+        x, y, yaw = (float(pose[k]) for k in ("x", "y", "yaw"))
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) for v in (x, y, yaw)):
+        return None
+    return {"x": x, "y": y, "yaw": yaw, "map": pose.get("map")}

@@ -1,4 +1,4 @@
-"""Every tool the four MCP servers publish has honest annotations and a decision in the brain's
+"""Every tool the five MCP servers publish has honest annotations and a decision in the brain's
 shipped policy (issue 21): the live tool lists, read through the SDK's client from each server
 built as shipped (fakes only below their ports), leave no tool without a decision."""
 
@@ -17,6 +17,8 @@ from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import RecordingEventSink
 from mcp_skill_control.composition import build_app as build_skill_control
 from mcp_skill_control.config import SkillControlConfig
+from robot_mcp_episodic.composition import build_app as build_episodic
+from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
@@ -48,6 +50,9 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
             sink=RecordingEventSink(),
             follow_topics=False,
         ).server,
+        "episodic": build_episodic(
+            EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False), record_ros=False
+        ).server,
     }
     tools: dict[str, dict[str, Any] | None] = {}
     for name, server in servers.items():
@@ -61,11 +66,11 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
     await navigator.close()
 
 
-async def test_every_live_tool_of_the_four_servers_has_annotations_and_a_decision(
+async def test_every_live_tool_of_the_five_servers_has_annotations_and_a_decision(
     live_tools: dict[str, dict[str, Any] | None],
 ) -> None:
     policy = ToolPolicy.load(CONFIG_DIR / "policy.yaml")
-    assert len(live_tools) >= 28
+    assert len(live_tools) >= 35
     undecided = [
         name for name in live_tools if (rule := policy.rule(name)) is None or rule.decision is None
     ]
@@ -93,6 +98,9 @@ async def test_the_annotations_alone_would_ask_before_any_motion_or_free_configu
     assert decisions["navigation.get_pose"] == "allow"
     assert decisions["perception.what_do_you_see"] == "allow"
     assert decisions["memory.save_process"] == "allow"
+    assert decisions["episodic.last_seen"] == "allow"
+    assert decisions["episodic.record_note"] == "allow"
+    assert decisions["episodic.forget"] == "confirm"
     # stopping is never asked: the guard passes cancel_task and the stop tool ungated
     assert all(action != "deny" for action in decisions.values())
 

@@ -22,6 +22,7 @@ from pydantic import Field
 from robot_mcp_episodic.config import SERVER_NAME
 from robot_mcp_episodic.service import DIGEST_KINDS, Episodic, EpisodicError
 from robot_mcp_episodic.store.base import StoreError
+from robot_mcp_kit.annotations import DELETES, READ_ONLY, RECORDS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 
 logger = structlog.get_logger(__name__)
@@ -65,7 +66,7 @@ async def _answer(tool: str, work: Callable[[], dict[str, Any]]) -> dict[str, An
 def build_server(memory: Episodic) -> MCPServer:
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def what_happened(
         start: TimeText = "-10m",
         end: TimeText = "now",
@@ -85,7 +86,7 @@ def build_server(memory: Episodic) -> MCPServer:
             "what_happened", lambda: memory.what_happened(start, end, kinds, place, max_items)
         )
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def last_seen(
         query: Annotated[str, Field(description="What to look for, e.g. 'red mug'")],
         before: TimeText = "now",
@@ -99,7 +100,7 @@ def build_server(memory: Episodic) -> MCPServer:
         means X was never seen (say so, do not guess)."""
         return await _answer("last_seen", lambda: memory.last_seen(query, before, place, n))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def search_memory(
         query: Annotated[str, Field(description="Words to look for in notes and labels")],
         start: Annotated[str | None, Field(description="Earliest time; omit for all")] = None,
@@ -115,21 +116,21 @@ def build_server(memory: Episodic) -> MCPServer:
             "search_memory", lambda: memory.search_memory(query, start, end, place, k)
         )
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def pose_at(time: TimeText) -> dict[str, Any]:
         """Call this for "where were you at 3 pm / 10 minutes ago": the robot's recorded pose
         and named place nearest that time and the mission running then. Returns {"found",
         "place", "pose", "sample", "mission", "answer"}."""
         return await _answer("pose_at", lambda: memory.pose_at(time))
 
-    @server.tool()
+    @server.tool(annotations=READ_ONLY)
     async def memory_status() -> dict[str, Any]:
         """Call this to know how far back memory goes and whether recording works: rows and
         time span per kind, size of index and recordings, retention horizon, last write per
         stream, recording gaps and the forget audit log."""
         return await _answer("memory_status", memory.memory_status)
 
-    @server.tool()
+    @server.tool(annotations=DELETES)
     async def forget(
         start: TimeText,
         end: TimeText,
@@ -145,7 +146,7 @@ def build_server(memory: Episodic) -> MCPServer:
         Every deletion is audited (see memory_status)."""
         return await _answer("forget", lambda: memory.forget(start, end, label, place, dry_run))
 
-    @server.tool()
+    @server.tool(annotations=RECORDS)
     async def record_note(
         kind: Annotated[
             str,

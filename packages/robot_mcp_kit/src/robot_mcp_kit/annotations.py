@@ -20,6 +20,11 @@ STOPS = ToolAnnotations(
 RECORDS = ToolAnnotations(read_only_hint=False, destructive_hint=False, open_world_hint=False)
 """Adds a record or starts an observation; overwrites nothing."""
 
+DELETES = ToolAnnotations(
+    read_only_hint=False, destructive_hint=True, idempotent_hint=True, open_world_hint=False
+)
+"""Deletes stored records for good: hosts should ask before calling it."""
+
 MOVES_ROBOT = ToolAnnotations(
     read_only_hint=False, destructive_hint=True, idempotent_hint=False, open_world_hint=True
 )

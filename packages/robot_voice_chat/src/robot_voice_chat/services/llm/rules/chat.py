@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import AsyncIterator
+import time
+from collections.abc import AsyncIterator, Callable
+from datetime import UTC, datetime
+from typing import Any
 
 from robot_voice_chat.services.llm.base import (
     LLMProvider,
@@ -20,7 +23,14 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
+from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.recall import (
+    LAST_SEEN,
+    POSE_AT,
+    WHAT_HAPPENED,
+    Recall,
+)
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
     Reading,
@@ -34,7 +44,8 @@ GET_POSE = "navigation.get_pose"
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
-    "somewhere, watch for something, tell you what I see, where I am and which places I know — "
+    "somewhere, watch for something, tell you what I see, where I am and which places I know, "
+    "what I saw or did earlier ('when did you last see the mug?') — "
     "also several steps in a row ('go to the kitchen, then to reception')"
 )
 INTRO = (
@@ -59,11 +70,19 @@ def ack(command: Command) -> str:
 class RulesChat(LLMProvider):
     name = "rules"
 
-    def __init__(self, understanding: Understanding | None = None) -> None:
+    def __init__(
+        self,
+        understanding: Understanding | None = None,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
         self.understanding = understanding or Understanding()
+        self._clock = clock
         self._ids = 0
         self._calls: dict[str, str] = {}  # our tool call id → why we made it
+        self._recalls: dict[str, Recall] = {}  # our episodic call id → the question it answers
         self._pending: Question | None = None
+        self._last_turn: float | None = None  # when the person last spoke (this conversation)
+        self._previous_turn: float | None = None  # ... before the turn being answered
 
     @property
     def understanding_label(self) -> str:
@@ -76,6 +95,7 @@ class RulesChat(LLMProvider):
         last = messages[-1] if messages else Message(role="user")
         if last.tool_results:
             return self._on_result(last.tool_results[0], messages, names)
+        self._stamp_turn(messages)
         text = normalise(last.content)
         if _STOP.match(text) and "stop_mission" in names:
             self._pending = None
@@ -96,6 +116,10 @@ class RulesChat(LLMProvider):
             return self._reply(request, places, messages, names)
         if purpose == "pose":
             return LLMResponse(text=_where(result))
+        if purpose == "history":
+            recall = self._recalls.pop(result.tool_call_id, None)
+            tool = recall.tool if recall else _tool_of(result, messages)
+            return LLMResponse(text=recollection(recall, tool, result.content, result.is_error))
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")
         return LLMResponse(text="Done.")
@@ -118,6 +142,8 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=reading.question.text)
         if reading.kind == "stop" and "stop_mission" in names:
             return self._call("stop_mission", {}, "stop")
+        if reading.kind == "answer" and reading.recall is not None:
+            return self._recall(reading.recall, names)
         if reading.kind == "answer":
             return self._answer(reading.topic, places, names)
         if reading.kind == "greet":
@@ -152,7 +178,32 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
-    def _call(self, name: str, arguments: dict[str, str], purpose: str) -> LLMResponse:
+    def _recall(self, recall: Recall, names: set[str]) -> LLMResponse:
+        """A question about the past: one episodic call (never a motion)."""
+        if recall.tool not in names:
+            return LLMResponse(text=NOT_CONNECTED)
+        arguments = dict(recall.arguments)
+        if recall.since_turn and self._previous_turn is not None:
+            arguments["start"] = _iso(self._previous_turn)
+            recall = Recall(
+                recall.kind, recall.tool, arguments, "since your last turn", recall.obj,
+                recall.place, since_turn=True,
+            )  # fmt: skip
+        response = self._call(recall.tool, arguments, "history")
+        self._recalls[response.tool_calls[0].id] = recall
+        while len(self._recalls) > 64:
+            self._recalls.pop(next(iter(self._recalls)))
+        return response
+
+    def _stamp_turn(self, messages: list[Message]) -> None:
+        """A new turn (not a tool round): remember when the person spoke before it, if this
+        conversation holds an earlier turn (the pipeline keeps a history)."""
+        earlier = sum(1 for m in messages if m.role == "user" and m.content) > 1
+        now = self._clock()
+        self._previous_turn = self._last_turn if earlier else None
+        self._last_turn = now
+
+    def _call(self, name: str, arguments: dict[str, Any], purpose: str) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
         self._calls[call.id] = purpose
@@ -200,13 +251,19 @@ _PURPOSE_OF_TOOL = {
     GET_POSE: "pose",
     "start_mission": "mission",
     "stop_mission": "stop",
+    WHAT_HAPPENED: "history",
+    LAST_SEEN: "history",
+    POSE_AT: "history",
 }
 
 
-def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
-    """Why we made a call whose id we did not give (an API between us and the brain, e.g. an
-    OpenAI-compatible server, names the calls itself): the called tool tells."""
-    name = next(
+def _iso(stamp: float) -> str:
+    """The person's previous turn as an ISO time the episodic server reads (no arithmetic)."""
+    return datetime.fromtimestamp(stamp, UTC).isoformat(timespec="milliseconds")
+
+
+def _tool_of(result: ToolResult, messages: list[Message]) -> str:
+    return next(
         (
             call.name
             for m in messages
@@ -216,4 +273,9 @@ def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
         ),
         "",
     )
-    return _PURPOSE_OF_TOOL.get(name, "")
+
+
+def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
+    """Why we made a call whose id we did not give (an API between us and the brain, e.g. an
+    OpenAI-compatible server, names the calls itself): the called tool tells."""
+    return _PURPOSE_OF_TOOL.get(_tool_of(result, messages), "")

@@ -17,6 +17,7 @@ from robot_voice_chat.services.llm.understanding import clauses as cl
 from robot_voice_chat.services.llm.understanding.embedder import Embedder, default_embedder
 from robot_voice_chat.services.llm.understanding.intents import load_intents
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, key
+from robot_voice_chat.services.llm.understanding.recall import default_recall, read_recall
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
     ActionKind,
@@ -97,6 +98,9 @@ class Understanding:
         return reading
 
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
+        recall = read_recall(text)  # a question about the past: answered, never acted on
+        if recall is not None:
+            return Reading("answer", topic="history", recall=recall, intent="history")
         parts = cl.clauses(text)
         if not parts:
             return self._unclear(text)
@@ -137,7 +141,10 @@ class Understanding:
         if info.kind == "stop":
             return Reading("stop", intent=intent, score=score, stage="semantic")
         kind: Literal["greet", "answer"] = "greet" if intent == "greet" else "answer"
-        return Reading(kind, topic=intent, intent=intent, score=score, stage="answer")
+        recall = default_recall() if intent == "history" else None
+        return Reading(
+            kind, topic=intent, intent=intent, score=score, stage="answer", recall=recall
+        )
 
     def _scores(self, part: str) -> dict[str, float]:
         """Each intent's score: its nearest example's cosine similarity."""

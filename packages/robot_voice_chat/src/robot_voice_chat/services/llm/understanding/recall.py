@@ -1,0 +1,338 @@
+"""Questions about the past, read into the episodic tool call that answers them.
+
+"what did you see 30 seconds ago", "when did you last see the mug", "where did you see the
+scissors", "what happened while I was away / in the last 10 minutes", "where were you at
+3 pm". The server resolves every time: the brain only passes relative strings (``-45s``) and
+the clock text as said (``3pm``), never an absolute time it computed. A question about the past
+never moves the robot.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from robot_voice_chat.services.llm.understanding.clauses import normalise
+
+WHAT_HAPPENED = "episodic.what_happened"
+LAST_SEEN = "episodic.last_seen"
+POSE_AT = "episodic.pose_at"
+DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
+RecallKind = Literal["seen", "digest", "away", "last_seen", "pose_at", "visits"]
+
+_NUMBERS = {
+    "a": 1, "an": 1, "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6,
+    "seven": 7, "eight": 8, "nine": 9, "ten": 10, "eleven": 11, "twelve": 12, "fifteen": 15,
+    "twenty": 20, "thirty": 30, "forty": 40, "forty five": 45, "fifty": 50, "sixty": 60,
+    "ninety": 90, "a couple of": 2, "a couple": 2, "couple of": 2, "a few": 3, "few": 3,
+}  # fmt: skip
+_NUMBER = r"(?:\d+|" + "|".join(sorted(map(re.escape, _NUMBERS), key=len, reverse=True)) + ")"
+_UNIT = r"(?:seconds?|secs?|s|minutes?|mins?|m|hours?|hrs?|h)"
+_UNIT_S = {"s": 1, "m": 60, "h": 3600}
+_AGO = re.compile(
+    rf"\b(?:(?P<half>half an? (?:hour|minute))|(?P<n>{_NUMBER})\s*(?P<unit>{_UNIT}))\s+ago\b"
+    r"|\b(?P<moment>just now|a moment ago|a second ago|a few seconds ago|a little while ago)\b"
+)
+_SPAN = re.compile(
+    rf"\b(?:in|during|over|within|for|from)?\s*the\s+(?:last|past|previous)\s+"
+    rf"(?:(?P<half>half an? hour|half hour)|(?:(?P<n>{_NUMBER})\s*)?(?P<unit>{_UNIT}))\b"
+)
+_CLOCK = re.compile(
+    r"\b(?:at|around|about|by)?\s*(?P<clock>\d{1,2}(?::\d{2})?\s*(?:am|pm|a\.m\.|p\.m\.)"
+    r"|\d{1,2}:\d{2}|noon|midday|midnight)(?![\w:])"
+)
+_TODAY = re.compile(r"\b(?:today|this morning|this afternoon|so far today)\b")
+_RECENT = re.compile(r"\b(?:recently|lately|of late)\b")
+_AWAY = re.compile(
+    r"\b(?:while|when|whilst) i (?:was|were) (?:away|gone|out|out of the office|not here|"
+    r"not around|at lunch|in a meeting|in the meeting)"
+    r"|\bsince i (?:left|was (?:last )?here|went away|last (?:spoke|talked|asked|checked))"
+    r"|\bsince (?:we|you and i) (?:last )?(?:spoke|talked)|\bsince my last (?:message|question)"
+    r"|\bsince (?:the )?last time (?:we|i) (?:spoke|talked)|\bin my absence\b"
+    r"|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b|\bbring me up to (?:date|speed)\b"
+)
+_LAST_SEEN = [
+    re.compile(
+        r"\b(?:when|where)\b(?: and (?:when|where))?(?: exactly)?\s+(?:did|have|had)\s+you\s+"
+        r"(?:last|most recently|first|ever)?\s*(?:see|seen|spot|spotted|notice|noticed)\s+"
+        r"(?P<obj>.+)"
+    ),
+    re.compile(
+        r"\b(?:when|where)\b(?: and (?:when|where))?\s+you\s+(?:last\s+|most recently\s+)?"
+        r"(?:saw|spotted|noticed|have seen|'ve seen)\s+(?P<obj>.+)"
+    ),
+    re.compile(
+        r"\b(?:when was|what was) the last time (?:that )?you (?:saw|spotted|noticed|"
+        r"have seen|'ve seen|had seen) (?P<obj>.+)"
+    ),
+    re.compile(r"\bhow long ago (?:did|have) you (?:last )?(?:see|seen|spot|spotted) (?P<obj>.+)"),
+    re.compile(
+        r"^(?:have|did|had) you (?:ever |already |recently )?(?:see|seen|spot|spotted|notice|"
+        r"noticed|come across|came across|run into) (?P<obj>.+)"
+    ),
+    re.compile(r"\b(?:where|when) (?:was|were|is|are) (?P<obj>.+?) (?:last |first )?(?:seen|spotted)"),
+    re.compile(r"\bwhere (?:did|have) (?:i|we) (?:leave|left|put) (?P<obj>.+)"),
+    re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
+    re.compile(r"\bhave you (?:got any idea|any idea) where (?P<obj>.+?) (?:is|are|was|were)\b"),
+]
+_SEEN = re.compile(
+    r"\bwhat\s+(?:else\s+)?(?:did|have|had)\s+you\s+(?:just\s+)?(?:see|seen|spot|spotted|notice|"
+    r"noticed|observe|observed|look at|looked at)\b"
+    r"|\bwhat\s+(?:(?:objects|things)\s+)?you\s+(?:just\s+)?(?:saw|spotted|noticed|observed|have seen|'ve seen)\b"
+    r"|\b(?:did|have) you (?:see|seen|spot|spotted|notice|noticed) (?:anything|something|"
+    r"any(?:one|body)|things)\b"
+    r"|\bwhat (?:was|were) (?:in front of you|you looking at|in view|on (?:your )?camera)\b"
+    r"|\bwhat (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted|notice|noticed)\b"
+    r"|\bwhat (?:did|had) (?:your camera|the camera|you) (?:pick up|catch|detect|see)\b"
+    r"|\bwhich (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted)\b"
+)
+_DIGEST = re.compile(
+    r"\bwhat(?:'s| has| had|'d)?\s+(?:just\s+)?(?:happened|happening|been happening|been going on|"
+    r"went on|going on)\b"
+    r"|\bwhat (?:did|have) you (?:do|done|been doing|been up to|get up to|got up to)\b"
+    r"|\bwhat (?:were|was) you (?:doing|up to)\b"
+    r"|\banything (?:happen|happened|new|interesting|going on|to report)\b"
+    r"|\bdid anything (?:happen|interesting happen)\b"
+    r"|\bwhat(?:'s| is) new\b|\bgive me (?:a |an )?(?:summary|recap|rundown|update)\b"
+    r"|\b(?:summari[sz]e|recap)\b|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b"
+    r"|\bbring me up to (?:date|speed)\b|\bwhat went on\b"
+)
+_POSE_AT = re.compile(
+    r"\bwhere\s+(?:were|was)\s+(?:you|the robot|it)\b|\bwhich (?:room|place|location) were you"
+    r"|\bwhere had you been\b|\bwhat were you doing\b|\bwhere did you be\b"
+)
+_VISITS = re.compile(
+    r"\bwhere (?:have|did) you (?:been|go|gone|drive|driven|went)\b"
+    r"|\bwhich (?:places|rooms) (?:did|have) you (?:visit|visited|go to|been to|drive to)"
+    r"|\bwhere all (?:have|did) you\b"
+)
+_NOTHING = {"anything", "something", "things", "much", "anyone", "anybody", "it", "that", "them"}
+_OBJECT_TAIL = re.compile(
+    r"(?:\s*,?\s*(?:and|or)\s+(?:when|where|how|what|for how long)\b.*"
+    r"|\s+(?:the\s+)?(?:last|first)(?:\s+time)?\b.*|\s+most recently\b.*"
+    r"|\s+(?:recently|lately|before|earlier|yet|today|at all|anywhere|around|ever|"
+    r"this morning|this afternoon|please|again)\b.*"
+    r"|\s+(?:is|are|was|were)$)"
+)
+_PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
+_ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
+
+
+@dataclass(frozen=True)
+class Recall:
+    """A question about the past as one episodic call; ``said``: the time as the robot restates it
+    ("around 30 s ago", "in the last 10 minutes"), ``obj``/``place``: what and where was asked."""
+
+    kind: RecallKind
+    tool: str
+    arguments: dict[str, Any] = field(default_factory=dict)
+    said: str = ""
+    obj: str | None = None
+    place: str | None = None
+    since_turn: bool = False  # start at the person's previous turn, when it is known
+
+    def code(self) -> str:
+        """The phrasing sets' label: answer:history | answer:last_seen | answer:pose_at."""
+        if self.tool == LAST_SEEN:
+            return "last_seen"
+        if self.tool == POSE_AT:
+            return "pose_at"
+        return "history"
+
+
+def read_recall(text: str) -> Recall | None:
+    """The question about the past in ``text``, or None (not one, or not sure)."""
+    clean = normalise(text).strip(" .!?")
+    clean = re.sub(r"^(?:hey\s+)?robot[,\s]+", "", clean)
+    if not clean:
+        return None
+    for reader in (_pose_at, _last_seen, _seen, _visits, _digest):
+        recall = reader(clean)
+        if recall is not None:
+            return recall
+    return None
+
+
+def default_recall() -> Recall:
+    """What a question about the past that only the meaning matcher understood gets: the
+    digest since the person's previous turn (else the last hour)."""
+    return _away()
+
+
+# --- the readers -----------------------------------------------------------------------------
+def _pose_at(text: str) -> Recall | None:
+    if not _POSE_AT.search(text):
+        return None
+    clock = _clock(text)
+    if clock is not None:
+        return Recall("pose_at", POSE_AT, {"time": clock}, f"at {clock}")
+    ago = _ago(text)
+    if ago is not None:
+        seconds, said = ago
+        return Recall("pose_at", POSE_AT, {"time": f"-{seconds}s"}, said)
+    return None
+
+
+def _last_seen(text: str) -> Recall | None:
+    for pattern in _LAST_SEEN:
+        match = pattern.search(text)
+        if match is None:
+            continue
+        obj, place = _object(match["obj"])
+        if obj is None:
+            return None
+        arguments: dict[str, Any] = {"query": obj}
+        if place is not None:
+            arguments["place"] = place
+        return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place)
+    return None
+
+
+def _seen(text: str) -> Recall | None:
+    if not _SEEN.search(text):
+        return None
+    return _window(text, ["sightings"], "seen", default=("-1h", "in the last hour"))
+
+
+def _visits(text: str) -> Recall | None:
+    if not _VISITS.search(text):
+        return None
+    return _window(text, ["places"], "visits", default=("-1h", "in the last hour"))
+
+
+def _digest(text: str) -> Recall | None:
+    if _AWAY.search(text):
+        return _away()
+    if not _DIGEST.search(text):
+        return None
+    recall = _window(text, None, "digest", default=None)
+    return recall or _away()
+
+
+def _away() -> Recall:
+    return Recall(
+        "away", WHAT_HAPPENED, {"start": DEFAULT_AWAY, "max_items": 100}, "while away",
+        since_turn=True,
+    )  # fmt: skip
+
+
+def _window(
+    text: str, kinds: list[str] | None, kind: RecallKind, default: tuple[str, str] | None
+) -> Recall | None:
+    """The time range a question names: "N ago" (a window around it), "in the last N", "today";
+    else ``default`` (start, how it is said)."""
+    place = _place_of(text)
+    arguments: dict[str, Any] = {"max_items": 100}
+    if kinds is not None:
+        arguments["kinds"] = kinds
+    if place is not None:
+        arguments["place"] = place
+    span = _span(text)
+    ago = _ago(text) if span is None else None
+    if _AWAY.search(text):
+        arguments["start"] = DEFAULT_AWAY
+        return Recall(kind, WHAT_HAPPENED, arguments, "while away", place=place, since_turn=True)
+    if span is not None:
+        seconds, said = span
+        arguments["start"] = f"-{seconds}s"
+    elif ago is not None:
+        seconds, said = ago
+        half = max(15, seconds // 2)  # a window around the moment asked about
+        arguments["start"] = f"-{seconds + half}s"
+        if seconds - half > 0:
+            arguments["end"] = f"-{seconds - half}s"
+        said = f"around {said}"
+    elif _TODAY.search(text):
+        arguments["start"], said = "00:00", "today"
+    elif _RECENT.search(text):
+        arguments["start"], said = "-10m", "in the last 10 minutes"
+    elif default is not None:
+        arguments["start"], said = default
+    else:
+        return None
+    return Recall(kind, WHAT_HAPPENED, arguments, said, place=place)
+
+
+# --- slots -----------------------------------------------------------------------------------
+def _number(text: str) -> int:
+    return int(text) if text.isdigit() else _NUMBERS[text]
+
+
+def _ago(text: str) -> tuple[int, str] | None:
+    """Seconds before now, and how it was said ("30 s ago")."""
+    match = _AGO.search(text)
+    if match is None:
+        return None
+    if match["moment"]:
+        return 10, "just now"
+    if match["half"]:
+        seconds = 1800 if "hour" in match["half"] else 30
+    else:
+        seconds = _number(match["n"]) * _UNIT_S[match["unit"][0]]
+    said = {60: "a minute", 3600: "an hour"}.get(seconds, _spoken(seconds))
+    return seconds, f"{said} ago"
+
+
+def _span(text: str) -> tuple[int, str] | None:
+    match = _SPAN.search(text)
+    if match is None:
+        return None
+    if match["half"]:
+        seconds = 1800
+    else:
+        seconds = (_number(match["n"]) if match["n"] else 1) * _UNIT_S[match["unit"][0]]
+    return seconds, f"in the last {_spoken(seconds)}"
+
+
+def _spoken(seconds: int) -> str:
+    if seconds % 3600 == 0:
+        hours = seconds // 3600
+        return "hour" if hours == 1 else f"{hours} hours"
+    if seconds % 60 == 0:
+        minutes = seconds // 60
+        return "minute" if minutes == 1 else f"{minutes} minutes"
+    return f"{seconds} seconds"
+
+
+def _clock(text: str) -> str | None:
+    """The clock time as said, in a form the server reads (``3pm``, ``15:30``, ``12:00``)."""
+    match = _CLOCK.search(text)
+    if match is None:
+        return None
+    clock = match["clock"].replace(".", "").replace(" ", "")
+    return {"noon": "12:00", "midday": "12:00", "midnight": "00:00"}.get(clock, clock)
+
+
+def _place_of(text: str) -> str | None:
+    match = re.search(
+        r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)"
+        r"(?:the\s+|my\s+|our\s+)?(?P<place>[a-z' ]+?)"
+        r"(?=\s+(?:today|recently|lately|in the|during|over|this|\d|a |an |half|just|around)|$)",
+        text,
+    )
+    if match is None:
+        return None
+    place = match["place"].strip()
+    words = place.split()
+    if not words or words[0] in ("all", "front", "view") or _ago(place) or _span(place):
+        return None
+    return place
+
+
+def _object(phrase: str) -> tuple[str | None, str | None]:
+    """What to look up, and the place it was asked about ("the mug in the kitchen")."""
+    obj = phrase.strip(" ,.?!")
+    obj = _AGO.sub("", obj).strip()
+    obj = _SPAN.sub("", obj).strip()
+    obj = _OBJECT_TAIL.sub("", obj).strip(" ,")
+    place = None
+    where = _PLACE_TAIL.search(obj)
+    if where is not None:
+        place = where["place"].strip()
+        obj = obj[: where.start()].strip()
+    obj = _ARTICLE.sub("", obj).strip()
+    obj = re.sub(r"^(?:any|one|ones)\s+", "", obj).strip()
+    if not obj or obj in _NOTHING or len(obj.split()) > 5:
+        return None, None
+    return obj, place

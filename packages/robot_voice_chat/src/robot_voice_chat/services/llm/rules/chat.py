@@ -25,17 +25,17 @@ from robot_voice_chat.services.llm.base import (
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
 from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
-from robot_voice_chat.services.llm.understanding.recall import (
-    LAST_SEEN,
-    POSE_AT,
-    WHAT_HAPPENED,
-    Recall,
-)
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
     Reading,
     instruction_of,
     spoken_of,
+)
+from robot_voice_chat.services.llm.understanding.recall import (
+    LAST_SEEN,
+    POSE_AT,
+    WHAT_HAPPENED,
+    Recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 

@@ -116,8 +116,7 @@ def digest_sentence(data: dict[str, Any], recall: Recall | None) -> str:
         parts.append("I noted: " + "; ".join(f"“{n.get('text', '')}”" for n in notes[-2:]))
     said = [i for i in items if i.get("kind") in ("user", "robot")]
     if said:
-        lines = "line was" if len(said) == 1 else "lines were"
-        parts.append(f"{len(said)} conversation {lines} recorded")
+        parts.append(_conversation(said))
     if not parts:
         return f"I have no record of anything happening {when}."
     more = " (only the latest events)" if data.get("truncated") else ""
@@ -179,13 +178,23 @@ def _missions(items: list[dict[str, Any]]) -> str:
     return "missions: " + "; ".join(said) if said else ""
 
 
+def _conversation(lines: list[dict[str, Any]]) -> str:
+    """The last two lines said, quoted (who said them), and how many more there were."""
+    quoted = [
+        f"{'you' if line.get('kind') == 'user' else 'I'} said “{line.get('text', '')}”"
+        for line in lines[-2:]
+    ]
+    more = len(lines) - len(quoted)
+    return "; ".join(quoted) + (f" (and {more} more lines of conversation)" if more else "")
+
+
 def _sightings(items: list[dict[str, Any]], with_ago: bool = False) -> str:
     seen: dict[tuple[str, str], dict[str, Any]] = {}
     for item in items:
         if item.get("kind") == "sighting" and item.get("label"):
             seen.setdefault((str(item["label"]), str(item.get("place") or "")), item)
     listed = [
-        f"{_the(label)}{_at(place)}" + (f" ({item.get('ago', '')})" if with_ago else "")
+        f"{_the(label)}{_at(place)}" + (f" (first seen {item.get('ago', '')})" if with_ago else "")
         for (label, place), item in seen.items()
     ]
     if len(listed) > _MAX_LISTED:

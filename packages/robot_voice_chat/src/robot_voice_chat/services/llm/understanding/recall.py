@@ -71,7 +71,9 @@ _LAST_SEEN = [
         r"^(?:have|did|had) you (?:ever |already |recently )?(?:see|seen|spot|spotted|notice|"
         r"noticed|come across|came across|run into) (?P<obj>.+)"
     ),
-    re.compile(r"\b(?:where|when) (?:was|were|is|are) (?P<obj>.+?) (?:last |first )?(?:seen|spotted)"),
+    re.compile(
+        r"\b(?:where|when) (?:was|were|is|are) (?P<obj>.+?) (?:last |first )?(?:seen|spotted)"
+    ),
     re.compile(r"\bwhere (?:did|have) (?:i|we) (?:leave|left|put) (?P<obj>.+)"),
     re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
     re.compile(r"\bhave you (?:got any idea|any idea) where (?P<obj>.+?) (?:is|are|was|were)\b"),
@@ -79,7 +81,8 @@ _LAST_SEEN = [
 _SEEN = re.compile(
     r"\bwhat\s+(?:else\s+)?(?:did|have|had)\s+you\s+(?:just\s+)?(?:see|seen|spot|spotted|notice|"
     r"noticed|observe|observed|look at|looked at)\b"
-    r"|\bwhat\s+(?:(?:objects|things)\s+)?you\s+(?:just\s+)?(?:saw|spotted|noticed|observed|have seen|'ve seen)\b"
+    r"|\bwhat\s+(?:(?:objects|things)\s+)?you\s+(?:just\s+)?(?:saw|spotted|noticed|observed|"
+    r"have seen|'ve seen)\b"
     r"|\b(?:did|have) you (?:see|seen|spot|spotted|notice|noticed) (?:anything|something|"
     r"any(?:one|body)|things)\b"
     r"|\bwhat (?:was|were) (?:in front of you|you looking at|in view|on (?:your )?camera)\b"

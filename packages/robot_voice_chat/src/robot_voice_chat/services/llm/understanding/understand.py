@@ -17,7 +17,6 @@ from robot_voice_chat.services.llm.understanding import clauses as cl
 from robot_voice_chat.services.llm.understanding.embedder import Embedder, default_embedder
 from robot_voice_chat.services.llm.understanding.intents import load_intents
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, key
-from robot_voice_chat.services.llm.understanding.recall import default_recall, read_recall
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
     ActionKind,
@@ -26,6 +25,7 @@ from robot_voice_chat.services.llm.understanding.reading import (
     _with,
     spoken_of,
 )
+from robot_voice_chat.services.llm.understanding.recall import default_recall, read_recall
 
 logger = structlog.get_logger(__name__)
 _CANCEL = re.compile(

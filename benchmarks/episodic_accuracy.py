@@ -76,11 +76,16 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
     and the real episodic server on an in-memory MCP session): the tuning set (written with
     the grammar) and the held-out set (written apart from it), scored separately."""
     sys.path.insert(0, str(RULES_QUESTIONS))
-    from episodic_rules_questions import held_out, rules_chat_on_the_office_day, summary
+    from episodic_rules_questions import fresh, held_out, rules_chat_on_the_office_day, summary
 
     result: dict[str, Any] = {}
     async with rules_chat_on_the_office_day(work) as (asker, tuning):
-        for name, asked in (("tuning", tuning), ("held_out", held_out(asker.day.shown))):
+        sets = {
+            "tuning": tuning,
+            "held_out": held_out(asker.day.shown),
+            "fresh": fresh(asker.day.shown),
+        }
+        for name, asked in sets.items():
             started = time.perf_counter()
             answers = [await asker.ask(question) for question in asked]
             elapsed = time.perf_counter() - started

@@ -10,6 +10,7 @@ import json
 import re
 import time
 from collections.abc import AsyncIterator, Callable
+from dataclasses import replace
 from datetime import UTC, datetime
 from typing import Any
 
@@ -23,7 +24,7 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
-from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, recollection
+from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, by_id, recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
@@ -36,10 +37,13 @@ from robot_voice_chat.services.llm.understanding.recall import (
     POSE_AT,
     WHAT_HAPPENED,
     Recall,
+    follow_up_recall,
+    read_recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 LIST_LOCATIONS = "navigation.list_locations"
+_FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
@@ -79,7 +83,8 @@ class RulesChat(LLMProvider):
         self._clock = clock
         self._ids = 0
         self._calls: dict[str, str] = {}  # our tool call id → why we made it
-        self._recalls: dict[str, Recall] = {}  # our episodic call id → the question it answers
+        # our episodic call id → the question it answers, and the places to say it with
+        self._recalls: dict[str, tuple[Recall, PlaceIndex | None]] = {}
         self._pending: Question | None = None
         self._last_turn: float | None = None  # when the person last spoke (this conversation)
         self._previous_turn: float | None = None  # ... before the turn being answered
@@ -117,9 +122,11 @@ class RulesChat(LLMProvider):
         if purpose == "pose":
             return LLMResponse(text=_where(result))
         if purpose == "history":
-            recall = self._recalls.pop(result.tool_call_id, None)
+            recall, places = self._recalls.pop(result.tool_call_id, (None, None))
             tool = recall.tool if recall else _tool_of(result, messages)
-            return LLMResponse(text=recollection(recall, tool, result.content, result.is_error))
+            say = places.spoken if places is not None and places.places else by_id
+            text = recollection(recall, tool, result.content, result.is_error, say)
+            return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")
         return LLMResponse(text="Done.")
@@ -132,6 +139,8 @@ class RulesChat(LLMProvider):
         if pending is not None and _asked(pending, messages):
             reading = self.understanding.follow_up(pending, text, places)
         if reading is None:
+            reading = _history_follow_up(text, messages)
+        if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
             said = spoken_of(reading.actions)
@@ -143,7 +152,7 @@ class RulesChat(LLMProvider):
         if reading.kind == "stop" and "stop_mission" in names:
             return self._call("stop_mission", {}, "stop")
         if reading.kind == "answer" and reading.recall is not None:
-            return self._recall(reading.recall, names)
+            return self._recall(reading.recall, places, names)
         if reading.kind == "answer":
             return self._answer(reading.topic, places, names)
         if reading.kind == "greet":
@@ -178,19 +187,22 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
-    def _recall(self, recall: Recall, names: set[str]) -> LLMResponse:
+    def _recall(self, recall: Recall, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
         """A question about the past: one episodic call (never a motion)."""
         if recall.tool not in names:
             return LLMResponse(text=NOT_CONNECTED)
         arguments = dict(recall.arguments)
+        if recall.place is not None and places is not None and places.places:
+            match = places.resolve(recall.place)
+            if not match.sure:
+                return LLMResponse(text=_unsure_place(recall.place, match.names, places))
+            arguments["place"] = match.names[0]
+            recall = replace(recall, arguments=arguments, place=match.names[0])
         if recall.since_turn and self._previous_turn is not None:
             arguments["start"] = _iso(self._previous_turn)
-            recall = Recall(
-                recall.kind, recall.tool, arguments, "since your last turn", recall.obj,
-                recall.place, since_turn=True,
-            )  # fmt: skip
+            recall = replace(recall, arguments=arguments, said="since your last turn")
         response = self._call(recall.tool, arguments, "history")
-        self._recalls[response.tool_calls[0].id] = recall
+        self._recalls[response.tool_calls[0].id] = (recall, places)
         while len(self._recalls) > 64:
             self._recalls.pop(next(iter(self._recalls)))
         return response
@@ -255,6 +267,26 @@ _PURPOSE_OF_TOOL = {
     LAST_SEEN: "history",
     POSE_AT: "history",
 }
+
+
+def _history_follow_up(text: str, messages: list[Message]) -> Reading | None:
+    """A short follow-up ("and the laptop?", "what about 2:24 pm?") to the person's earlier
+    questions about the past in this conversation, read against them (a few turns back)."""
+    said = [m.content for m in messages if m.role == "user" and m.content][:-1][-_FOLLOW_UPS:]
+    recall: Recall | None = None
+    for earlier in said:
+        recall = (follow_up_recall(earlier, recall) if recall else None) or read_recall(earlier)
+    if recall is None:
+        return None
+    read = follow_up_recall(text, recall)
+    return Reading("answer", topic="history", recall=read, intent="history") if read else None
+
+
+def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:
+    if names:
+        return f"Which place do you mean: {', '.join(n.replace('_', ' ') for n in names)}?"
+    known = ", ".join(p.name.replace("_", " ") for p in places.places)
+    return f"I don't know a place called '{phrase}'. I know: {known}."
 
 
 def _iso(stamp: float) -> str:

@@ -5,6 +5,7 @@ the brain computed, and "I have no record of ..." when nothing was recorded (nev
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Any
 
 from robot_voice_chat.services.llm.understanding.recall import (
@@ -19,37 +20,48 @@ NOT_CONNECTED = (
     "server) is not connected."
 )
 _MAX_LISTED = 8
+Names = Callable[[str], str]  # a map id → how a sentence says it ("Alice's desk")
 
 
-def recollection(recall: Recall | None, tool: str, content: str, is_error: bool) -> str:
+def by_id(name: str) -> str:
+    """Without the live place list: the map id with spaces ("the desk alice")."""
+    return f"the {name.replace('_', ' ')}"
+
+
+def recollection(
+    recall: Recall | None, tool: str, content: str, is_error: bool, names: Names = by_id
+) -> str:
     """The answer to ``recall`` (None: a call whose question we no longer hold) from what
-    ``tool`` returned."""
+    ``tool`` returned; ``names`` says the places (the live place list's human names)."""
     if is_error:
         return f"I couldn't look that up in my memory: {_error_detail(content)}"
     data = _json(content)
     if not isinstance(data, dict):
         return "I couldn't look that up in my memory: the episodic server gave no answer."
     if tool == LAST_SEEN:
-        return last_seen_sentence(data, recall)
+        return last_seen_sentence(data, recall, names)
     if tool == POSE_AT:
-        return pose_sentence(data, recall)
+        return pose_sentence(data, recall, names)
     if tool == WHAT_HAPPENED:
-        return digest_sentence(data, recall)
+        return digest_sentence(data, recall, names)
     return str(data.get("answer") or data.get("summary") or "Done.")
 
 
 # --- last_seen ------------------------------------------------------------------------------
-def last_seen_sentence(data: dict[str, Any], recall: Recall | None) -> str:
+def last_seen_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     results = [r for r in data.get("results") or [] if isinstance(r, dict)]
     asked = (recall.obj if recall else None) or str(data.get("query") or "that")
     where = data.get("place") or (recall.place if recall else None)
     if not data.get("found") or not results:
-        at = f" at the {_place(where)}" if where else ""
+        at = _at(where, names)
         return f"I have no record of seeing {_the(asked)}{at}."
+    if recall is not None and recall.first:
+        more = len(results) >= int(recall.arguments["n"])
+        return _first_seen_sentence(results, asked, more, names)
     top = results[0]
     last = top.get("last_seen") or {}
     sentence = (
-        f"I last saw {_the(str(top.get('label') or asked))}{_at(top.get('place'))} "
+        f"I last saw {_the(str(top.get('label') or asked))}{_at(top.get('place'), names)} "
         f"{last.get('ago', '')} ({_clock(last.get('time'))})"
     )
     if top.get("seen_for"):
@@ -63,12 +75,33 @@ def last_seen_sentence(data: dict[str, Any], recall: Recall | None) -> str:
     )
     if earlier is not None:
         seen = earlier.get("last_seen") or {}
-        sentence += f" Before that I saw it{_at(earlier.get('place'))} {seen.get('ago', '')}."
+        sentence += (
+            f" Before that I saw it{_at(earlier.get('place'), names)} {seen.get('ago', '')}."
+        )
     return sentence
 
 
+def _first_seen_sentence(
+    results: list[dict[str, Any]], asked: str, more: bool, names: Names
+) -> str:
+    """The earliest sighting on record (results come newest first)."""
+    oldest = results[-1]
+    first = oldest.get("first_seen") or {}
+    label = _the(str(oldest.get("label") or asked))
+    sentence = (
+        f"The first time I have on record, I saw {label}{_at(oldest.get('place'), names)} "
+        f"{first.get('ago', '')} ({_clock(first.get('time'))})"
+    )
+    if more:
+        sentence += f" (the earliest of the last {len(results)} times I saw it)"
+    if len(results) > 1:
+        last = results[0].get("last_seen") or {}
+        sentence += f"; I last saw it{_at(results[0].get('place'), names)} {last.get('ago', '')}"
+    return sentence + "."
+
+
 # --- pose_at --------------------------------------------------------------------------------
-def pose_sentence(data: dict[str, Any], recall: Recall | None) -> str:
+def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     when = recall.said if recall and recall.said else "then"
     clock = _clock(data.get("time"))
     if not data.get("found"):
@@ -76,7 +109,7 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None) -> str:
     place = data.get("place")
     pose = data.get("pose") or {}
     if place:
-        where = f"at the {_place(place)}"
+        where = f"at {names(str(place))}"
     elif isinstance(pose.get("x"), int | float) and isinstance(pose.get("y"), int | float):
         where = f"between places, at x={pose['x']:.1f} m, y={pose['y']:.1f} m"
     else:
@@ -89,26 +122,24 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None) -> str:
 
 
 # --- what_happened --------------------------------------------------------------------------
-def digest_sentence(data: dict[str, Any], recall: Recall | None) -> str:
+def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     items = [i for i in data.get("items") or [] if isinstance(i, dict)]
     when = _when(data, recall)
     kind = recall.kind if recall else "digest"
     if kind == "seen":
-        return seen_sentence(items, when)
+        return seen_sentence(items, when, names)
     if not items:
         return f"I have no record of anything happening {when}."
     parts = []
-    visited = _visits(items)
+    visited = _visits(items, names)
     if visited:
         parts.append(
-            f"I was at the {visited[0]}"
-            if len(visited) == 1
-            else f"I went to {_listing([f'the {p}' for p in visited])}"
+            f"I was at {visited[0]}" if len(visited) == 1 else f"I went to {_listing(visited)}"
         )
     missions = _missions(items)
     if missions:
         parts.append(missions)
-    seen = _sightings(items)
+    seen = _sightings(items, names)
     if seen:
         parts.append(f"I saw {seen}")
     notes = [i for i in items if i.get("kind") in ("scene", "observation", "event")]
@@ -123,14 +154,14 @@ def digest_sentence(data: dict[str, Any], recall: Recall | None) -> str:
     return f"{_capital(when)}{more}: " + "; ".join(parts) + "."
 
 
-def seen_sentence(items: list[dict[str, Any]], when: str) -> str:
-    seen = _sightings(items, with_ago=True)
+def seen_sentence(items: list[dict[str, Any]], when: str, names: Names = by_id) -> str:
+    seen = _sightings(items, names, with_ago=True)
     if not seen:
         return f"I have no record of seeing anything {when}."
     return f"{_capital(when)} I saw {seen}."
 
 
-def last_sightings_sentence(content: str) -> str:
+def last_sightings_sentence(content: str, names: Names = by_id) -> str:
     """What the robot saw last (a what_happened answer of sightings), newest first: the
     historical mode of "what do you see"."""
     data = _json(content)
@@ -140,7 +171,7 @@ def last_sightings_sentence(content: str) -> str:
         return "I have no record of seeing anything in the last day."
     newest = list(reversed(sightings))[:3]
     listed = [
-        f"{_the(str(i.get('label')))}{_at(i.get('place'))} {i.get('ago', '')} "
+        f"{_the(str(i.get('label')))}{_at(i.get('place'), names)} {i.get('ago', '')} "
         f"({_clock(i.get('time'))})"
         for i in newest
     ]
@@ -158,11 +189,11 @@ def _when(data: dict[str, Any], recall: Recall | None) -> str:
     return recall.said
 
 
-def _visits(items: list[dict[str, Any]]) -> list[str]:
+def _visits(items: list[dict[str, Any]], names: Names) -> list[str]:
     places: list[str] = []
     for item in items:
         if item.get("kind") == "visit" and item.get("place"):
-            place = _place(item["place"])
+            place = names(str(item["place"]))
             if not places or places[-1] != place:
                 places.append(place)
     return places
@@ -188,13 +219,14 @@ def _conversation(lines: list[dict[str, Any]]) -> str:
     return "; ".join(quoted) + (f" (and {more} more lines of conversation)" if more else "")
 
 
-def _sightings(items: list[dict[str, Any]], with_ago: bool = False) -> str:
+def _sightings(items: list[dict[str, Any]], names: Names, with_ago: bool = False) -> str:
     seen: dict[tuple[str, str], dict[str, Any]] = {}
     for item in items:
         if item.get("kind") == "sighting" and item.get("label"):
             seen.setdefault((str(item["label"]), str(item.get("place") or "")), item)
     listed = [
-        f"{_the(label)}{_at(place)}" + (f" (first seen {item.get('ago', '')})" if with_ago else "")
+        f"{_the(label)}{_at(place, names)}"
+        + (f" (first seen {item.get('ago', '')})" if with_ago else "")
         for (label, place), item in seen.items()
     ]
     if len(listed) > _MAX_LISTED:
@@ -203,12 +235,8 @@ def _sightings(items: list[dict[str, Any]], with_ago: bool = False) -> str:
 
 
 # --- words ----------------------------------------------------------------------------------
-def _place(name: object) -> str:
-    return str(name).replace("_", " ")
-
-
-def _at(place: object) -> str:
-    return f" at the {_place(place)}" if place else ""
+def _at(place: object, names: Names = by_id) -> str:
+    return f" at {names(str(place))}" if place else ""
 
 
 def _the(thing: str) -> str:

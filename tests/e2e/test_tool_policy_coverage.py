@@ -17,6 +17,8 @@ from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import RecordingEventSink
 from mcp_skill_control.composition import build_app as build_skill_control
 from mcp_skill_control.config import SkillControlConfig
+from robot_mcp_episodic.composition import build_app as build_episodic
+from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
@@ -97,8 +99,29 @@ async def test_the_annotations_alone_would_ask_before_any_motion_or_free_configu
     assert all(action != "deny" for action in decisions.values())
 
 
+async def _episodic_tools(data_dir: Path) -> set[str]:
+    app = build_episodic(EpisodicConfig(data_dir=data_dir, record_raw=False), record_ros=False)
+    try:
+        async with Client(app.server) as client:
+            return {f"episodic.{t.name}" for t in (await client.list_tools()).tools}
+    finally:
+        app.close()
+
+
+async def test_every_episodic_tool_has_a_decision_in_the_shipped_policy(tmp_path: Path) -> None:
+    """The episodic server publishes no annotations yet, so without an entry each of its tools
+    would be denied (the rules chat's questions about the past failed on the real stack)."""
+    policy = ToolPolicy.load(CONFIG_DIR / "policy.yaml")
+    episodic = await _episodic_tools(tmp_path / "episodic")
+    assert {"episodic.last_seen", "episodic.what_happened", "episodic.pose_at"} <= episodic
+    undecided = [n for n in episodic if (rule := policy.rule(n)) is None or rule.decision is None]
+    assert undecided == []
+    assert policy.rule("episodic.forget").decision == "confirm"  # type: ignore[union-attr]
+
+
 async def test_the_shipped_policy_lists_no_tool_the_servers_do_not_have(
-    live_tools: dict[str, dict[str, Any] | None],
+    live_tools: dict[str, dict[str, Any] | None], tmp_path: Path
 ) -> None:
     policy = ToolPolicy.load(CONFIG_DIR / "policy.yaml")
-    assert sorted(policy.named_tools() - set(live_tools)) == []
+    episodic = await _episodic_tools(tmp_path / "episodic-listed")
+    assert sorted(policy.named_tools() - set(live_tools) - episodic) == []

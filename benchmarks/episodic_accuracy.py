@@ -1,9 +1,13 @@
 """Episodic memory: accuracy on the question set of the scripted office day (3 h of robot
 time, time-compressed; ``robot_mcp_episodic.episode``), asked through the MCP tools exactly as
-the planner would, on SQLite and (with ``--postgres DSN``) PostgreSQL.
+the planner would, on SQLite and (with ``--postgres DSN``) PostgreSQL; with ``--through rules``
+also the plain-words question set asked through the brain's keyless chat (rules chat +
+understanding layer) over the same server (``tests/integration/episodic_rules_questions.py``).
 
-    uv run python benchmarks/episodic_accuracy.py [--postgres DSN|throwaway]
+    uv run python benchmarks/episodic_accuracy.py [--postgres DSN|throwaway] [--through rules]
         # writes benchmarks/results/episodic_accuracy.json
+        # (--through rules also benchmarks/results/episodic_accuracy_rules.json: the tuning
+        # set, written with the grammar, and the held-out set, written apart, scored apart)
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -27,6 +32,7 @@ from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing.postgres import PostgresServer
 
 RESULTS = Path(__file__).parent / "results"
+RULES_QUESTIONS = Path(__file__).parents[1] / "tests" / "integration"
 START = 1_790_000_000.0
 
 
@@ -65,10 +71,39 @@ async def ask_all(store: EpisodicStore | None, data_dir: Path) -> dict[str, Any]
         app.close()
 
 
+async def ask_through_rules(work: Path) -> dict[str, Any]:
+    """The plain-words sets through the rules chat (the chat pipeline, its understanding layer
+    and the real episodic server on an in-memory MCP session): the tuning set (written with
+    the grammar) and the held-out set (written apart from it), scored separately."""
+    sys.path.insert(0, str(RULES_QUESTIONS))
+    from episodic_rules_questions import fresh, held_out, rules_chat_on_the_office_day, summary
+
+    result: dict[str, Any] = {}
+    async with rules_chat_on_the_office_day(work) as (asker, tuning):
+        sets = {
+            "tuning": tuning,
+            "held_out": held_out(asker.day.shown),
+            "fresh": fresh(asker.day.shown),
+        }
+        for name, asked in sets.items():
+            started = time.perf_counter()
+            answers = [await asker.ask(question) for question in asked]
+            elapsed = time.perf_counter() - started
+            result[name] = summary(answers)
+            result[name]["ms_per_question"] = round(elapsed * 1000 / max(1, len(answers)), 1)
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument(
         "--postgres", help="DSN of an empty PostgreSQL database, or 'throwaway' to start one"
+    )
+    parser.add_argument(
+        "--through",
+        choices=["tools", "rules"],
+        default="tools",
+        help="rules: also ask the plain-words set through the brain's rules chat",
     )
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="episodic-accuracy-"))
@@ -89,6 +124,17 @@ def main() -> None:
               f"{measured['by_tool']}; wrong: {measured['wrong'] or 'none'}")  # fmt: skip
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "episodic_accuracy.json").write_text(json.dumps(result, indent=2))
+    if args.through == "rules":
+        rules = asyncio.run(ask_through_rules(work / "rules"))
+        for name, got in rules.items():
+            print(f"through the rules chat, {name} set: {got['correct']}/{got['questions']} "
+                  f"correct (accuracy {got['accuracy']:.1%}, goal >= 90 %); by kind "
+                  f"{got['by_kind']}; {got['ms_per_question']} ms per question; "
+                  f"would move the robot: {got['would_move'] or 'none'}; "
+                  f"wrong: {[w['q'] for w in got['wrong']] or 'none'}")  # fmt: skip
+        (RESULTS / "episodic_accuracy_rules.json").write_text(
+            json.dumps(rules, indent=2, ensure_ascii=False)
+        )
 
 
 if __name__ == "__main__":

@@ -3,11 +3,13 @@
 Starts every service of ``deploy/local-stack.yaml`` as its own OS process (robot-sim — a
 simulated robot with Nav2's NavigateToPose, /amcl_pose and a camera showing the place it is in —,
 the vision node on that camera topic with the offline grounder + GrabCut, skill_control,
-perception buffer, memory, navigation driving robot-sim through Nav2's action, the brain on its
-dev preset with recorded LLM replies), stores a taught
-process in memory, then acts as the user: one request over REST, everything else watched over
-Socket.IO like the UI. The mailroom door is closed on the first try (the map's failure entry),
-so the mission has to replan. Every process is stopped by PID at the end, also on Ctrl+C.
+perception buffer, memory, the episodic memory recording it all, navigation driving robot-sim
+through Nav2's action, the brain on its dev preset: the keyless rules chat and the recorded
+planner replies), stores a taught process in memory, then acts as the user: one request over
+REST, everything else watched over Socket.IO like the UI. The mailroom door is closed on the
+first try (the map's failure entry), so the mission has to replan. At the end the user asks
+"what did you see in the last minute?" and the robot answers from its episodic memory. Every
+process is stopped by PID at the end, also on Ctrl+C.
 
     uv run python scripts/demo.py [--keep] [--timeout-s 120]
 
@@ -40,6 +42,10 @@ from robot_stack_testing.stack import PortsBusyError, StackError
 ROOT = Path(__file__).resolve().parents[1]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 VAR_DIR = ROOT / "build" / "demo"
+# the chat is the keyless rules chat (it reads the request and answers questions about the past
+# from the episodic memory, live); the planner plays its recorded mission
+BRAIN_OVERRIDES = {"brain_config_overrides": "llm_planner=replay"}
+HISTORY_QUESTION = "what did you see in the last minute?"
 
 
 def say(text: str) -> None:
@@ -54,6 +60,13 @@ async def drive(stack: RunningStack, timeout_s: float) -> MissionRecord:
         states = await user.wait_servers_connected(30.0)
         say(f"demo: brain connected to {', '.join(sorted(states))}")
         return await user.run_mission(MAILROOM_REQUEST, timeout_s)
+
+
+async def ask_about_the_past(stack: RunningStack) -> str:
+    """One more user turn, answered from the episodic memory (never a motion)."""
+    async with MissionDriver(stack.brain_url) as user:
+        reply = await user.send(HISTORY_QUESTION)
+    return str(reply.get("reply") or "")
 
 
 def summarize(record: MissionRecord) -> bool:
@@ -83,12 +96,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     started = time.monotonic()
     try:
-        with mailroom_stack(ROOT, VAR_DIR, stack_file=STACK_FILE) as stack:
+        with mailroom_stack(ROOT, VAR_DIR, BRAIN_OVERRIDES, stack_file=STACK_FILE) as stack:
             for name, process in stack.services.items():
                 say(f"demo:   {name:<12} pid {process.pid}")
             say(f"demo: stack up in {time.monotonic() - started:.1f}s\n")
             record = asyncio.run(drive(stack, args.timeout_s))
             ok = summarize(record)
+            say(f"\ndemo: you: {HISTORY_QUESTION}")
+            answer = asyncio.run(ask_about_the_past(stack))
+            say(f"demo: robot: {answer}")
+            ok = ok and bool(answer)
             if args.keep:
                 say(f"demo: stack left running, brain on {stack.brain_url} — Ctrl+C to stop")
                 while True:

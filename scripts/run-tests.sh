@@ -44,6 +44,8 @@ for package in "${PACKAGES[@]}"; do
   run_package "$package"
 done
 run_suite interfaces interfaces -q
+# cross-package tests in one process (e.g. the episodic question set through the rules chat)
+run_suite integration tests/integration -q
 # deploy: colcon build of the ROS packages, install.sh in a throwaway root, systemd-analyze
 # verify of the units, smoke.sh against a local stack on free ports.
 run_suite deploy tests/deploy -q

@@ -6,7 +6,9 @@ camera topic showing the place the robot is in).
     hello → go to the kitchen → find the mug (the red mug on the counter) → fetch the package
     from the mailroom (Nav2 NO_VALID_PATH at the closed door → NO_PATH from the real
     navigation server → detour via corridor_b → found) → find the mug (none in the
-    mailroom) → what do you see → stop mid-drive → continue → Teach + mission → save_process
+    mailroom) → what do you see → what did you see a minute ago / when did you last see the
+    yellow package / a giraffe (the episodic memory) → stop mid-drive → continue → Teach +
+    mission → save_process
     → the same instruction again → the process is retrieved (trace + processes_retrieved log)
 """
 
@@ -108,8 +110,46 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
     assert seen.outcome == "succeeded", seen.of("mission_finished")
     assert seen.snapshot["summary"].startswith("I see")
 
+    await questions_about_the_past(stack, "yellow package")
     await stop_mid_drive_then_continue(stack)
     await teaching_round_trip(stack, tmp_path)
+
+
+async def questions_about_the_past(stack: RunningStack, label: str) -> None:
+    """Issue 20: the episodic server recorded the mission from ROS (the vision node's
+    detections, robot-sim's /amcl_pose); the rules chat answers from it, never moving."""
+    episodic = stack.url("episodic", "/sse")
+
+    async def window_holds_sightings() -> list[dict[str, Any]]:
+        # the very window "a minute ago" reads (-90 s to -30 s): the sightings of the
+        # mission must have aged into it (the index flushes every second)
+        answer = await call_mcp(
+            episodic, "what_happened",
+            {"start": "-90s", "end": "-30s", "kinds": ["sightings"], "max_items": 100},
+        )  # fmt: skip
+        items = answer.get("items", []) if isinstance(answer, dict) else []
+        return [i for i in items if i.get("kind") == "sighting" and i.get("place")]
+
+    seen = await async_wait_until(
+        window_holds_sightings, 150, "sightings a minute old", interval_s=1.0
+    )
+    async with MissionDriver(stack.brain_url) as user:
+        minute = await user.send("what did you see a minute ago?")
+        assert minute["route"] == "fast", minute
+        said = minute["reply"].lower()
+        assert any(str(i["label"]).lower() in said for i in seen), (minute, seen)
+        assert " ago" in said, minute
+        assert " at " in said, minute
+
+        last = await user.send(f"when did you last see the {label}?")
+        assert last["route"] == "fast", last
+        said = last["reply"].lower()
+        assert said.startswith(f"i last saw the {label} at the mailroom"), last
+        assert " ago (" in said, last
+
+        never = await user.send("have you seen a giraffe?")
+        assert never["route"] == "fast", never
+        assert never["reply"] == "I have no record of seeing the giraffe."
 
 
 async def stop_mid_drive_then_continue(stack: RunningStack) -> None:

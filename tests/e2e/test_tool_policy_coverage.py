@@ -40,6 +40,9 @@ MAP = {"start": "dock", "locations": {"dock": {"x": 0, "y": 0}}, "speed_mps": 2.
 async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] | None]]:
     navigator = Navigator(parse_map(MAP), FakeMotionBase(), FakeEventSink(), TaskTable())
     memory = build_memory(MemoryConfig(db_path=tmp_path / "m.sqlite3", robot_id="r1"))
+    episodic = build_episodic(
+        EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False), record_ros=False
+    )
     servers: dict[str, MCPServer] = {
         "navigation": build_navigation(navigator),
         "memory": build_memory_server(memory),
@@ -50,9 +53,7 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
             sink=RecordingEventSink(),
             follow_topics=False,
         ).server,
-        "episodic": build_episodic(
-            EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False), record_ros=False
-        ).server,
+        "episodic": episodic.server,
     }
     tools: dict[str, dict[str, Any] | None] = {}
     for name, server in servers.items():
@@ -64,6 +65,7 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
                 )
     yield tools
     await navigator.close()
+    episodic.close()
 
 
 async def test_every_live_tool_of_the_five_servers_has_annotations_and_a_decision(

@@ -8,7 +8,11 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import AsyncIterator
+import time
+from collections.abc import AsyncIterator, Callable
+from dataclasses import replace
+from datetime import UTC, datetime
+from typing import Any
 
 from robot_voice_chat.services.llm.base import (
     LLMProvider,
@@ -20,6 +24,7 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
+from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, by_id, recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
@@ -27,14 +32,24 @@ from robot_voice_chat.services.llm.understanding.reading import (
     instruction_of,
     spoken_of,
 )
+from robot_voice_chat.services.llm.understanding.recall import (
+    LAST_SEEN,
+    POSE_AT,
+    WHAT_HAPPENED,
+    Recall,
+    follow_up_recall,
+    read_recall,
+)
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 LIST_LOCATIONS = "navigation.list_locations"
+_FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
-    "somewhere, watch for something, tell you what I see, where I am and which places I know — "
+    "somewhere, watch for something, tell you what I see, where I am and which places I know, "
+    "what I saw or did earlier ('when did you last see the mug?') — "
     "also several steps in a row ('go to the kitchen, then to reception')"
 )
 INTRO = (
@@ -59,11 +74,20 @@ def ack(command: Command) -> str:
 class RulesChat(LLMProvider):
     name = "rules"
 
-    def __init__(self, understanding: Understanding | None = None) -> None:
+    def __init__(
+        self,
+        understanding: Understanding | None = None,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
         self.understanding = understanding or Understanding()
+        self._clock = clock
         self._ids = 0
         self._calls: dict[str, str] = {}  # our tool call id → why we made it
+        # our episodic call id → the question it answers, and the places to say it with
+        self._recalls: dict[str, tuple[Recall, PlaceIndex | None]] = {}
         self._pending: Question | None = None
+        self._last_turn: float | None = None  # when the person last spoke (this conversation)
+        self._previous_turn: float | None = None  # ... before the turn being answered
 
     @property
     def understanding_label(self) -> str:
@@ -76,6 +100,7 @@ class RulesChat(LLMProvider):
         last = messages[-1] if messages else Message(role="user")
         if last.tool_results:
             return self._on_result(last.tool_results[0], messages, names)
+        self._stamp_turn(messages)
         text = normalise(last.content)
         if _STOP.match(text) and "stop_mission" in names:
             self._pending = None
@@ -96,6 +121,12 @@ class RulesChat(LLMProvider):
             return self._reply(request, places, messages, names)
         if purpose == "pose":
             return LLMResponse(text=_where(result))
+        if purpose == "history":
+            recall, places = self._recalls.pop(result.tool_call_id, (None, None))
+            tool = recall.tool if recall else _tool_of(result, messages)
+            say = places.spoken if places is not None and places.places else by_id
+            text = recollection(recall, tool, result.content, result.is_error, say)
+            return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")
         return LLMResponse(text="Done.")
@@ -108,6 +139,8 @@ class RulesChat(LLMProvider):
         if pending is not None and _asked(pending, messages):
             reading = self.understanding.follow_up(pending, text, places)
         if reading is None:
+            reading = _history_follow_up(text, messages)
+        if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
             said = spoken_of(reading.actions)
@@ -118,6 +151,8 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=reading.question.text)
         if reading.kind == "stop" and "stop_mission" in names:
             return self._call("stop_mission", {}, "stop")
+        if reading.kind == "answer" and reading.recall is not None:
+            return self._recall(reading.recall, places, names)
         if reading.kind == "answer":
             return self._answer(reading.topic, places, names)
         if reading.kind == "greet":
@@ -152,7 +187,35 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
-    def _call(self, name: str, arguments: dict[str, str], purpose: str) -> LLMResponse:
+    def _recall(self, recall: Recall, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
+        """A question about the past: one episodic call (never a motion)."""
+        if recall.tool not in names:
+            return LLMResponse(text=NOT_CONNECTED)
+        arguments = dict(recall.arguments)
+        if recall.place is not None and places is not None and places.places:
+            match = places.resolve(recall.place)
+            if not match.sure:
+                return LLMResponse(text=_unsure_place(recall.place, match.names, places))
+            arguments["place"] = match.names[0]
+            recall = replace(recall, arguments=arguments, place=match.names[0])
+        if recall.since_turn and self._previous_turn is not None:
+            arguments["start"] = _iso(self._previous_turn)
+            recall = replace(recall, arguments=arguments, said="since your last turn")
+        response = self._call(recall.tool, arguments, "history")
+        self._recalls[response.tool_calls[0].id] = (recall, places)
+        while len(self._recalls) > 64:
+            self._recalls.pop(next(iter(self._recalls)))
+        return response
+
+    def _stamp_turn(self, messages: list[Message]) -> None:
+        """A new turn (not a tool round): remember when the person spoke before it, if this
+        conversation holds an earlier turn (the pipeline keeps a history)."""
+        earlier = sum(1 for m in messages if m.role == "user" and m.content) > 1
+        now = self._clock()
+        self._previous_turn = self._last_turn if earlier else None
+        self._last_turn = now
+
+    def _call(self, name: str, arguments: dict[str, Any], purpose: str) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
         self._calls[call.id] = purpose
@@ -200,13 +263,39 @@ _PURPOSE_OF_TOOL = {
     GET_POSE: "pose",
     "start_mission": "mission",
     "stop_mission": "stop",
+    WHAT_HAPPENED: "history",
+    LAST_SEEN: "history",
+    POSE_AT: "history",
 }
 
 
-def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
-    """Why we made a call whose id we did not give (an API between us and the brain, e.g. an
-    OpenAI-compatible server, names the calls itself): the called tool tells."""
-    name = next(
+def _history_follow_up(text: str, messages: list[Message]) -> Reading | None:
+    """A short follow-up ("and the laptop?", "what about 2:24 pm?") to the person's earlier
+    questions about the past in this conversation, read against them (a few turns back)."""
+    said = [m.content for m in messages if m.role == "user" and m.content][:-1][-_FOLLOW_UPS:]
+    recall: Recall | None = None
+    for earlier in said:
+        recall = (follow_up_recall(earlier, recall) if recall else None) or read_recall(earlier)
+    if recall is None:
+        return None
+    read = follow_up_recall(text, recall)
+    return Reading("answer", topic="history", recall=read, intent="history") if read else None
+
+
+def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:
+    if names:
+        return f"Which place do you mean: {', '.join(n.replace('_', ' ') for n in names)}?"
+    known = ", ".join(p.name.replace("_", " ") for p in places.places)
+    return f"I don't know a place called '{phrase}'. I know: {known}."
+
+
+def _iso(stamp: float) -> str:
+    """The person's previous turn as an ISO time the episodic server reads (no arithmetic)."""
+    return datetime.fromtimestamp(stamp, UTC).isoformat(timespec="milliseconds")
+
+
+def _tool_of(result: ToolResult, messages: list[Message]) -> str:
+    return next(
         (
             call.name
             for m in messages
@@ -216,4 +305,9 @@ def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
         ),
         "",
     )
-    return _PURPOSE_OF_TOOL.get(name, "")
+
+
+def _purpose_of(result: ToolResult, messages: list[Message]) -> str:
+    """Why we made a call whose id we did not give (an API between us and the brain, e.g. an
+    OpenAI-compatible server, names the calls itself): the called tool tells."""
+    return _PURPOSE_OF_TOOL.get(_tool_of(result, messages), "")

@@ -41,6 +41,7 @@ from robot_voice_chat.services.llm.rules.program import (
     Program,
     Settings,
 )
+from robot_voice_chat.services.llm.rules.recall_program import recall_program
 from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
 from robot_voice_chat.services.llm.understanding.legs import legs_of
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
@@ -174,6 +175,9 @@ class RulesPlanner(LLMProvider):
         self, session: _Session, places: PlaceIndex | None, listed: ToolResult | None
     ) -> Program:
         reading = self.understanding.understand(session.instruction, places)
+        if reading.kind == "answer" and reading.recall is not None:
+            logger.info("rules_planner_recall", tool=reading.recall.tool, resumed=session.resumed)
+            return recall_program(reading.recall, session.tools, session.resumed)
         legs, refusal = legs_of(reading, session.instruction)
         logger.info(
             "rules_planner_mission",

@@ -16,6 +16,7 @@ from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
     Locations,
@@ -37,6 +38,9 @@ STOP_SKILL = "skill_control.stop_skill"
 LIST_SKILLS = "skill_control.list_running_skills"
 WAIT_RESULT = "perception.wait_for_result"
 WHAT_DO_YOU_SEE = "perception.what_do_you_see"
+WHAT_HAPPENED = "episodic.what_happened"
+# the historical mode of "what do you see" (seed 000 §8): the newest sightings of the last day
+LAST_SIGHTINGS = {"start": "-1d", "kinds": ["sightings"], "max_items": 3}
 UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
     "fetch <thing> from <place>"
@@ -525,7 +529,27 @@ class MissionProgram:
         [listed] = yield from self.act(Call(LIST_SKILLS))
         return error_of(listed.content) if listed.is_error else None
 
+    def _remembered(self) -> Steps:
+        """What the robot saw last, when and where (the episodic memory), or "" without it."""
+        if not has_tool(self.tools, WHAT_HAPPENED):
+            return ""
+        recall = self.step_id(6)
+        self.steps.insert(max(0, len(self.steps) - 1), _Step(recall, "Recall what I saw last",
+                                                              WHAT_HAPPENED))  # fmt: skip
+        [remembered] = (
+            yield from self.act(
+                self.plan_call(), Call(WHAT_HAPPENED, {**LAST_SIGHTINGS, "step_id": recall})
+            )
+        )[1:]
+        return "" if remembered.is_error else last_sightings_sentence(remembered.content)
+
     def _see(self) -> Steps:
+        if not has_tool(self.tools, WHAT_DO_YOU_SEE) and has_tool(self.tools, WHAT_HAPPENED):
+            self.steps = [_Step(self.step_id(2), "Tell the user", None)]
+            memory = yield from self._remembered()
+            raise _Finished(
+                "succeeded", f"I can't look right now (perception is not connected). {memory}"
+            )
         self.needs(WHAT_DO_YOU_SEE)
         self.doing = "looking around"
         self.steps = [
@@ -576,11 +600,16 @@ class MissionProgram:
                 text = _scene_text(fresh_data) if isinstance(fresh_data, dict) else ""
                 down = (yield from self._vision_down()) if fresh.is_error else None
                 if down is not None:
+                    memory = yield from self._remembered()
                     raise _Finished(
                         "failed",
-                        f"I can't look right now: the camera/vision is unavailable ({down}).",
+                        f"I can't look right now: the camera/vision is unavailable ({down}). "
+                        + memory,
                     )
         if not text:
+            memory = yield from self._remembered()
+            if memory:
+                raise _Finished("succeeded", f"I see nothing new right now. {memory}")
             raise _Finished(
                 "failed", "I can't tell what I see right now: the camera gave me nothing."
             )

@@ -14,6 +14,13 @@ _STOP = {
 }  # fmt: skip
 
 
+# where a description's head (the place's own name) ends: "Kitchen with the ...", "Alice's desk
+# in the ...", "Reception desk, usually ..."
+_HEAD_END = re.compile(
+    r"[,;.:()]| - | — | (?:in|with|next|near|by|on|at|for|where|which|that|leads|usually|of)\b"
+)
+
+
 def words(text: str) -> list[str]:
     return re.findall(r"[a-z0-9]+", text.lower().replace("'s", " ").replace("’s", " "))
 
@@ -41,6 +48,19 @@ class Place:
     def bag(self) -> set[str]:
         text = " ".join([self.name, *self.aliases, self.description])
         return {stem(w) for w in words(text)}
+
+    def spoken(self) -> str:
+        """How a sentence names it: the description's head when it names this place ("Alice's
+        desk", "the charging dock"), else the id with spaces ("the desk bob")."""
+        head = _HEAD_END.split(self.description.replace('"', ""), maxsplit=1)[0].strip()
+        ours = {stem(w) for w in words(" ".join([self.name, *self.aliases]))}
+        said = words(head)
+        if not head or len(said) > 4 or not ours & {stem(w) for w in said}:
+            return f"the {self.name.replace('_', ' ')}"
+        first = head.split(" ", 1)[0]
+        if first.endswith(("'s", "’s")):  # a person's place: "Alice's desk", no article
+            return head
+        return f"the {head[:1].lower()}{head[1:]}"
 
     def label(self) -> str:
         """How a person names it: "reception", "desk alice (Alice's desk …)"."""
@@ -84,6 +104,11 @@ class PlaceIndex:
 
     def known(self) -> list[str]:
         return [p.name for p in self.places]
+
+    def spoken(self, name: str) -> str:
+        """``name`` (a map id) as a sentence says it; an unknown id with spaces."""
+        place = self.get(name)
+        return place.spoken() if place else f"the {name.replace('_', ' ')}"
 
     def get(self, name: str) -> Place | None:
         return next((p for p in self.places if p.name == name), None)

@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
+from robot_voice_chat.services.llm.understanding.recall import Recall
+
 ActionKind = Literal["goto", "find", "fetch", "watch", "see"]
 ReadingKind = Literal["act", "ask", "refuse", "answer", "stop", "greet", "cancel"]
 
@@ -97,7 +99,8 @@ class Reading:
     actions: list[Action] = field(default_factory=list)
     question: Question | None = None
     text: str = ""  # a refusal's sentence
-    topic: str = ""  # answer: where | places | abilities | greet | <site intent>
+    topic: str = ""  # answer: where | places | abilities | history | greet | <site intent>
+    recall: Recall | None = None  # topic history: the episodic call that answers it
     intent: str = ""
     score: float = 1.0
     stage: Literal["grammar", "semantic", "answer"] = "grammar"
@@ -106,7 +109,7 @@ class Reading:
         if self.kind == "act":
             return [a.code() for a in self.actions]
         if self.kind == "answer":
-            return [f"answer:{self.topic}"]
+            return [f"answer:{self.recall.code() if self.recall else self.topic}"]
         return [self.kind]
 
 

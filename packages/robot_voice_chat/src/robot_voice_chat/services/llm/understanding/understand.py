@@ -25,8 +25,18 @@ from robot_voice_chat.services.llm.understanding.reading import (
     _with,
     spoken_of,
 )
+from robot_voice_chat.services.llm.understanding.recall import (
+    default_recall,
+    looks_like_recall,
+    read_recall,
+)
 
 logger = structlog.get_logger(__name__)
+NOT_READ_RECALL = (
+    "I did not understand that question about the past. You can ask, for example: 'when did "
+    "you last see the mug?', 'what did you see 5 minutes ago?', 'what happened while I was "
+    "away?' or 'where were you at 3 pm?'"
+)
 _CANCEL = re.compile(
     r"^(?:never\s*mind|nevermind|cancel|forget\s+(?:it|that)|no|nope|no thanks|nothing|abort|"
     r"don'?t|do nothing|stop|leave it)\b"
@@ -97,6 +107,11 @@ class Understanding:
         return reading
 
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
+        recall = read_recall(text)  # a question about the past: answered, never acted on
+        if recall is not None:
+            return Reading("answer", topic="history", recall=recall, intent="history")
+        if looks_like_recall(text):  # about the past, but not read: never an action from it
+            return Reading("refuse", text=NOT_READ_RECALL, intent="history")
         parts = cl.clauses(text)
         if not parts:
             return self._unclear(text)
@@ -137,7 +152,10 @@ class Understanding:
         if info.kind == "stop":
             return Reading("stop", intent=intent, score=score, stage="semantic")
         kind: Literal["greet", "answer"] = "greet" if intent == "greet" else "answer"
-        return Reading(kind, topic=intent, intent=intent, score=score, stage="answer")
+        recall = default_recall() if intent == "history" else None
+        return Reading(
+            kind, topic=intent, intent=intent, score=score, stage="answer", recall=recall
+        )
 
     def _scores(self, part: str) -> dict[str, float]:
         """Each intent's score: its nearest example's cosine similarity."""

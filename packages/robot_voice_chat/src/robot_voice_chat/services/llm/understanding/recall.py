@@ -1,0 +1,510 @@
+"""Questions about the past, read into the episodic tool call that answers them.
+
+"what did you see 30 seconds ago", "when did you last see the mug", "where did you see the
+scissors", "what happened while I was away / in the last 10 minutes", "where were you at
+3 pm". The server resolves every time: the brain only passes relative strings (``-45s``) and
+the clock text as said (``3pm``), never an absolute time it computed. A question about the past
+never moves the robot.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
+
+from robot_voice_chat.services.llm.understanding.clauses import normalise
+
+WHAT_HAPPENED = "episodic.what_happened"
+LAST_SEEN = "episodic.last_seen"
+POSE_AT = "episodic.pose_at"
+_FIRST_OF = 20  # "when did you first see X": the earliest of its last this-many sightings
+DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
+RecallKind = Literal["seen", "digest", "away", "last_seen", "pose_at", "visits"]
+
+_NUMBERS = {
+    "a": 1, "an": 1, "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6,
+    "seven": 7, "eight": 8, "nine": 9, "ten": 10, "eleven": 11, "twelve": 12, "fifteen": 15,
+    "twenty": 20, "thirty": 30, "forty": 40, "forty five": 45, "fifty": 50, "sixty": 60,
+    "ninety": 90, "a couple of": 2, "a couple": 2, "couple of": 2, "a few": 3, "few": 3,
+}  # fmt: skip
+_NUMBER = r"(?:\d+|" + "|".join(sorted(map(re.escape, _NUMBERS), key=len, reverse=True)) + ")"
+_UNIT = r"(?:seconds?|secs?|s|minutes?|mins?|m|hours?|hrs?|h)"
+_UNIT_S = {"s": 1, "m": 60, "h": 3600}
+_AGO = re.compile(
+    rf"\b(?:(?P<half>half an? (?:hour|minute))|(?P<n>{_NUMBER})\s*(?P<unit>{_UNIT}))\s+ago\b"
+    r"|\b(?P<moment>just now|a moment ago|a second ago|a few seconds ago|a little while ago)\b"
+)
+_SPAN = re.compile(
+    rf"\b(?:in|during|over|within|for|from)?\s*the\s+(?:last|past|previous)\s+"
+    rf"(?:(?P<half>half an? hour|half hour)|(?P<quarter>quarter (?:of an )?hour)"
+    rf"|(?:(?P<n>{_NUMBER})\s*)?(?P<unit>{_UNIT}))\b"
+)
+_CLOCK = re.compile(
+    r"\b(?:at|around|about|by)?\s*(?P<clock>\d{1,2}(?::\d{2})?\s*(?:am|pm|a\.m\.|p\.m\.)"
+    r"|\d{1,2}:\d{2}|noon|midday|midnight)(?![\w:])"
+)
+_TODAY = re.compile(r"\b(?:today|this morning|this afternoon|so far today)\b")
+_RECENT = re.compile(r"\b(?:recently|lately|of late)\b")
+_AWAY = re.compile(
+    r"\b(?:while|when|whilst) i (?:was|were) (?:away|gone|out|out of the office|not here|"
+    r"not around|at lunch|in a meeting|in the meeting)"
+    r"|\bsince i (?:left|was (?:last )?here|went away|last (?:spoke|talked|asked|checked))"
+    r"|\bsince (?:we|you and i) (?:last )?(?:spoke|talked)|\bsince my last (?:message|question)"
+    r"|\bsince (?:the )?last time (?:we|i) (?:spoke|talked)|\bin my absence\b"
+    r"|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b|\bbring me up to (?:date|speed)\b"
+)
+_SAW = r"(?:saw|spotted|noticed|have seen|'ve seen|had seen|came across|have come across)"
+_SEE = r"(?:see|seen|spot|spotted|notice|noticed|come across|came across|run into)"
+_LAST_SEEN = [
+    # "the last time / place you saw X", "where's the last place you spotted X"
+    re.compile(
+        rf"\b(?:the )?(?:last|first) (?:time|place|spot) (?:that |where )?you {_SAW} (?P<obj>.+)"
+    ),
+    # the thing as subject: "when did the mug last show up", "when was the mug last seen"
+    re.compile(
+        r"\b(?:when|where) (?:did|was|were|has|have) (?:the last time )?(?P<obj>.+?) "
+        r"(?:last |first )?(?:show(?:ed)? up|turn(?:ed)? up|appear(?:ed)?|pop(?:ped)? up)\b"
+    ),
+    re.compile(
+        r"\b(?:the )?last time (?:that )?(?P<obj>.+?) (?:showed up|turned up|appeared|was seen)\b"
+    ),
+    re.compile(
+        rf"\bhow (?:long|many \w+) ago (?:did|have) you (?:last |first )?{_SEE} (?P<obj>.+)"
+    ),
+    re.compile(
+        r"\bhow long (?:did|have|were) you (?:see|seen|spot|watch|watched|looking at) (?P<obj>.+)"
+    ),
+    # "any idea where the charger is", "do you know where my keys went"
+    re.compile(
+        r"\b(?:any idea|do you know|have you any idea|got any idea|you know) where (?P<obj>.+?) "
+        r"(?:is|are|was|were|went|ended up|might be|could be)\b"
+    ),
+    # the auxiliary dropped, as typed: "seen my keys?", "you seen the laptop anywhere"
+    re.compile(r"^(?:you )?(?:seen|spotted|noticed|come across) (?P<obj>.+)"),
+    re.compile(
+        r"\b(?:when|where)\b(?: and (?:when|where))?(?: exactly)?\s+(?:did|have|had)\s+you\s+"
+        r"(?:last|most recently|first|ever)?\s*(?:see|seen|spot|spotted|notice|noticed)\s+"
+        r"(?P<obj>.+)"
+    ),
+    re.compile(
+        r"\b(?:when|where)\b(?: and (?:when|where))?\s+you\s+(?:last\s+|most recently\s+)?"
+        r"(?:saw|spotted|noticed|have seen|'ve seen)\s+(?P<obj>.+)"
+    ),
+    re.compile(
+        r"\b(?:when was|what was) the last time (?:that )?you (?:saw|spotted|noticed|"
+        r"have seen|'ve seen|had seen) (?P<obj>.+)"
+    ),
+    re.compile(r"\bhow long ago (?:did|have) you (?:last )?(?:see|seen|spot|spotted) (?P<obj>.+)"),
+    re.compile(
+        r"^(?:have|did|had) you (?:ever |already |recently )?(?:see|seen|spot|spotted|notice|"
+        r"noticed|come across|came across|run into) (?P<obj>.+)"
+    ),
+    re.compile(
+        r"\b(?:where|when) (?:was|were|is|are) (?P<obj>.+?) (?:last |first )?(?:seen|spotted)"
+    ),
+    re.compile(r"\bwhere (?:did|have) (?:i|we) (?:leave|left|put) (?P<obj>.+)"),
+    re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
+    re.compile(r"\bhave you (?:got any idea|any idea) where (?P<obj>.+?) (?:is|are|was|were)\b"),
+]
+# "is my mug still in the kitchen": its sighting there, and whether it was gone later
+_IS_STILL = re.compile(r"^(?:is|are) (?P<obj>.+?) still (?P<rest>(?:in|at|on|by|near) .+|there)$")
+_SEEN = re.compile(
+    r"\bwhat\s+(?:else\s+)?(?:did|have|had)\s+you\s+(?:just\s+)?(?:see|seen|spot|spotted|notice|"
+    r"noticed|observe|observed|look at|looked at)\b"
+    r"|\bwhat\s+(?:(?:objects|things)\s+)?you\s+(?:just\s+)?(?:saw|spotted|noticed|observed|"
+    r"have seen|'ve seen)\b"
+    r"|\b(?:did|have) you (?:see|seen|spot|spotted|notice|noticed) (?:anything|something|"
+    r"any(?:one|body)|things)\b"
+    r"|\bwhat (?:was|were) (?:in front of you|you looking at|in view|on (?:your )?camera)\b"
+    r"|\bwhat (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted|notice|noticed)\b"
+    r"|\bwhat (?:did|had) (?:your camera|the camera|you) (?:pick up|catch|detect|see)\b"
+    r"|\bwhich (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted)\b"
+    r"|\b(?:what )?(?:do|can) you remember (?:seeing|spotting|noticing|from|about)\b"
+    r"|\bwhat (?:objects |things |stuff )?(?:was|were) (?:there |lying |standing )?"
+    r"(?:in|at|on|inside) (?!front\b)"
+    r"|\bwhat (?:objects|things) (?:are|were) (?:there|around)\b"
+)
+_DIGEST = re.compile(
+    r"\bwhat(?:'s| has| had|'d)?\s+(?:just\s+)?(?:happened|happening|been happening|been going on|"
+    r"went on|going on)\b"
+    r"|\bwhat (?:did|have) you (?:do|done|been doing|been up to|get up to|got up to)\b"
+    r"|\bwhat (?:were|was) you (?:doing|up to)\b"
+    r"|\banything (?:happen|happened|new|interesting|going on|to report)\b"
+    r"|\bdid anything (?:happen|interesting happen)\b"
+    r"|\bwhat(?:'s| is) new\b|\bgive me (?:a |an )?(?:summary|recap|rundown|update)\b"
+    r"|\b(?:summari[sz]e|recap)\b|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b"
+    r"|\bbring me up to (?:date|speed)\b|\bwhat went on\b"
+)
+_POSE_AT = re.compile(
+    r"\bwhere\s+(?:were|was)\s+(?:you|the robot|it)\b|\bwhich (?:room|place|location) were you"
+    r"|\bwhere had you been\b|\bwhat were you (?:doing|up to)\b|\bwhere did you be\b"
+)
+_VISITS = re.compile(
+    r"\bwhere (?:have|did) you (?:been|go|gone|drive|driven|went)\b"
+    r"|\bwhich (?:places|rooms) (?:did|have) you (?:visit|visited|go to|been to|drive to)"
+    r"|\bwhere all (?:have|did) you\b"
+)
+_SHORTHAND = {"u": "you", "ya": "you", "ur": "your", "r": "are", "pls": "please", "plz": "please"}
+# the words people use for what the detectors call otherwise
+_SAME_THING = {
+    "package": "parcel", "packages": "parcel", "parcels": "parcel", "someone": "person",
+    "somebody": "person", "people": "person", "persons": "person", "mobile": "cell phone",
+    "cellphone": "cell phone", "mobile phone": "cell phone", "television": "tv",
+    "couch": "sofa", "mugs": "mug", "cups": "cup",
+}  # fmt: skip
+_HOURS = {
+    "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8,
+    "nine": 9, "ten": 10, "eleven": 11, "twelve": 12,
+}  # fmt: skip
+_HOUR = r"(?:1[0-2]|0?[1-9]|" + "|".join(_HOURS) + ")"
+_SPOKEN_CLOCK = re.compile(
+    rf"\b(?:(?P<part>half|quarter) (?P<rel>past|to|after) (?P<h>{_HOUR})"
+    rf"|(?P<h2>{_HOUR}) o'?clock|(?P<h3>{_HOUR}) (?P<m3>am|pm)"
+    rf"|(?P<h4>{_HOUR})(?=\s+in the (?:morning|afternoon|evening)))\b"
+    r"(?:\s+in the (?P<daypart>morning|afternoon|evening))?"
+)
+_BETWEEN = re.compile(
+    r"\b(?:between|from)\s+(?P<a>\d{1,2}(?::\d{2})?(?:\s*(?:am|pm))?)\s+(?:and|to|till|until)\s+"
+    r"(?P<b>\d{1,2}(?::\d{2})?(?:\s*(?:am|pm))?)(?![\w:])"
+)
+_NOTHING = {"anything", "something", "things", "much", "anyone", "anybody", "it", "that", "them"}
+_OBJECT_TAIL = re.compile(
+    r"(?:\s*,?\s*(?:and|or)\s+(?:when|where|how|what|for how long)\b.*"
+    r"|\s+(?:the\s+)?(?:last|first)(?:\s+time)?\b.*|\s+most recently\b.*"
+    r"|\s+(?:recently|lately|before|earlier|yet|today|at all|anywhere|around|ever|"
+    r"this morning|this afternoon|please|again)\b.*"
+    r"|\s+(?:is|are|was|were|for)$)"
+)
+_AGAIN = re.compile(r"^(?:and |so )?(?:where|when) (?:was|is) (?:that|it|this)(?: again)?$")
+_MORE = re.compile(r"^(?:and|also|ok and|okay and|(?:and )?(?:what|how) about)\s+(?P<rest>.+)$")
+_PAST_QUESTION = re.compile(
+    r"^(?:where|when|what|which|how|did|have|has|had|is|are|was|were|do|does|any|you|seen|last)"
+    r"\b.*(?:\byou (?:saw|spotted|noticed|have seen|'ve seen|had seen|were|went)\b"
+    r"|\b(?:did|have|had) you (?:see|seen|spot|spotted|notice|noticed|come across)\b"
+    r"|\b(?:showed|turned|popped) up\b|\bago\b|\blast time\b|\bearlier\b|\bstill\b)"
+)
+_PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
+_ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
+
+
+@dataclass(frozen=True)
+class Recall:
+    """A question about the past as one episodic call; ``said``: the time as the robot restates it
+    ("around 30 s ago", "in the last 10 minutes"), ``obj``/``place``: what and where was asked."""
+
+    kind: RecallKind
+    tool: str
+    arguments: dict[str, Any] = field(default_factory=dict)
+    said: str = ""
+    obj: str | None = None
+    place: str | None = None
+    since_turn: bool = False  # start at the person's previous turn, when it is known
+    first: bool = False  # last_seen: the earliest sighting on record is asked for, not the last
+
+    def code(self) -> str:
+        """The phrasing sets' label: answer:history | answer:last_seen | answer:pose_at."""
+        if self.tool == LAST_SEEN:
+            return "last_seen"
+        if self.tool == POSE_AT:
+            return "pose_at"
+        return "history"
+
+
+def read_recall(text: str) -> Recall | None:
+    """The question about the past in ``text``, or None (not one, or not sure)."""
+    clean = _clean(text)
+    if not clean:
+        return None
+    for reader in (_pose_at, _last_seen, _seen, _visits, _digest):
+        recall = reader(clean)
+        if recall is not None:
+            return recall
+    return None
+
+
+def _clean(text: str) -> str:
+    """Lower case, texting shorthand spelled out ("u seen" → "you seen"), clock words as digits
+    ("half past two" → "2:30")."""
+    clean = normalise(text).strip(" .!?")
+    clean = re.sub(r"^(?:hey\s+|ok\s+|okay\s+)?robot[,\s]+", "", clean)
+    clean = " ".join(_SHORTHAND.get(w, w) for w in clean.split())
+    return _SPOKEN_CLOCK.sub(_clock_digits, clean)
+
+
+def _clock_digits(match: re.Match[str]) -> str:
+    hour_text = match["h"] or match["h2"] or match["h3"] or match["h4"]
+    hour = int(hour_text) if hour_text.isdigit() else _HOURS[hour_text]
+    minute = 0
+    if match["part"]:
+        minute = 30 if match["part"] == "half" else 15
+        if match["rel"] == "to":
+            hour, minute = (hour - 2) % 12 + 1, 60 - minute
+    meridiem = match["m3"] or {"morning": "am", "afternoon": "pm", "evening": "pm"}.get(
+        match["daypart"] or "", ""
+    )
+    return f"{hour}:{minute:02d}{meridiem}" if minute or not meridiem else f"{hour}{meridiem}"
+
+
+def looks_like_recall(text: str) -> bool:
+    """A question about the past the grammar could not read: it gets an honest "I did not
+    understand" (never an action read from it)."""
+    return bool(_PAST_QUESTION.search(_clean(text)))
+
+
+def follow_up_recall(text: str, previous: Recall) -> Recall | None:
+    """A short follow-up to a question about the past, read against it: "and the laptop?",
+    "what about 2:24 pm?", "and in the mailroom?", "where was that?"."""
+    clean = _clean(text)
+    if _AGAIN.match(clean):
+        return previous
+    match = _MORE.match(clean)
+    if match is None:
+        return None
+    rest = match["rest"]
+    if previous.kind == "pose_at" and (_clock(rest) or _ago(rest)):
+        return _pose_at(f"where were you {rest}")
+    if previous.tool == WHAT_HAPPENED and (_span(rest) or _ago(rest) or _place_of(rest)):
+        kinds = previous.arguments.get("kinds")
+        said = {"seen": "what did you see", "visits": "where did you go"}.get(
+            previous.kind, "what happened"
+        )
+        recall = _window(f"{said} {rest}", kinds, previous.kind, default=None)
+        if recall is not None and recall.place and not (_span(rest) or _ago(rest)):
+            window = {k: v for k, v in previous.arguments.items() if k in ("start", "end")}
+            arguments = {**recall.arguments, **window}
+            return replace(recall, arguments=arguments, said=previous.said)
+        return recall
+    if previous.kind not in ("last_seen", "seen") or _place_of(rest) or _clock(rest):
+        return None
+    if _ago(rest) or _span(rest):
+        return None
+    return _last_seen(f"when did you last see {rest}")  # "and the laptop?": another thing
+
+
+def default_recall() -> Recall:
+    """What a question about the past that only the meaning matcher understood gets: the
+    digest since the person's previous turn (else the last hour)."""
+    return _away()
+
+
+# --- the readers -----------------------------------------------------------------------------
+def _pose_at(text: str) -> Recall | None:
+    if not _POSE_AT.search(text):
+        return None
+    clock = _clock(text)
+    if clock is not None:
+        return Recall("pose_at", POSE_AT, {"time": clock}, f"at {clock}")
+    ago = _ago(text)
+    if ago is not None:
+        seconds, said = ago
+        return Recall("pose_at", POSE_AT, {"time": f"-{seconds}s"}, said)
+    return None
+
+
+def _last_seen(text: str) -> Recall | None:
+    still = _IS_STILL.match(text)
+    phrase = None
+    if still is not None:
+        rest = still["rest"]
+        phrase = still["obj"] if rest == "there" else f"{still['obj']} {rest}"
+    for pattern in _LAST_SEEN:
+        if phrase is not None:
+            break
+        match = pattern.search(text)
+        if match is not None:
+            phrase = match["obj"]
+    if phrase is None:
+        return None
+    obj, place = _object(phrase)
+    if obj is None:
+        return None
+    obj = _SAME_THING.get(obj, obj)
+    arguments: dict[str, Any] = {"query": obj}
+    if place is not None:
+        arguments["place"] = place
+    first = bool(re.search(r"\bfirst\b", text))
+    if first:
+        arguments["n"] = _FIRST_OF
+    return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place, first=first)
+
+
+def _seen(text: str) -> Recall | None:
+    if not _SEEN.search(text):
+        return None
+    return _window(text, ["sightings"], "seen", default=("-1h", "in the last hour"))
+
+
+def _visits(text: str) -> Recall | None:
+    if not _VISITS.search(text):
+        return None
+    return _window(text, ["places"], "visits", default=("-1h", "in the last hour"))
+
+
+def _digest(text: str) -> Recall | None:
+    if _AWAY.search(text):
+        return _away()
+    if not _DIGEST.search(text):
+        return None
+    recall = _window(text, None, "digest", default=None)
+    return recall or _away()
+
+
+def _away() -> Recall:
+    return Recall(
+        "away", WHAT_HAPPENED, {"start": DEFAULT_AWAY, "max_items": 100}, "while away",
+        since_turn=True,
+    )  # fmt: skip
+
+
+def _window(
+    text: str, kinds: list[str] | None, kind: RecallKind, default: tuple[str, str] | None
+) -> Recall | None:
+    """The time range a question names: "N ago" (a window around it), "in the last N", "today";
+    else ``default`` (start, how it is said)."""
+    place = _place_of(text)
+    arguments: dict[str, Any] = {"max_items": 100}
+    if kinds is not None:
+        arguments["kinds"] = kinds
+    if place is not None:
+        arguments["place"] = place
+    between = _BETWEEN.search(text)
+    if between is not None:
+        start, end = _clock_range(between["a"], between["b"])
+        arguments["start"], arguments["end"] = start, end
+        return Recall(kind, WHAT_HAPPENED, arguments, f"between {start} and {end}", place=place)
+    span = _span(text)
+    ago = _ago(text) if span is None else None
+    if _AWAY.search(text):
+        arguments["start"] = DEFAULT_AWAY
+        return Recall(kind, WHAT_HAPPENED, arguments, "while away", place=place, since_turn=True)
+    if span is not None:
+        seconds, said = span
+        arguments["start"] = f"-{seconds}s"
+    elif ago is not None:
+        seconds, said = ago
+        half = max(15, seconds // 2)  # a window around the moment asked about
+        arguments["start"] = f"-{seconds + half}s"
+        if seconds - half > 0:
+            arguments["end"] = f"-{seconds - half}s"
+        said = f"around {said}"
+    elif _TODAY.search(text):
+        arguments["start"], said = "00:00", "today"
+    elif _RECENT.search(text):
+        arguments["start"], said = "-10m", "in the last 10 minutes"
+    elif place is not None and kind == "seen":  # "what was in the kitchen": the last day there
+        arguments["start"], said = "-24h", "in the last 24 hours"
+    elif default is not None:
+        arguments["start"], said = default
+    else:
+        return None
+    return Recall(kind, WHAT_HAPPENED, arguments, said, place=place)
+
+
+# --- slots -----------------------------------------------------------------------------------
+def _number(text: str) -> int:
+    return int(text) if text.isdigit() else _NUMBERS[text]
+
+
+def _ago(text: str) -> tuple[int, str] | None:
+    """Seconds before now, and how it was said ("30 s ago")."""
+    match = _AGO.search(text)
+    if match is None:
+        return None
+    if match["moment"]:
+        return 10, "just now"
+    if match["half"]:
+        seconds = 1800 if "hour" in match["half"] else 30
+    else:
+        seconds = _number(match["n"]) * _UNIT_S[match["unit"][0]]
+    said = {60: "a minute", 3600: "an hour"}.get(seconds, _spoken(seconds))
+    return seconds, f"{said} ago"
+
+
+def _span(text: str) -> tuple[int, str] | None:
+    match = _SPAN.search(text)
+    if match is None:
+        return None
+    if match["half"] or match["quarter"]:
+        seconds = 1800 if match["half"] else 900
+    else:
+        seconds = (_number(match["n"]) if match["n"] else 1) * _UNIT_S[match["unit"][0]]
+    return seconds, f"in the last {_spoken(seconds)}"
+
+
+def _spoken(seconds: int) -> str:
+    if seconds % 3600 == 0:
+        hours = seconds // 3600
+        return "hour" if hours == 1 else f"{hours} hours"
+    if seconds % 60 == 0:
+        minutes = seconds // 60
+        return "minute" if minutes == 1 else f"{minutes} minutes"
+    return f"{seconds} seconds"
+
+
+def _clock(text: str) -> str | None:
+    """The clock time as said, in a form the server reads (``3pm``, ``15:30``, ``12:00``)."""
+    match = _CLOCK.search(text)
+    if match is None:
+        return None
+    clock = match["clock"].replace(".", "").replace(" ", "")
+    return _meridiem({"noon": "12:00", "midday": "12:00", "midnight": "00:00"}.get(clock, clock))
+
+
+def _meridiem(clock: str) -> str:
+    """A 12-hour clock said without am/pm ("half past two", "2:30") is read as people at work
+    mean it: 1 to 7 and 12 in the afternoon, 8 to 11 in the morning. The answer restates the
+    time the server used, so the reading is visible."""
+    match = re.fullmatch(r"(\d{1,2}):(\d{2})", clock)
+    if match is None:
+        return clock
+    hour = int(match[1])
+    if not 1 <= hour <= 12 or match[1].startswith("0"):
+        return clock
+    return f"{clock}{'am' if 8 <= hour <= 11 else 'pm'}"
+
+
+def _clock_range(a: str, b: str) -> tuple[str, str]:
+    """ "3:30 and 3:35 pm": the am/pm said once holds for both ends."""
+    a, b = a.replace(" ", ""), b.replace(" ", "")
+    said = re.search(r"(am|pm)$", b)
+    if said and not re.search(r"(am|pm)$", a):
+        a += said[1]
+    return _meridiem(a if ":" in a or a[-2:] in ("am", "pm") else f"{a}:00"), _meridiem(
+        b if ":" in b or b[-2:] in ("am", "pm") else f"{b}:00"
+    )
+
+
+def _place_of(text: str) -> str | None:
+    match = re.search(
+        r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)"
+        r"(?:the\s+|my\s+|our\s+)?(?P<place>[a-z' ]+?)"
+        r"(?=\s+(?:today|recently|lately|earlier|in the|during|over|this|\d|a |an |half|just|"
+        r"around|when|while|between|from|before|after)|$)",
+        text,
+    )
+    if match is None:
+        return None
+    place = match["place"].strip()
+    words = place.split()
+    if not words or words[0] in ("all", "front", "view") or _ago(place) or _span(place):
+        return None
+    return place
+
+
+def _object(phrase: str) -> tuple[str | None, str | None]:
+    """What to look up, and the place it was asked about ("the mug in the kitchen")."""
+    obj = phrase.strip(" ,.?!")
+    obj = _AGO.sub("", obj).strip()
+    obj = _SPAN.sub("", obj).strip()
+    obj = _OBJECT_TAIL.sub("", obj).strip(" ,")
+    place = None
+    where = _PLACE_TAIL.search(obj)
+    if where is not None:
+        place = where["place"].strip()
+        obj = obj[: where.start()].strip()
+    obj = _ARTICLE.sub("", obj).strip()
+    obj = re.sub(r"^(?:any|one|ones)\s+", "", obj).strip()
+    if not obj or obj in _NOTHING or len(obj.split()) > 5:
+        return None, None
+    return obj, place

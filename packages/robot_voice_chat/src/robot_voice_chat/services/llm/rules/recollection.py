@@ -62,7 +62,7 @@ def last_seen_sentence(data: dict[str, Any], recall: Recall | None, names: Names
     last = top.get("last_seen") or {}
     sentence = (
         f"I last saw {_the(str(top.get('label') or asked))}{_at(top.get('place'), names)} "
-        f"{last.get('ago', '')} ({_clock(last.get('time'))})"
+        f"{last.get('ago', '')} ({_clock(last)})"
     )
     if top.get("seen_for"):
         sentence += f", for {top['seen_for']}"
@@ -90,7 +90,7 @@ def _first_seen_sentence(
     label = _the(str(oldest.get("label") or asked))
     sentence = (
         f"The first time I have on record, I saw {label}{_at(oldest.get('place'), names)} "
-        f"{first.get('ago', '')} ({_clock(first.get('time'))})"
+        f"{first.get('ago', '')} ({_clock(first)})"
     )
     if more:
         sentence += f" (the earliest of the last {len(results)} times I saw it)"
@@ -103,7 +103,7 @@ def _first_seen_sentence(
 # --- pose_at --------------------------------------------------------------------------------
 def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     when = recall.said if recall and recall.said else "then"
-    clock = _clock(data.get("time"))
+    clock = _clock(data)
     if not data.get("found"):
         return f"I have no record of where I was {when} ({clock})."
     place = data.get("place")
@@ -172,7 +172,7 @@ def last_sightings_sentence(content: str, names: Names = by_id) -> str:
     newest = list(reversed(sightings))[:3]
     listed = [
         f"{_the(str(i.get('label')))}{_at(i.get('place'), names)} {i.get('ago', '')} "
-        f"({_clock(i.get('time'))})"
+        f"({_clock(i)})"
         for i in newest
     ]
     return f"The last I saw: {_listing(listed)}."
@@ -243,9 +243,16 @@ def _the(thing: str) -> str:
     return thing if thing.split(" ", 1)[0] in ("the", "a", "an", "my") else f"the {thing}"
 
 
-def _clock(stamp: object) -> str:
-    """``2026-09-21T15:00:00.000Z`` → ``15:00:00 UTC`` (the server's time, as it gave it)."""
-    text = str(stamp or "")
+def _clock(when: object) -> str:
+    """The wall clock of one of the server's time objects, as it gave it: its site-local
+    ``"local": "2026-09-21 16:00:00 CET"`` → ``16:00:00 CET``, else its ISO ``"time"``
+    ``2026-09-21T15:00:00.000Z`` → ``15:00:00 UTC``."""
+    if not isinstance(when, dict):
+        return "time unknown"
+    local = str(when.get("local") or "")
+    if len(local) > 11 and local[10] == " ":
+        return local[11:]
+    text = str(when.get("time") or "")
     if len(text) < 19 or text[10] != "T":
         return text or "time unknown"
     zone = " UTC" if text.endswith("Z") else ""

@@ -188,9 +188,10 @@ def test_a_pose_and_a_place_filter_are_said_as_asked() -> None:
     assert recollection(recall, POSE_AT, json.dumps(missing), False) == (
         "I have no record of where I was at 3pm (15:00:00 UTC)."
     )
-    local = {**pose, "local": "2026-09-21 17:00:00 CEST"}  # the site's wall clock first
+    # a site in Berlin: the server read "3 pm" there and gives its wall clock beside UTC
+    local = {**pose, "time": "2026-09-21T13:00:00.000Z", "local": "2026-09-21 15:00:00 CEST"}
     assert recollection(recall, POSE_AT, json.dumps(local), False) == (
-        "At 3pm (17:00:00 CEST) I was between places, at x=1.2 m, y=-2.0 m."
+        "At 3pm (15:00:00 CEST) I was between places, at x=1.2 m, y=-2.0 m."
     )
     recall = read_recall("did you see the scissors in the kitchen")
     none = {"found": False, "results": [], "place": "kitchen"}

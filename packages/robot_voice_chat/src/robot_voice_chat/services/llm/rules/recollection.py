@@ -171,8 +171,7 @@ def last_sightings_sentence(content: str, names: Names = by_id) -> str:
         return "I have no record of seeing anything in the last day."
     newest = list(reversed(sightings))[:3]
     listed = [
-        f"{_the(str(i.get('label')))}{_at(i.get('place'), names)} {i.get('ago', '')} "
-        f"({_clock(i)})"
+        f"{_the(str(i.get('label')))}{_at(i.get('place'), names)} {i.get('ago', '')} ({_clock(i)})"
         for i in newest
     ]
     return f"The last I saw: {_listing(listed)}."

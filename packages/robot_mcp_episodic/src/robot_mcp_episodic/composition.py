@@ -98,7 +98,13 @@ def build_app(
     )  # fmt: skip
     recorder: RosRecorder | None = None
     if record_ros:
-        bridge = bridge if bridge is not None else RosBridge(config.ros_node_name)
+        # Single-threaded: the callbacks are short and never wait on each other, and the
+        # multi-threaded executor costs ~5x the CPU per message (benchmarks/README.md).
+        bridge = (
+            bridge
+            if bridge is not None
+            else RosBridge(config.ros_node_name, executor="single_threaded")
+        )
         bridge.start()
         recorder = RosRecorder(
             bridge, indexer, bags, config.pose_topic,

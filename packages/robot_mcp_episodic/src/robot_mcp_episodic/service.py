@@ -138,22 +138,27 @@ class Episodic:
         if not 1 <= max_items <= 500:
             raise EpisodicError("invalid_argument", "max_items must be between 1 and 500")
         self._flush()
-        items: list[dict[str, Any]] = []
-        cap = max_items * 4
+        # Only the newest max_items of the window survive, so each kind reads at most
+        # max_items + 1 rows (the extra one tells "truncated") and only the kept rows are
+        # turned into answer items.
+        limit = max_items + 1
+        rows: list[tuple[float, Sighting | Note | Visit]] = []
         if "sightings" in wanted:
-            for s in self.store.sightings(begin, finish, place=where, limit=cap, newest_first=True):
-                items.append(self._sighting_item(s, now))
+            found = self.store.sightings_by_start(begin, finish, place=where, limit=limit)
+            rows.extend((s.first_seen, s) for s in found)
         note_kinds = [k for group in wanted for k in _NOTE_GROUPS.get(group, ())]
         if note_kinds:
-            for n in self.store.notes(
-                begin, finish, kinds=note_kinds, place=where, limit=cap, newest_first=True
-            ):
-                items.append(self._note_item(n, now))
+            notes = self.store.notes(
+                begin, finish, kinds=note_kinds, place=where, limit=limit, newest_first=True
+            )
+            rows.extend((n.t, n) for n in notes)
         if "places" in wanted:
-            items.extend(self._visits(begin, finish, where, now, cap))
-        items.sort(key=lambda item: item["t"])
-        truncated = len(items) > max_items
-        items = items[-max_items:]
+            rows.extend(
+                (v.arrived, v) for v in self.store.visits(begin, finish, place=where, limit=limit)
+            )
+        rows.sort(key=lambda row: row[0])
+        truncated = len(rows) > max_items
+        items = [self._digest_item(row, now) for _, row in rows[-max_items:]]
         window = f"between {iso(begin)} and {iso(finish)}"
         summary = f"{len(items)} events {window}" if items else f"Nothing was recorded {window}."
         return {
@@ -189,21 +194,19 @@ class Episodic:
             "mission_id": n.mission_id,
         }
 
-    def _visits(
-        self, begin: float, finish: float, where: str | None, now: float, cap: int
-    ) -> list[dict[str, Any]]:
-        return [
-            {
-                **self._when(v.arrived, now),
-                "kind": "visit",
-                "id": v.id,
-                "place": v.place,
-                "until": iso(v.departed),
-                "text": f"was at {v.place} for {duration(v.departed - v.arrived)}",
-            }
-            for v in self.store.visits(begin, finish, limit=cap)
-            if where is None or v.place == where
-        ]
+    def _digest_item(self, row: Sighting | Note | Visit, now: float) -> dict[str, Any]:
+        if isinstance(row, Sighting):
+            return self._sighting_item(row, now)
+        if isinstance(row, Note):
+            return self._note_item(row, now)
+        return {
+            **self._when(row.arrived, now),
+            "kind": "visit",
+            "id": row.id,
+            "place": row.place,
+            "until": iso(row.departed),
+            "text": f"was at {row.place} for {duration(row.departed - row.arrived)}",
+        }
 
     def last_seen(
         self, query: str, before: str = "now", place: str | None = None, n: int = 3
@@ -461,7 +464,7 @@ class Episodic:
             self.store.sightings(begin, finish, place=where, limit=many),
             self.store.notes(begin, finish, place=where, limit=many),
             [p for p in self.store.poses(begin, finish, limit=many) if where in (None, p.place)],
-            [v for v in self.store.visits(begin, finish, limit=many) if where in (None, v.place)],
+            self.store.visits(begin, finish, place=where, limit=many),
         )
 
     def _forget_recordings(

@@ -91,7 +91,7 @@ def build_app(
     retention = Retention(
         config.retain_bags_h, config.retain_index_d, config.max_mb, config.flush_s
     )
-    memory = Episodic(store, indexer, places, retention, bags, clock=clock)
+    memory = Episodic(store, indexer, places, retention, bags, clock=clock, zone=config.zone)
     janitor = Janitor(
         store, bags, bags_h=config.retain_bags_h, index_d=config.retain_index_d,
         max_mb=config.max_mb, clock=clock,
@@ -144,6 +144,7 @@ def run() -> None:
         data_dir=str(config.data_dir),
         pose_topic=config.pose_topic,
         flush_s=config.flush_s,
+        timezone=config.timezone,
         transport=settings.transport,
     )
     try:

@@ -201,9 +201,12 @@ class SqliteEpisodicStore(EpisodicStore):
             where.append("place = ?")
             params.append(place)
         order = "last_seen DESC" if newest_first else "first_seen ASC"
+        # Named: with a few labels and a long window SQLite's planner otherwise takes the
+        # start index, walks every older interval and sorts (measured: 2 ms -> 10 ms at 100 h).
+        index = "sightings_by_label" if labels is not None else "sightings_by_time"
         rows = self._read(
-            f"SELECT {SIGHTING_COLUMNS} FROM sightings WHERE {' AND '.join(where)} "
-            f"ORDER BY {order} LIMIT ?",
+            f"SELECT {SIGHTING_COLUMNS} FROM sightings INDEXED BY {index} "
+            f"WHERE {' AND '.join(where)} ORDER BY {order} LIMIT ?",
             [*params, limit],
         )
         return [sighting_from_row(row) for row in rows]

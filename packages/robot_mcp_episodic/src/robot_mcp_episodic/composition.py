@@ -118,6 +118,7 @@ def build_app(
         jobs.append(Job("flush_bags", config.flush_s, bags.flush))
     if recorder is not None:
         jobs.append(Job("graph", config.graph_poll_s, recorder.sync))
+        jobs.append(Job("pose_catch_up", 1.0 / config.pose_hz, recorder.catch_up))
     worker = Worker(jobs)
     return EpisodicApp(config, memory, build_server(memory), worker, recorder, bridge)
 

@@ -172,7 +172,8 @@ async def test_the_sim_robot_driving_to_the_kitchen_is_recorded_with_its_pose_an
 
     store = SqliteEpisodicStore(data_dir / "episodic.sqlite3", "robot-1")
     try:
-        seen = store.sightings(sent, time.time() + 1, place="kitchen", limit=1000)
+        seen = [s for s in store.sightings(sent, time.time() + 1, limit=1000) if s.skill == SKILL]
+        assert {s.place for s in seen} == {"kitchen"}
         assert {s.label for s in seen} >= KITCHEN_OBJECTS
         assert all(near(s.x, s.y, kitchen, 0.05) for s in seen), [
             (s.label, s.skill, s.x, s.y, s.first_seen - sent) for s in seen

@@ -6,7 +6,13 @@ A publisher in this process sends what a busy robot sends: 4 skills x 10 Hz
 (sse). CPU = the server's user+system time over the measured window (start-up excluded);
 storage = index and MCAP bytes written in the window, scaled to one hour.
 
-    uv run python benchmarks/episodic_ingest.py [--seconds 60]
+Baseline in the same window: a bare rclpy process subscribing raw to the same topics through
+the same bridge (``_episodic_bare_subscriber.py``). The machine is shared, so its CPU moves
+with the load as the server's does; server minus baseline is what the episodic work costs.
+``--runs N`` repeats the whole measurement (fresh processes) and reports every run and the
+range.
+
+    uv run python benchmarks/episodic_ingest.py [--seconds 60] [--runs 3]
         # writes benchmarks/results/episodic_ingest.json
 """
 
@@ -16,11 +22,13 @@ import argparse
 import json
 import math
 import os
+import statistics
 import sys
 import tempfile
 import time
 import uuid
 from pathlib import Path
+from typing import Any
 
 from robot_mcp_episodic.store.sqlite import SqliteEpisodicStore
 from robot_ros_bridge import RosBridge
@@ -29,6 +37,7 @@ from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_por
 RESULTS = Path(__file__).parent / "results"
 SKILLS = ("detect", "people", "find_mug", "doors")
 LABELS = ("mug", "chair", "person", "laptop", "door", "plant", "bottle", "bag", "monitor")
+BARE_EXECUTORS = ("multi_threaded", "single_threaded")
 ROUTE = ((0.0, 0.0), (9.0, -3.0), (4.0, 1.5), (11.0, 10.0), (17.0, 3.0))
 
 
@@ -55,14 +64,7 @@ def dir_bytes(path: Path) -> int:
     return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--seconds", type=float, default=60.0)
-    parser.add_argument("--idle", action="store_true", help="publish nothing: the baseline")
-    args = parser.parse_args()
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    os.environ.setdefault("ROS_DOMAIN_ID", str(40 + os.getpid() % 50))
-
+def measure_once(seconds: float, idle: bool) -> dict[str, Any]:
     from geometry_msgs.msg import PoseWithCovarianceStamped
     from ros2_vision_interfaces.msg import VisionDetection, VisionDetectionArray
 
@@ -75,6 +77,19 @@ def main() -> None:
         env={"MCP_TRANSPORT": "sse", "MCP_PORT": str(port), "EPISODIC_DIR": str(work / "data"),
              "EPISODIC_POSE_TOPIC": pose_topic, "LOG_LEVEL": "WARNING"},
     )  # fmt: skip
+    bares = {
+        kind: launcher.start(
+            f"bare_{kind}",
+            [
+                sys.executable,
+                str(Path(__file__).parent / "_episodic_bare_subscriber.py"),
+                kind,
+                pose_topic,
+                *SKILLS,
+            ],
+        )
+        for kind in BARE_EXECUTORS
+    }
     try:
         wait_for_tcp_port(port, 60.0)
         with RosBridge("episodic_bench_publisher") as bridge:
@@ -84,11 +99,13 @@ def main() -> None:
             }
             pose_pub = bridge.create_publisher(PoseWithCovarianceStamped, pose_topic)
             deadline = time.monotonic() + 30.0
+            topics = [pose_topic, *(f"/vision/{s}/detections_meta" for s in SKILLS)]
             while time.monotonic() < deadline:  # the server subscribes on its graph poll
-                topics = [f"/vision/{s}/detections_meta" for s in SKILLS]
-                if all(bridge.node.count_subscribers(t) for t in topics):
+                if all(bridge.node.count_subscribers(t) >= 1 + len(bares) for t in topics):
                     break
                 time.sleep(0.1)
+            else:
+                raise TimeoutError("the server and the baseline did not subscribe within 30 s")
             sent = 0
             tick = 0
 
@@ -125,20 +142,26 @@ def main() -> None:
             next_at = time.monotonic()
             measuring = False
             cpu0 = wall0 = 0.0
+            bare0 = dict.fromkeys(bares, 0.0)
             bytes0 = 0
-            end = warm_end + args.seconds
+            load0 = os.getloadavg()
+            end = warm_end + seconds
             while time.monotonic() < end:
                 if not measuring and time.monotonic() >= warm_end:
                     measuring, sent = True, 0
                     cpu0, wall0 = cpu_seconds(server.pid), time.monotonic()
+                    bare0 = {kind: cpu_seconds(p.pid) for kind, p in bares.items()}
                     bytes0 = dir_bytes(work / "data")
-                if not args.idle:
+                    load0 = os.getloadavg()
+                if not idle:
                     publish_tick(time.time())
                 next_at += 0.1
                 time.sleep(max(0.0, next_at - time.monotonic()))
             cpu = cpu_seconds(server.pid) - cpu0
+            bare_cpu = {kind: cpu_seconds(p.pid) - bare0[kind] for kind, p in bares.items()}
             threads = thread_cpu(server.pid)
             wall = time.monotonic() - wall0
+            load1 = os.getloadavg()
         time.sleep(1.5)  # one more flush interval
     finally:
         launcher.stop_all()  # a clean stop: the WAL is merged, the open bag finished
@@ -150,27 +173,76 @@ def main() -> None:
     bag_bytes = dir_bytes(data / "bags")
     grown = dir_bytes(data) - bytes0
     scale = 3600.0 / wall
-    result = {
+    server_pct = 100 * cpu / wall
+    bare_pct = {kind: round(100 * used / wall, 2) for kind, used in bare_cpu.items()}
+    return {
         "seconds": round(wall, 1),
         "messages_sent": sent,
         "rate_msgs_per_s": round(sent / wall, 1),
-        "cpu_percent_of_one_core": round(100 * cpu / wall, 2),
+        "cpu_percent_of_one_core": round(server_pct, 2),
+        "bare_subscriber_cpu_percent": bare_pct,
+        "server_minus_bare_percent": {
+            kind: round(server_pct - used, 2) for kind, used in bare_pct.items()
+        },
         "index_mb_per_hour": round(index_bytes * scale / 1e6, 2),
         "mcap_mb_per_hour": round(bag_bytes * scale / 1e6, 1),
         "growth_mb_per_hour": round(grown * scale / 1e6, 1),
-        "load_average": os.getloadavg(),
+        "load_average_start": [round(x, 2) for x in load0],
+        "load_average_end": [round(x, 2) for x in load1],
         "cpu_s_by_thread_incl_startup": {k: round(v, 2) for k, v in threads.items()},
+    }
+
+
+def spread(values: list[float]) -> dict[str, float]:
+    return {"min": min(values), "median": round(statistics.median(values), 2), "max": max(values)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--runs", type=int, default=1)
+    parser.add_argument("--idle", action="store_true", help="publish nothing: the idle server")
+    args = parser.parse_args()
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_DOMAIN_ID", str(40 + os.getpid() % 50))
+    runs = []
+    for number in range(args.runs):
+        run = measure_once(args.seconds, args.idle)
+        runs.append(run)
+        print(
+            f"run {number + 1}: {run['rate_msgs_per_s']} msg/s for {run['seconds']} s, load "
+            f"{run['load_average_start'][0]}->{run['load_average_end'][0]}: server "
+            f"{run['cpu_percent_of_one_core']} %, bare rclpy subscriber "
+            f"{run['bare_subscriber_cpu_percent']} %, difference "
+            f"{run['server_minus_bare_percent']} %"
+        )
+    result = {
+        "runs": runs,
+        "cpu_percent_of_one_core": spread([r["cpu_percent_of_one_core"] for r in runs]),
+        "bare_subscriber_cpu_percent": {
+            kind: spread([r["bare_subscriber_cpu_percent"][kind] for r in runs])
+            for kind in BARE_EXECUTORS
+        },
+        "server_minus_bare_percent": {
+            kind: spread([r["server_minus_bare_percent"][kind] for r in runs])
+            for kind in BARE_EXECUTORS
+        },
+        "index_mb_per_hour": spread([r["index_mb_per_hour"] for r in runs]),
+        "mcap_mb_per_hour": spread([r["mcap_mb_per_hour"] for r in runs]),
+        "idle": args.idle,
         "index_hz": os.environ.get("EPISODIC_INDEX_HZ", "2"),
         "note": "index (after a clean stop, minus an empty index) and MCAP bytes include the "
-        "5 s warm-up; scaled linearly to one hour",
+        "5 s warm-up; scaled linearly to one hour. The bare subscriber is a raw rclpy "
+        "subscriber to the same 5 topics through the same RosBridge (with either executor), "
+        "measured in the same window: the floor rclpy + DDS cost on this machine at this load.",
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "episodic_ingest.json").write_text(json.dumps(result, indent=2))
-    print("CPU s by thread (incl. start-up):", result["cpu_s_by_thread_incl_startup"])
     print(
-        f"ingest {result['rate_msgs_per_s']} msg/s for {result['seconds']} s: server CPU "
-        f"{result['cpu_percent_of_one_core']} % of one core (goal < 5 %); index "
-        f"{result['index_mb_per_hour']} MB/h (goal <= 5), MCAP {result['mcap_mb_per_hour']} MB/h"
+        f"server CPU {result['cpu_percent_of_one_core']} % of one core (goal < 5 %); bare "
+        f"subscriber {result['bare_subscriber_cpu_percent']} %; difference "
+        f"{result['server_minus_bare_percent']} %; index {result['index_mb_per_hour']} MB/h "
+        f"(goal <= 5), MCAP {result['mcap_mb_per_hour']} MB/h"
     )
 
 

@@ -148,16 +148,14 @@ class Day:
     shown: Shown
 
 
-# The day's clock-time questions ("where were you at 3 pm") are about UTC times: pin the
-# server's site time zone to UTC wherever its config has one (a time-zone setting is being
-# added to the episodic config; until then the server reads clock times in UTC anyway).
-_UTC = {name: "UTC" for name in EpisodicConfig.model_fields if "zone" in name or name == "tz"}
-
-
 def play_day(data_dir: Path) -> Day:
     clock = ManualClock(START)
     app = build_app(
-        EpisodicConfig(data_dir=data_dir, record_raw=False, **_UTC),
+        EpisodicConfig(
+            data_dir=data_dir,
+            record_raw=False,
+            timezone="UTC",  # the day's clock-time questions ("at 3 pm") are UTC times
+        ),
         record_ros=False, clock=clock,
     )  # fmt: skip
     shown = play_office_day(Episode(app.memory.indexer, app.memory.places, clock))

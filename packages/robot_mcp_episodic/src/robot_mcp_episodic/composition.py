@@ -91,14 +91,20 @@ def build_app(
     retention = Retention(
         config.retain_bags_h, config.retain_index_d, config.max_mb, config.flush_s
     )
-    memory = Episodic(store, indexer, places, retention, bags, clock=clock)
+    memory = Episodic(store, indexer, places, retention, bags, clock=clock, zone=config.zone)
     janitor = Janitor(
         store, bags, bags_h=config.retain_bags_h, index_d=config.retain_index_d,
         max_mb=config.max_mb, clock=clock,
     )  # fmt: skip
     recorder: RosRecorder | None = None
     if record_ros:
-        bridge = bridge if bridge is not None else RosBridge(config.ros_node_name)
+        # Single-threaded: the callbacks are short and never wait on each other, and the
+        # multi-threaded executor costs ~5x the CPU per message (benchmarks/README.md).
+        bridge = (
+            bridge
+            if bridge is not None
+            else RosBridge(config.ros_node_name, executor="single_threaded")
+        )
         bridge.start()
         recorder = RosRecorder(
             bridge, indexer, bags, config.pose_topic,
@@ -112,6 +118,7 @@ def build_app(
         jobs.append(Job("flush_bags", config.flush_s, bags.flush))
     if recorder is not None:
         jobs.append(Job("graph", config.graph_poll_s, recorder.sync))
+        jobs.append(Job("pose_catch_up", 1.0 / config.pose_hz, recorder.catch_up))
     worker = Worker(jobs)
     return EpisodicApp(config, memory, build_server(memory), worker, recorder, bridge)
 
@@ -138,6 +145,7 @@ def run() -> None:
         data_dir=str(config.data_dir),
         pose_topic=config.pose_topic,
         flush_s=config.flush_s,
+        timezone=config.timezone,
         transport=settings.transport,
     )
     try:

@@ -18,6 +18,9 @@ starts (a bad value exits 2 with one line naming the variable).
 - ``EPISODIC_INDEX_HZ`` (``2``) / ``EPISODIC_POSE_HZ`` (``5``): frames per skill topic and
   poses per second decoded for the index (every message goes to the MCAP)
 - ``EPISODIC_RECORD_RAW`` (``true``): write MCAP bags
+- ``EPISODIC_TIMEZONE`` (the machine's local zone, else UTC): an IANA name
+  (``Europe/Berlin``); clock times such as "3 pm" are read in it and answers give its wall
+  clock beside the ISO UTC times
 - ``ROBOT_ID`` (``robot-1``); ``MCP_TRANSPORT`` / ``MCP_HOST`` / ``MCP_PORT`` (stdio /
   127.0.0.1 / 9203)
 """
@@ -28,9 +31,13 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Literal
+from zoneinfo import ZoneInfo
 
 import platformdirs
+import tzlocal
 from pydantic import BaseModel, ConfigDict, Field, SecretStr, field_validator, model_validator
+
+from robot_mcp_episodic.timeparse import site_zone
 
 DEFAULT_PORT = 9203
 SERVER_NAME = "episodic"
@@ -53,6 +60,7 @@ _ENV = {
     "index_hz": "EPISODIC_INDEX_HZ",
     "pose_hz": "EPISODIC_POSE_HZ",
     "record_raw": "EPISODIC_RECORD_RAW",
+    "timezone": "EPISODIC_TIMEZONE",
     "robot_id": "ROBOT_ID",
     "log_level": "LOG_LEVEL",
 }
@@ -66,6 +74,16 @@ def default_map_file() -> Path:
         if candidate.is_file():
             return candidate
     return here.parent / "office.yaml"
+
+
+def local_zone_name() -> str:
+    """The machine's IANA zone (``TZ``, ``/etc/timezone``, the ``/etc/localtime`` link), else
+    UTC."""
+    try:
+        name = tzlocal.get_localzone_name()
+    except (LookupError, OSError, ValueError):  # tzlocal's "cannot tell" errors
+        return "UTC"
+    return name or "UTC"
 
 
 class EpisodicConfig(BaseModel):
@@ -87,6 +105,7 @@ class EpisodicConfig(BaseModel):
     index_hz: float = Field(default=2.0, gt=0, le=100)
     pose_hz: float = Field(default=5.0, gt=0, le=100)
     record_raw: bool = True
+    timezone: str = Field(default_factory=local_zone_name)
     graph_poll_s: float = Field(default=1.0, gt=0, le=30)
     robot_id: str = Field(default="robot-1", min_length=1, max_length=128)
     ros_node_name: str = "robot_mcp_episodic"
@@ -99,6 +118,15 @@ class EpisodicConfig(BaseModel):
         if not value.is_absolute():
             raise ValueError("must be an absolute path (never relative to the working directory)")
         return value
+
+    @field_validator("timezone")
+    @classmethod
+    def _known_zone(cls, value: str) -> str:
+        try:
+            site_zone(value.strip())
+        except ValueError as exc:  # the default too: a machine zone zoneinfo cannot read
+            raise ValueError(f"{exc} (set EPISODIC_TIMEZONE)") from None
+        return value.strip()
 
     @field_validator("map_file")
     @classmethod
@@ -114,6 +142,10 @@ class EpisodicConfig(BaseModel):
         ):
             raise ValueError("EPISODIC_STORE=postgres needs EPISODIC_POSTGRES_DSN")
         return self
+
+    @property
+    def zone(self) -> ZoneInfo:
+        return site_zone(self.timezone)
 
     @property
     def db_path(self) -> Path:

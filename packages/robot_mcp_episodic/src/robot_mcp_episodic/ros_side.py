@@ -8,6 +8,9 @@ decode, no re-encode), and only a sample is decoded for the index — at most ``
 per skill topic and ``pose_hz`` poses a second. Decoding into Python objects is what costs CPU
 in rclpy; intervals (merged over a 10 s gap) and the pose track (0.25 m / 15° / 10 s) need no
 more. A label seen in a single frame between two samples is in the MCAP, not in the index.
+The newest pose held back by the sampling is decoded once it is due (:meth:`RosRecorder.
+catch_up`, from the worker): AMCL publishes only while the robot moves, so the pose the robot
+stopped at may be the last message for a long time and must not be the one skipped.
 
 Followed: every ``/vision/<skill>/detections_meta`` (VisionDetectionArray; never
 ``/detections``, which carries masks, nor ``/overlay``) and every ``/vision/<skill>/<output>``
@@ -123,6 +126,8 @@ class RosRecorder:
         self._indexer = indexer
         self._bags = bags
         self._lock = threading.Lock()
+        self._pose_lock = threading.Lock()  # executor thread vs the worker's catch_up
+        self._held_pose: bytes | None = None
         self._subs: dict[str, Any] = {}
         self.pose_topic = pose_topic
         self.received = 0
@@ -192,11 +197,28 @@ class RosRecorder:
         return callback
 
     def _on_pose(self, data: bytes) -> None:
-        msg = self._decode(self.pose_topic, POSE_TYPE, data, self._pose_period)
-        if msg is not None:
-            pose = msg.pose.pose
-            self._indexer.on_pose(
-                stamp_seconds(msg.header), float(pose.position.x), float(pose.position.y),
-                yaw_from_quaternion(pose.orientation),
-            )  # fmt: skip
+        with self._pose_lock:
+            msg = self._decode(self.pose_topic, POSE_TYPE, data, self._pose_period)
+            self._held_pose = None if msg is not None else data
+            if msg is not None:
+                self._index_pose(msg)
         self._record(self.pose_topic, POSE_TYPE, data)
+
+    def catch_up(self) -> None:
+        """Index the newest pose the sampling held back, once a sample is due (the worker
+        calls this every pose period): the last pose before the publisher went quiet."""
+        with self._pose_lock:
+            held = self._held_pose
+            if held is None:
+                return
+            msg = self._decode(self.pose_topic, POSE_TYPE, held, self._pose_period)
+            if msg is not None:
+                self._held_pose = None
+                self._index_pose(msg)
+
+    def _index_pose(self, msg: Any) -> None:
+        pose = msg.pose.pose
+        self._indexer.on_pose(
+            stamp_seconds(msg.header), float(pose.position.x), float(pose.position.y),
+            yaw_from_quaternion(pose.orientation),
+        )  # fmt: skip

@@ -30,13 +30,18 @@ logger = structlog.get_logger(__name__)
 INSTRUCTIONS = (
     "The robot's episodic memory: what it saw (sightings with first/last seen, place, box), "
     "where it was (pose track, named places) and what happened (scene notes, missions, "
-    "conversation). Pass times as -30s / -10m / -2h, ISO 8601, 15:00 or now and places as the "
-    "map's names: the server does the time arithmetic. Answers carry ISO times, 'N s ago' and "
-    "record ids; an 'answer' sentence can be read to the user as is."
+    "conversation). Pass times as -30s / -10m / -2h, ISO 8601, a clock time (15:00, 3 pm: the "
+    "site's local time, pass it as the user said it) or now and places as the map's names: the "
+    "server does the time arithmetic. Answers carry ISO UTC times, the site's local clock, "
+    "'N s ago' and record ids; an 'answer' sentence can be read to the user as is."
 )
 
 TimeText = Annotated[
-    str, Field(description="ISO 8601, relative (-30s, -10m, -2h, -1d), a clock time (15:00) or now")
+    str,
+    Field(
+        description="ISO 8601, relative (-30s, -10m, -2h, -1d), a clock time in the site's "
+        "time zone (15:00, 3 pm) or now"
+    ),
 ]
 PlaceName = Annotated[
     str | None, Field(description="A named place on the map (e.g. kitchen); omit for anywhere")

@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
+from zoneinfo import ZoneInfo
 
 import structlog
 
@@ -20,7 +21,16 @@ from robot_mcp_episodic.ingest import NOTE_KINDS, Indexer
 from robot_mcp_episodic.matching import label_matches, matching_labels, words
 from robot_mcp_episodic.places import Places, UnknownPlaceError
 from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting, Visit
-from robot_mcp_episodic.timeparse import TimeError, ago, duration, iso, parse_time
+from robot_mcp_episodic.timeparse import (
+    UTC_ZONE,
+    TimeError,
+    ago,
+    clock_time,
+    duration,
+    iso,
+    local_clock,
+    parse_time,
+)
 
 logger = structlog.get_logger(__name__)
 
@@ -76,8 +86,10 @@ class Episodic:
         bags: BagRecorder | None = None,
         *,
         clock: Callable[[], float] = time.time,
+        zone: ZoneInfo = UTC_ZONE,
     ) -> None:
         self.store = store
+        self.zone = zone
         self.indexer = indexer
         self.places = places
         self.retention = retention
@@ -87,7 +99,7 @@ class Episodic:
     # -- argument resolution ---------------------------------------------------------------
     def _time(self, name: str, text: str | float | None, now: float) -> float:
         try:
-            return parse_time(text, now)
+            return parse_time(text, now, self.zone)
         except TimeError as exc:
             raise EpisodicError("invalid_time", f"{name}: {exc}") from None
 
@@ -110,7 +122,17 @@ class Episodic:
             raise EpisodicError("unknown_place", str(exc)) from None
 
     def _when(self, stamp: float, now: float) -> dict[str, Any]:
-        return {"time": iso(stamp), "ago": ago(stamp, now), "t": round(stamp, 3)}
+        """ISO UTC, the site's wall clock, "N s ago" and unix seconds of ``stamp``."""
+        return {
+            "time": iso(stamp),
+            "local": local_clock(stamp, self.zone),
+            "ago": ago(stamp, now),
+            "t": round(stamp, 3),
+        }
+
+    def _said(self, stamp: float) -> str:
+        """``15:00 CET (2026-11-24T14:00:00.000Z)``: for answer sentences."""
+        return f"{clock_time(stamp, self.zone)} ({iso(stamp)})"
 
     def _flush(self) -> None:
         """Answers include what arrived up to now, not only what the flusher wrote."""
@@ -138,22 +160,27 @@ class Episodic:
         if not 1 <= max_items <= 500:
             raise EpisodicError("invalid_argument", "max_items must be between 1 and 500")
         self._flush()
-        items: list[dict[str, Any]] = []
-        cap = max_items * 4
+        # Only the newest max_items of the window survive, so each kind reads at most
+        # max_items + 1 rows (the extra one tells "truncated") and only the kept rows are
+        # turned into answer items.
+        limit = max_items + 1
+        rows: list[tuple[float, Sighting | Note | Visit]] = []
         if "sightings" in wanted:
-            for s in self.store.sightings(begin, finish, place=where, limit=cap, newest_first=True):
-                items.append(self._sighting_item(s, now))
+            found = self.store.sightings_by_start(begin, finish, place=where, limit=limit)
+            rows.extend((s.first_seen, s) for s in found)
         note_kinds = [k for group in wanted for k in _NOTE_GROUPS.get(group, ())]
         if note_kinds:
-            for n in self.store.notes(
-                begin, finish, kinds=note_kinds, place=where, limit=cap, newest_first=True
-            ):
-                items.append(self._note_item(n, now))
+            notes = self.store.notes(
+                begin, finish, kinds=note_kinds, place=where, limit=limit, newest_first=True
+            )
+            rows.extend((n.t, n) for n in notes)
         if "places" in wanted:
-            items.extend(self._visits(begin, finish, where, now, cap))
-        items.sort(key=lambda item: item["t"])
-        truncated = len(items) > max_items
-        items = items[-max_items:]
+            rows.extend(
+                (v.arrived, v) for v in self.store.visits(begin, finish, place=where, limit=limit)
+            )
+        rows.sort(key=lambda row: row[0])
+        truncated = len(rows) > max_items
+        items = [self._digest_item(row, now) for _, row in rows[-max_items:]]
         window = f"between {iso(begin)} and {iso(finish)}"
         summary = f"{len(items)} events {window}" if items else f"Nothing was recorded {window}."
         return {
@@ -189,21 +216,19 @@ class Episodic:
             "mission_id": n.mission_id,
         }
 
-    def _visits(
-        self, begin: float, finish: float, where: str | None, now: float, cap: int
-    ) -> list[dict[str, Any]]:
-        return [
-            {
-                **self._when(v.arrived, now),
-                "kind": "visit",
-                "id": v.id,
-                "place": v.place,
-                "until": iso(v.departed),
-                "text": f"was at {v.place} for {duration(v.departed - v.arrived)}",
-            }
-            for v in self.store.visits(begin, finish, limit=cap)
-            if where is None or v.place == where
-        ]
+    def _digest_item(self, row: Sighting | Note | Visit, now: float) -> dict[str, Any]:
+        if isinstance(row, Sighting):
+            return self._sighting_item(row, now)
+        if isinstance(row, Note):
+            return self._note_item(row, now)
+        return {
+            **self._when(row.arrived, now),
+            "kind": "visit",
+            "id": row.id,
+            "place": row.place,
+            "until": iso(row.departed),
+            "text": f"was at {row.place} for {duration(row.departed - row.arrived)}",
+        }
 
     def last_seen(
         self, query: str, before: str = "now", place: str | None = None, n: int = 3
@@ -223,13 +248,13 @@ class Episodic:
         results = [self._sighting_answer(s, until, now) for s in found]
         if not results:
             at = f" at {where}" if where else ""
-            answer = f"I have no record of seeing {query}{at} before {iso(until)}."
+            answer = f"I have no record of seeing {query}{at} before {self._said(until)}."
         else:
             top = results[0]
             at = f" at {top['place']}" if top["place"] else ""
             answer = (
                 f"I last saw {top['label']}{at} {top['last_seen']['ago']} "
-                f"({top['last_seen']['time']})."
+                f"({self._said(top['last_seen']['t'])})."
             )
             if top["absent_since"]:
                 answer += f" When I looked again {top['absent_since']['ago']} it was gone."
@@ -320,7 +345,7 @@ class Episodic:
                 **self._when(at, now),
                 "found": False,
                 "mission": mission,
-                "answer": f"No pose was recorded within {int(POSE_NEAR_S)} s of {iso(at)}.",
+                "answer": f"No pose was recorded within {int(POSE_NEAR_S)} s of {self._said(at)}.",
             }
         pose = min(candidates, key=lambda p: abs(p.t - at))
         place = pose.place or "no named place"
@@ -331,7 +356,7 @@ class Episodic:
             "place": pose.place,
             "sample": {**self._when(pose.t, now), "id": f"p-{pose.id}"},
             "mission": mission,
-            "answer": f"At {iso(at)} I was at {place} (x {pose.x:.2f}, y {pose.y:.2f}).",
+            "answer": f"At {self._said(at)} I was at {place} (x {pose.x:.2f}, y {pose.y:.2f}).",
         }
 
     def _mission_at(self, at: float, now: float) -> dict[str, Any] | None:
@@ -461,7 +486,7 @@ class Episodic:
             self.store.sightings(begin, finish, place=where, limit=many),
             self.store.notes(begin, finish, place=where, limit=many),
             [p for p in self.store.poses(begin, finish, limit=many) if where in (None, p.place)],
-            [v for v in self.store.visits(begin, finish, limit=many) if where in (None, v.place)],
+            self.store.visits(begin, finish, place=where, limit=many),
         )
 
     def _forget_recordings(

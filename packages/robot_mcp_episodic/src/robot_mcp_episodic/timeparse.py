@@ -1,12 +1,20 @@
 """Times as people and planners write them, resolved by the server (the model never does time
 arithmetic): ISO 8601 (``2026-11-24T15:00:00Z``; no zone = UTC), a clock time today
-(``15:00``, ``3pm``), relative (``-30s``, ``-10m``, ``-2h``, ``-1d``, ``30 s ago``) and ``now``.
+(``15:00``, ``3pm``, ``3 pm``) read in the site's time zone, relative (``-30s``, ``-10m``,
+``-2h``, ``-1d``, ``30 s ago``) and ``now``.
+
+Clock times follow the zone's rules on the day meant (a "3 pm" asked the morning after the
+clocks changed is yesterday's 3 pm at yesterday's offset); a wall time that happened twice
+(clocks going back) is the later one that is not in the future; one the clocks skipped is a
+clear error.
 """
 
 from __future__ import annotations
 
 import re
-from datetime import UTC, datetime
+from datetime import UTC, date, datetime, timedelta
+from datetime import time as wall_time
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 _RELATIVE = re.compile(
     r"^\s*-\s*(\d+(?:\.\d+)?)\s*(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)\s*$"
@@ -18,16 +26,30 @@ _CLOCK = re.compile(r"^\s*(\d{1,2})(?::(\d{2}))?\s*(am|pm)?\s*$")
 _UNIT_S = {"s": 1.0, "m": 60.0, "h": 3600.0, "d": 86400.0}
 
 
+UTC_ZONE = ZoneInfo("UTC")
+
+
 class TimeError(ValueError):
     """A time the server cannot read; the message says which forms it accepts."""
+
+
+def site_zone(name: str) -> ZoneInfo:
+    """The IANA zone ``name`` (``Europe/Berlin``); ValueError naming it when unknown."""
+    try:
+        return ZoneInfo(name)
+    except (ZoneInfoNotFoundError, ValueError):
+        raise ValueError(
+            f"unknown time zone {name!r}: use an IANA name such as Europe/Berlin or UTC"
+        ) from None
 
 
 def _unit(text: str) -> float:
     return _UNIT_S[text[0]]
 
 
-def parse_time(text: str | float | None, now: float) -> float:
-    """Unix seconds for ``text`` relative to ``now`` (unix s). ``None`` or empty = now."""
+def parse_time(text: str | float | None, now: float, zone: ZoneInfo = UTC_ZONE) -> float:
+    """Unix seconds for ``text`` relative to ``now`` (unix s); clock times are read in
+    ``zone``. ``None`` or empty = now."""
     if text is None:
         return now
     if isinstance(text, int | float):
@@ -41,33 +63,75 @@ def parse_time(text: str | float | None, now: float) -> float:
             return now - float(match.group(1)) * _unit(match.group(2))
     clock = _CLOCK.match(value)
     if clock and (clock.group(2) is not None or clock.group(3) is not None):
-        return _clock_today(clock, now)
+        return _clock_today(clock, now, zone)
     try:
         parsed = datetime.fromisoformat(text.strip().replace("Z", "+00:00").replace("z", "+00:00"))
     except ValueError:
         raise TimeError(
             f"cannot read the time {text!r}: use ISO 8601 (2026-11-24T15:00:00Z), a relative "
-            "time (-30s, -10m, -2h, -1d), a clock time today (15:00, 3pm) or now"
+            "time (-30s, -10m, -2h, -1d), a clock time today (15:00, 3pm, 3 pm; the site's "
+            "local time) or now"
         ) from None
     if parsed.tzinfo is None:
         parsed = parsed.replace(tzinfo=UTC)
     return parsed.timestamp()
 
 
-def _clock_today(match: re.Match[str], now: float) -> float:
+def _clock_today(match: re.Match[str], now: float, zone: ZoneInfo) -> float:
+    said = match.group(0).strip()
     hour = int(match.group(1))
     minute = int(match.group(2) or 0)
     meridiem = match.group(3)
     if meridiem:
         if not 1 <= hour <= 12:
-            raise TimeError(f"{match.group(0).strip()!r} is not a clock time")
+            raise TimeError(f"{said!r} is not a clock time")
         hour = hour % 12 + (12 if meridiem == "pm" else 0)
     if hour > 23 or minute > 59:
-        raise TimeError(f"{match.group(0).strip()!r} is not a clock time")
-    today = datetime.fromtimestamp(now, UTC)
-    at = today.replace(hour=hour, minute=minute, second=0, microsecond=0).timestamp()
+        raise TimeError(f"{said!r} is not a clock time")
+    wanted = wall_time(hour, minute)
+    today = datetime.fromtimestamp(now, zone).date()
+    happened = _occurrences(today, wanted, zone)
+    if not happened and _instant(today, wanted, zone, fold=0) <= now:
+        raise TimeError(
+            f"{said!r} did not happen on {today.isoformat()} in {zone.key}: the clocks went "
+            "forward over it; ask for a time just before or after"
+        )
     # "3 pm" said at 10 am means yesterday's 3 pm: memory answers about the past.
-    return at - 86400.0 if at > now else at
+    past = [t for t in happened if t <= now]
+    if past:
+        return max(past)
+    earlier = _occurrences(today - timedelta(days=1), wanted, zone)
+    if not earlier:
+        raise TimeError(
+            f"{said!r} did not happen yesterday in {zone.key}: the clocks went forward over it"
+        )
+    return max(earlier)
+
+
+def _instant(day: date, wanted: wall_time, zone: ZoneInfo, fold: int) -> float:
+    return datetime.combine(day, wanted, tzinfo=zone).replace(fold=fold).timestamp()
+
+
+def _occurrences(day: date, wanted: wall_time, zone: ZoneInfo) -> list[float]:
+    """The instants the wall clock showed ``wanted`` on ``day`` in ``zone``: one, two when
+    the clocks went back over it, none when they went forward over it."""
+    found = []
+    for fold in (0, 1):
+        stamp = _instant(day, wanted, zone, fold)
+        back = datetime.fromtimestamp(stamp, zone)
+        if back.date() == day and back.time() == wanted and stamp not in found:
+            found.append(stamp)
+    return found
+
+
+def clock_time(stamp: float, zone: ZoneInfo) -> str:
+    """``16:00 CET``: the site's time of day at ``stamp``."""
+    return datetime.fromtimestamp(stamp, zone).strftime("%H:%M %Z")
+
+
+def local_clock(stamp: float, zone: ZoneInfo) -> str:
+    """``2026-11-24 16:00:00 CET``: the site's wall clock at ``stamp``."""
+    return datetime.fromtimestamp(stamp, zone).strftime("%Y-%m-%d %H:%M:%S %Z")
 
 
 def iso(stamp: float) -> str:

@@ -161,6 +161,48 @@ def test_stats_give_rows_and_time_span_per_kind(open_store: StoreFactory) -> Non
     assert stats.kinds["notes"].oldest is None
 
 
+def test_the_sightings_that_began_last_in_a_window_come_latest_start_first(
+    open_store: StoreFactory,
+) -> None:
+    store = open_store()
+    store.save_sightings([
+        sighting("s-old", "mug", T - 500, T - 400),  # over before the window
+        sighting("s-long", "plant", T - 300, T + 990),  # began before, still seen in it
+        sighting("s-a", "mug", T + 10, T + 20),
+        sighting("s-b", "cup", T + 30, T + 31, place="reception"),
+        sighting("s-c", "mug", T + 50, T + 2000),  # began inside, seen long after
+        sighting("s-late", "mug", T + 1500, T + 1600),  # after the window
+    ])  # fmt: skip
+    began = store.sightings_by_start(T, T + 1000, limit=10)
+    assert [s.id for s in began] == ["s-c", "s-b", "s-a", "s-long"]
+    assert [s.id for s in store.sightings_by_start(T, T + 1000, limit=2)] == ["s-c", "s-b"]
+    assert [s.id for s in store.sightings_by_start(T, T + 1000, limit=4)] == [
+        "s-c", "s-b", "s-a", "s-long",
+    ]  # fmt: skip
+    at_reception = store.sightings_by_start(T, T + 1000, place="reception", limit=10)
+    assert [s.id for s in at_reception] == ["s-b"]
+    assert [s.id for s in store.sightings_by_start(T + 950, T + 1000, limit=10)] == [
+        "s-c", "s-long",
+    ]  # fmt: skip
+    assert open_store("robot-2").sightings_by_start(0, T + 9000, limit=10) == []
+
+
+def test_stays_are_read_by_place_and_the_latest_arrivals_win_the_limit(
+    open_store: StoreFactory,
+) -> None:
+    store = open_store()
+    store.save_visits([
+        Visit("v-1", "robot-1", "office", "dock", T - 100, T + 5),  # straddles the start
+        Visit("v-2", "robot-1", "office", "kitchen", T + 10, T + 20),
+        Visit("v-3", "robot-1", "office", "dock", T + 30, T + 40),
+        Visit("v-4", "robot-1", "office", "kitchen", T + 50, T + 60),
+    ])  # fmt: skip
+    assert [v.id for v in store.visits(T, T + 100, place="dock")] == ["v-1", "v-3"]
+    assert [v.id for v in store.visits(T, T + 100, place="kitchen", limit=1)] == ["v-4"]
+    assert [v.id for v in store.visits(T, T + 100, limit=3)] == ["v-2", "v-3", "v-4"]
+    assert [v.id for v in store.visits(T + 1, T + 35, limit=10)] == ["v-1", "v-2", "v-3"]
+
+
 def test_stays_grow_by_upsert_and_are_read_by_overlap(open_store: StoreFactory) -> None:
     store = open_store()
     store.save_visits([

@@ -82,6 +82,8 @@ async def test_the_stdio_transport_serves_the_tools(tmp_path: Path) -> None:
         ({"EPISODIC_DIR": "relative/dir"}, "absolute path"),
         ({"EPISODIC_FLUSH_S": "-1"}, "flush_s"),
         ({"EPISODIC_MAP_FILE": "/nonexistent/map.yaml"}, "no map file"),
+        ({"EPISODIC_TIMEZONE": "Mars/Olympus"}, "unknown time zone 'Mars/Olympus'"),
+        ({"EPISODIC_TIMEZONE": "../../etc/passwd"}, "EPISODIC_TIMEZONE"),
         ({"MCP_TRANSPORT": "carrier-pigeon"}, "MCP_TRANSPORT"),
         (
             {"EPISODIC_STORE": "postgres",

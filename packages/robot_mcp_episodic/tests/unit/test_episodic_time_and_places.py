@@ -3,11 +3,22 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from pathlib import Path
+from zoneinfo import ZoneInfo
 
 import pytest
 
+from robot_mcp_episodic.config import EpisodicConfig, local_zone_name
 from robot_mcp_episodic.places import Places, UnknownPlaceError
-from robot_mcp_episodic.timeparse import TimeError, ago, duration, iso, parse_time
+from robot_mcp_episodic.timeparse import (
+    TimeError,
+    ago,
+    clock_time,
+    duration,
+    iso,
+    local_clock,
+    parse_time,
+)
 
 NOW = datetime(2026, 11, 24, 16, 30, tzinfo=UTC).timestamp()
 
@@ -37,6 +48,66 @@ def test_clock_times_today_or_yesterday() -> None:
     assert parse_time("3 pm", NOW) == NOW - 5400
     assert parse_time("12am", NOW) == NOW - 16.5 * 3600
     assert parse_time("17:00", NOW) == NOW - 86400 + 1800  # later today = yesterday
+
+
+BERLIN = ZoneInfo("Europe/Berlin")
+
+
+def utc(*args: int) -> float:
+    return datetime(*args, tzinfo=UTC).timestamp()  # type: ignore[misc]
+
+
+def test_clock_times_are_the_sites_local_time() -> None:
+    now = utc(2026, 11, 24, 16, 30)  # 17:30 in Berlin (CET, UTC+1)
+    assert parse_time("3 pm", now, BERLIN) == utc(2026, 11, 24, 14, 0)
+    assert parse_time("3pm", now, BERLIN) == utc(2026, 11, 24, 14, 0)
+    assert parse_time("15:00", now, BERLIN) == utc(2026, 11, 24, 14, 0)
+    assert parse_time("17:45", now, BERLIN) == utc(2026, 11, 23, 16, 45)  # later: yesterday
+    # Just after local midnight, UTC is still on the previous day: "today" is the site's.
+    early = utc(2026, 11, 24, 23, 30)  # 00:30 on the 25th in Berlin
+    assert parse_time("0:15", early, BERLIN) == utc(2026, 11, 24, 23, 15)
+    assert parse_time("2026-11-24T15:00:00", now, BERLIN) == utc(2026, 11, 24, 15, 0)  # UTC
+
+
+def test_a_clock_time_across_the_spring_change_uses_that_days_offset() -> None:
+    # Berlin went from CET (+1) to CEST (+2) at 02:00 local on 2026-03-29.
+    now = utc(2026, 3, 29, 8, 0)  # 10:00 CEST
+    assert parse_time("3 pm", now, BERLIN) == utc(2026, 3, 28, 14, 0)  # yesterday, CET
+    assert parse_time("9:00", now, BERLIN) == utc(2026, 3, 29, 7, 0)  # today, CEST
+    assert parse_time("1:30", now, BERLIN) == utc(2026, 3, 29, 0, 30)  # today, still CET
+    with pytest.raises(TimeError, match="clocks went forward"):
+        parse_time("2:30", now, BERLIN)  # the clocks skipped it today
+
+
+def test_a_clock_time_the_autumn_change_repeated_is_the_later_one_already_past() -> None:
+    # Berlin went from CEST (+2) back to CET (+1) at 03:00 local on 2026-10-25: 02:30 twice.
+    now = utc(2026, 10, 25, 11, 0)
+    assert parse_time("2:30", now, BERLIN) == utc(2026, 10, 25, 1, 30)  # the second 02:30
+    between = utc(2026, 10, 25, 1, 0)  # 02:00 CET, after the first 02:30 only
+    assert parse_time("2:30", between, BERLIN) == utc(2026, 10, 25, 0, 30)
+    assert parse_time("3 pm", now, BERLIN) == utc(2026, 10, 24, 13, 0)  # yesterday, CEST
+
+
+def test_local_clock_texts() -> None:
+    assert local_clock(utc(2026, 11, 24, 14, 0), BERLIN) == "2026-11-24 15:00:00 CET"
+    assert local_clock(utc(2026, 7, 1, 14, 0), BERLIN) == "2026-07-01 16:00:00 CEST"
+    assert clock_time(utc(2026, 11, 24, 14, 0), BERLIN) == "15:00 CET"
+
+
+def test_the_time_zone_setting_defaults_to_the_machines_and_refuses_unknown_names(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    env = {"EPISODIC_DIR": str(tmp_path)}
+    assert EpisodicConfig.from_env(env).timezone == local_zone_name()
+    config = EpisodicConfig.from_env({**env, "EPISODIC_TIMEZONE": "America/New_York"})
+    assert config.zone == ZoneInfo("America/New_York")
+    with pytest.raises(ValueError, match="unknown time zone 'Mars/Olympus'"):
+        EpisodicConfig.from_env({**env, "EPISODIC_TIMEZONE": "Mars/Olympus"})
+    monkeypatch.setenv("TZ", "Asia/Tokyo")
+    import tzlocal.unix
+
+    monkeypatch.setattr(tzlocal.unix, "_cache_tz_name", None)
+    assert local_zone_name() == "Asia/Tokyo"
 
 
 @pytest.mark.parametrize("text", ["yesterday-ish", "-10x", "25:00", "13pm", "soon", "10"])

@@ -25,7 +25,7 @@ import threading
 import time
 import weakref
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 import rclpy
 import structlog
@@ -33,7 +33,12 @@ from rclpy.action.client import ActionClient
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
 from rclpy.exceptions import InvalidHandle
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import (
+    Executor,
+    ExternalShutdownException,
+    MultiThreadedExecutor,
+    SingleThreadedExecutor,
+)
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
@@ -122,6 +127,12 @@ class RosBridge:
     """Owns the ROS side of one process. Thread-safe; create once in the composition root.
 
     Use as a context manager or call :meth:`start` / :meth:`close`.
+
+    ``executor="single_threaded"`` spins a ``SingleThreadedExecutor`` instead: callbacks run one
+    at a time, at a fraction of the CPU per message (measured: 50 raw messages/s cost ~1 % of
+    a core single-threaded against ~6 % with the multi-threaded executor). For a process whose
+    callbacks are short and never wait on each other (a recorder), not for one whose service
+    handlers block.
     """
 
     def __init__(
@@ -132,14 +143,20 @@ class RosBridge:
         num_threads: int = 2,
         args: Sequence[str] | None = None,
         discovery_settle_s: float = DEFAULT_DISCOVERY_SETTLE_S,
+        executor: Literal["multi_threaded", "single_threaded"] = "multi_threaded",
     ) -> None:
+        if executor not in ("multi_threaded", "single_threaded"):
+            raise ValueError(
+                f"executor must be multi_threaded or single_threaded, not {executor!r}"
+            )
+        self._executor_kind = executor
         self._node_name = node_name
         self._namespace = namespace
         self._num_threads = num_threads
         self._args = list(args) if args is not None else []
         self._context: Context | None = None
         self._node: Node | None = None
-        self._executor: MultiThreadedExecutor | None = None
+        self._executor: Executor | None = None
         self._thread: threading.Thread | None = None
         self._group = ReentrantCallbackGroup()
         self._closed = False
@@ -156,7 +173,11 @@ class RosBridge:
         context = Context()
         rclpy.init(context=context, args=self._args)
         node = Node(self._node_name, namespace=self._namespace, context=context)
-        executor = MultiThreadedExecutor(num_threads=self._num_threads, context=context)
+        executor: Executor = (
+            SingleThreadedExecutor(context=context)
+            if self._executor_kind == "single_threaded"
+            else MultiThreadedExecutor(num_threads=self._num_threads, context=context)
+        )
         executor.add_node(node)
         self._context, self._node, self._executor = context, node, executor
         self._thread = threading.Thread(

@@ -162,6 +162,34 @@ async def test_a_raw_subscription_delivers_the_serialized_bytes(
     assert deserialize_message(got[0], StampedString).data == "false"
 
 
+async def test_a_single_threaded_bridge_calls_services_and_delivers_raw_messages(
+    vision: FakeVisionNode,
+) -> None:
+    from rclpy.executors import SingleThreadedExecutor
+    from ros2_vision_interfaces.msg import StampedString
+
+    with RosBridge(_unique("single"), executor="single_threaded") as single:
+        assert isinstance(single._executor, SingleThreadedExecutor)
+        tasks = RosVisionTasks(single, vision.name, timeout_s=10.0, wait_for_service_s=5.0)
+        await tasks.create(
+            {"name": "tap", "mode": "describe", "outputs": [{"name": "on", "type": "boolean"}]}
+        )
+        got: list[bytes] = []
+        single.create_subscription(StampedString, "/vision/tap/on", got.append, raw=True)
+
+        def published() -> bool:
+            vision.publish_output("tap", "on", True)
+            return bool(got)
+
+        await async_wait_until(published, 10.0, "a raw message", interval_s=0.1)
+        assert isinstance(got[0], bytes)
+
+
+def test_an_unknown_executor_kind_is_refused() -> None:
+    with pytest.raises(ValueError, match="single_threaded"):
+        RosBridge("never_started", executor="events")  # type: ignore[arg-type]
+
+
 async def test_a_closed_bridge_refuses_calls_cleanly(vision: FakeVisionNode) -> None:
     b = RosBridge(_unique("closing")).start()
     tasks = RosVisionTasks(b, vision.name)

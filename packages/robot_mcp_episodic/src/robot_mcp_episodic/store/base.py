@@ -159,6 +159,14 @@ class EpisodicStore(abc.ABC):
         """Intervals that overlap ``[start, end]`` (``labels``/``place`` filter first)."""
 
     @abc.abstractmethod
+    def sightings_by_start(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 50
+    ) -> list[Sighting]:
+        """The ``limit`` intervals overlapping ``[start, end]`` that began last, the latest
+        start first: what a chronological digest of the window ends with. Reads at most
+        ``limit`` rows whatever the window and the history (an index on the start)."""
+
+    @abc.abstractmethod
     def notes(
         self,
         start: float,
@@ -187,8 +195,11 @@ class EpisodicStore(abc.ABC):
         """Pose samples in ``[start, end]``, oldest first."""
 
     @abc.abstractmethod
-    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
-        """The newest ``limit`` stays that overlap ``[start, end]``, oldest first."""
+    def visits(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 1000
+    ) -> list[Visit]:
+        """The ``limit`` stays (at ``place``, if given) overlapping ``[start, end]`` that began
+        last, oldest first."""
 
     @abc.abstractmethod
     def pose_near(self, t: float) -> tuple[PoseSample | None, PoseSample | None]:

@@ -58,6 +58,8 @@ CREATE INDEX IF NOT EXISTS episodic_sightings_by_time
     ON episodic_sightings (robot_id, last_seen);
 CREATE INDEX IF NOT EXISTS episodic_sightings_by_label
     ON episodic_sightings (robot_id, label, last_seen);
+CREATE INDEX IF NOT EXISTS episodic_sightings_by_start
+    ON episodic_sightings (robot_id, first_seen);
 CREATE TABLE IF NOT EXISTS episodic_poses (
     id BIGSERIAL PRIMARY KEY, robot_id TEXT NOT NULL, map TEXT NOT NULL,
     t DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL,
@@ -77,6 +79,7 @@ CREATE TABLE IF NOT EXISTS episodic_visits (
     arrived DOUBLE PRECISION NOT NULL, departed DOUBLE PRECISION NOT NULL
 );
 CREATE INDEX IF NOT EXISTS episodic_visits_by_time ON episodic_visits (robot_id, departed);
+CREATE INDEX IF NOT EXISTS episodic_visits_by_arrival ON episodic_visits (robot_id, arrived);
 CREATE TABLE IF NOT EXISTS episodic_forget_audit (
     id BIGSERIAL PRIMARY KEY, robot_id TEXT NOT NULL, t DOUBLE PRECISION NOT NULL,
     request TEXT NOT NULL, result TEXT NOT NULL
@@ -213,6 +216,45 @@ class PostgresEpisodicStore(EpisodicStore):
         )
         return [sighting_from_row(row) for row in rows]
 
+    def sightings_by_start(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 50
+    ) -> list[Sighting]:
+        rows = self._began_last(
+            "episodic_sightings", SIGHTING_COLUMNS, ("first_seen", "last_seen"),
+            start, end, place, limit,
+        )  # fmt: skip
+        return [sighting_from_row(row) for row in rows]
+
+    def _began_last(
+        self,
+        table: str,
+        columns: str,
+        span: tuple[str, str],
+        start: float,
+        end: float,
+        place: str | None,
+        limit: int,
+    ) -> list[TupleRow]:
+        """The ``limit`` rows overlapping ``[start, end]`` with the latest start, latest first:
+        those that began inside the window (the start index), then, only if fewer than
+        ``limit``, those that began before it and were still going at ``start`` (the end
+        index) -- two bounded range scans, as in the SQLite adapter."""
+        began, ended = span
+        at_place = " AND place = %s" if place is not None else ""
+        extra = [place] if place is not None else []
+        rows = self._rows(
+            f"SELECT {columns} FROM {table} WHERE robot_id = %s AND {began} >= %s "
+            f"AND {began} <= %s{at_place} ORDER BY {began} DESC LIMIT %s",
+            [self.robot_id, start, end, *extra, limit],
+        )
+        if len(rows) < limit:
+            rows += self._rows(
+                f"SELECT {columns} FROM {table} WHERE robot_id = %s AND {ended} >= %s "
+                f"AND {began} < %s{at_place} ORDER BY {began} DESC LIMIT %s",
+                [self.robot_id, start, start, *extra, limit - len(rows)],
+            )
+        return rows
+
     def notes(
         self,
         start: float,
@@ -282,11 +324,11 @@ class PostgresEpisodicStore(EpisodicStore):
         )
         self._run(lambda conn: conn.cursor().executemany(sql, [visit_params(v) for v in visits]))
 
-    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
-        rows = self._rows(
-            f"SELECT {VISIT_COLUMNS} FROM episodic_visits WHERE robot_id = %s "
-            "AND departed >= %s AND arrived <= %s ORDER BY arrived DESC LIMIT %s",
-            (self.robot_id, start, end, limit),
+    def visits(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 1000
+    ) -> list[Visit]:
+        rows = self._began_last(
+            "episodic_visits", VISIT_COLUMNS, ("arrived", "departed"), start, end, place, limit
         )
         return [visit_from_row(row) for row in reversed(rows)]
 

@@ -50,6 +50,7 @@ CREATE TABLE IF NOT EXISTS sightings (
 );
 CREATE INDEX IF NOT EXISTS sightings_by_time ON sightings (robot_id, last_seen);
 CREATE INDEX IF NOT EXISTS sightings_by_label ON sightings (robot_id, label, last_seen);
+CREATE INDEX IF NOT EXISTS sightings_by_start ON sightings (robot_id, first_seen);
 CREATE TABLE IF NOT EXISTS poses (
     id INTEGER PRIMARY KEY, robot_id TEXT NOT NULL, map TEXT NOT NULL, t REAL NOT NULL,
     x REAL NOT NULL, y REAL NOT NULL, yaw REAL NOT NULL, place TEXT
@@ -74,12 +75,17 @@ CREATE TABLE IF NOT EXISTS visits (
     arrived REAL NOT NULL, departed REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS visits_by_time ON visits (robot_id, departed);
+CREATE INDEX IF NOT EXISTS visits_by_arrival ON visits (robot_id, arrived);
 CREATE TABLE IF NOT EXISTS forget_audit (
     id INTEGER PRIMARY KEY, robot_id TEXT NOT NULL, t REAL NOT NULL, request TEXT NOT NULL,
     result TEXT NOT NULL
 );
 """
 
+
+# The indexes _began_last scans: by start and by end of each interval table.
+_START_INDEX = {"sightings": "start", "visits": "arrival"}
+_END_INDEX = {"sightings": "time", "visits": "time"}
 
 _TIME_COLUMN: dict[Kind, str] = {
     "sightings": "last_seen", "poses": "t", "notes": "t", "visits": "departed",
@@ -195,12 +201,58 @@ class SqliteEpisodicStore(EpisodicStore):
             where.append("place = ?")
             params.append(place)
         order = "last_seen DESC" if newest_first else "first_seen ASC"
+        # Named: with a few labels and a long window SQLite's planner otherwise takes the
+        # start index, walks every older interval and sorts (measured: 2 ms -> 10 ms at 100 h).
+        index = "sightings_by_label" if labels is not None else "sightings_by_time"
         rows = self._read(
-            f"SELECT {SIGHTING_COLUMNS} FROM sightings WHERE {' AND '.join(where)} "
-            f"ORDER BY {order} LIMIT ?",
+            f"SELECT {SIGHTING_COLUMNS} FROM sightings INDEXED BY {index} "
+            f"WHERE {' AND '.join(where)} ORDER BY {order} LIMIT ?",
             [*params, limit],
         )
         return [sighting_from_row(row) for row in rows]
+
+    def sightings_by_start(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 50
+    ) -> list[Sighting]:
+        rows = self._began_last(
+            "sightings", SIGHTING_COLUMNS, ("first_seen", "last_seen"), start, end, place, limit
+        )
+        return [sighting_from_row(row) for row in rows]
+
+    def _began_last(
+        self,
+        table: str,
+        columns: str,
+        span: tuple[str, str],
+        start: float,
+        end: float,
+        place: str | None,
+        limit: int,
+    ) -> list[Any]:
+        """The ``limit`` rows overlapping ``[start, end]`` with the latest ``span[0]`` (their
+        start), latest first, in two bounded index range scans: the rows that began inside
+        the window (the start index, newest first), then, only if there are fewer than
+        ``limit``, the ones that began before it and were still going at ``start`` (the end
+        index, from ``start`` on: bounded because the window itself held fewer than
+        ``limit``). One ``began <= end AND ended >= start`` scan by start would walk the
+        whole older history whenever the window holds fewer than ``limit`` rows."""
+        began, ended = span
+        at_place = " AND place = ?" if place is not None else ""
+        extra = [place] if place is not None else []
+        rows = self._read(
+            f"SELECT {columns} FROM {table} INDEXED BY {table}_by_{_START_INDEX[table]} "
+            f"WHERE robot_id = ? AND {began} >= ? AND {began} <= ?{at_place} "
+            f"ORDER BY {began} DESC LIMIT ?",
+            [self.robot_id, start, end, *extra, limit],
+        )
+        if len(rows) < limit:
+            rows += self._read(
+                f"SELECT {columns} FROM {table} INDEXED BY {table}_by_{_END_INDEX[table]} "
+                f"WHERE robot_id = ? AND {ended} >= ? AND {began} < ?{at_place} "
+                f"ORDER BY {began} DESC LIMIT ?",
+                [self.robot_id, start, start, *extra, limit - len(rows)],
+            )
+        return rows
 
     def notes(
         self,
@@ -277,11 +329,11 @@ class SqliteEpisodicStore(EpisodicStore):
         with self._tx() as db:
             db.executemany(sql, [visit_params(v) for v in visits])
 
-    def visits(self, start: float, end: float, *, limit: int = 1000) -> list[Visit]:
-        rows = self._read(
-            f"SELECT {VISIT_COLUMNS} FROM visits WHERE robot_id = ? AND departed >= ? "
-            "AND arrived <= ? ORDER BY arrived DESC LIMIT ?",
-            (self.robot_id, start, end, limit),
+    def visits(
+        self, start: float, end: float, *, place: str | None = None, limit: int = 1000
+    ) -> list[Visit]:
+        rows = self._began_last(
+            "visits", VISIT_COLUMNS, ("arrived", "departed"), start, end, place, limit
         )
         return [visit_from_row(row) for row in reversed(rows)]
 

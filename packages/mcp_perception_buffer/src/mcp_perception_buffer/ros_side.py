@@ -186,21 +186,7 @@ class TopicFollower:
             logger.info("buffer_dropped", skill=skill, reason="topics_gone")
 
     def _qos(self, topic: str) -> Any:
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
-        infos = self._bridge.node.get_publishers_info_by_topic(topic)
-        profiles = [info.qos_profile for info in infos]
-        reliable = bool(profiles) and all(
-            p.reliability == ReliabilityPolicy.RELIABLE for p in profiles
-        )
-        latched = bool(profiles) and all(
-            p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in profiles
-        )
-        return QoSProfile(
-            depth=10,
-            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-        )
+        return self._bridge.offered_qos(topic)
 
     def _source(self, skill: str, info: Any) -> tuple[bytes | None, bool]:
         """``(publisher GID, accept)``: a message from a publisher that left is dropped."""

@@ -55,6 +55,7 @@ class _OpenBag:
     first_ns: int | None = None
     last_ns: int = 0
     count: int = 0
+    flushed: int = 0  # messages written to the file at the last flush (what a crash keeps)
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,7 @@ class BagInfo:
     messages: int
     size_bytes: int
     open: bool
+    on_disk: int  # messages a crash now would keep (an open bag's last flush)
 
 
 def _bag_name(stamp_ns: int) -> str:
@@ -136,6 +138,7 @@ class BagRecorder:
         with self._lock:
             if self._bag is not None:
                 self._bag.writer.flush()  # type: ignore[no-untyped-call]
+                self._bag.flushed = self._bag.count
 
     def close(self) -> None:
         with self._lock:
@@ -159,16 +162,16 @@ class BagRecorder:
                 if path == open_path and self._bag is not None:
                     bag = self._bag
                     first = bag.first_ns or bag.started_ns
-                    infos.append(
-                        BagInfo(path, first / 1e9, bag.last_ns / 1e9, bag.count, size, True)
-                    )
+                    span = (first / 1e9, bag.last_ns / 1e9)
+                    infos.append(BagInfo(path, *span, bag.count, size, True, bag.flushed))
                     continue
                 meta = _read_metadata(path)
                 if meta is None:
                     continue
                 start = meta["starting_time"]["nanoseconds_since_epoch"] / 1e9
                 end = start + meta["duration"]["nanoseconds"] / 1e9
-                infos.append(BagInfo(path, start, end, meta["message_count"], size, False))
+                count = meta["message_count"]
+                infos.append(BagInfo(path, start, end, count, size, False, count))
             return infos
 
     def size_bytes(self) -> int:

@@ -106,7 +106,7 @@ class EpisodicConfig(BaseModel):
     pose_hz: float = Field(default=5.0, gt=0, le=100)
     record_raw: bool = True
     timezone: str = Field(default_factory=local_zone_name)
-    graph_poll_s: float = Field(default=1.0, gt=0, le=30)
+    graph_poll_s: float = Field(default=0.25, gt=0, le=30)
     robot_id: str = Field(default="robot-1", min_length=1, max_length=128)
     ros_node_name: str = "robot_mcp_episodic"
     log_level: str = "INFO"

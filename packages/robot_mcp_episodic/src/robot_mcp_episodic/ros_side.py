@@ -120,7 +120,7 @@ class RosRecorder:
         self._pose_period = 1.0 / pose_hz
         self._clock = clock
         self._next_decode: dict[str, float] = {}
-        # Best effort matches reliable and best-effort publishers alike.
+        # The pose: best effort matches reliable and best-effort publishers alike.
         self._qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self._bridge = bridge
         self._indexer = indexer
@@ -151,8 +151,11 @@ class RosRecorder:
                     if type_name == META_TYPE
                     else self._on_output(topic, skill, leaf)
                 )
+                # the vision node latches each result (transient local): matching its QoS
+                # still gets the last result of a skill that ends before the next graph poll
+                qos = self._bridge.offered_qos(topic, depth=50)
                 self._subs[topic] = self._bridge.create_subscription(
-                    self._types[type_name], topic, callback, self._qos, raw=True
+                    self._types[type_name], topic, callback, qos, raw=True
                 )
             logger.info("episodic_subscribed", topic=topic, skill=skill)
 

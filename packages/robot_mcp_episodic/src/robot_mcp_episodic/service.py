@@ -398,6 +398,7 @@ class Episodic:
                 "bags": len(bags),
                 "oldest": iso(bags[0].start) if bags else None,
                 "messages": sum(b.messages for b in bags),
+                "messages_on_disk": sum(b.on_disk for b in bags),
             },
             "retention": {
                 "recordings_h": self.retention.bags_h,

@@ -197,7 +197,8 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
         async def pose_flushed() -> bool:
             poses.publish(*KITCHEN)
             status = await tool_answer(client, "memory_status", {})
-            return int(status["recordings"]["messages"]) > len(recorded)
+            # flushed to the file: what the kill below cannot take back
+            return int(status["recordings"]["messages_on_disk"]) > len(recorded)
 
         await async_wait_until(pose_flushed, 30.0, "recording in the second run")
     server.popen.send_signal(signal.SIGKILL)

@@ -105,6 +105,21 @@ def test_bags_rotate_by_time(tmp_path: Path) -> None:
     assert len(read_bags(tmp_path)) == 10
 
 
+def test_the_open_bag_says_how_many_messages_a_crash_would_keep(tmp_path: Path) -> None:
+    recorder = BagRecorder(tmp_path)
+    for i in range(3):
+        recorder.write("/amcl_pose", POSE, serialize_message(pose(T + i, 1.0)), (T + i) * 10**9)
+    (bag,) = recorder.bags()
+    assert (bag.open, bag.messages, bag.on_disk) == (True, 3, 0)
+    recorder.flush()
+    recorder.write("/amcl_pose", POSE, serialize_message(pose(T + 3, 1.0)), (T + 3) * 10**9)
+    (bag,) = recorder.bags()
+    assert (bag.messages, bag.on_disk) == (4, 3)
+    recorder.close()
+    (bag,) = recorder.bags()
+    assert (bag.open, bag.messages, bag.on_disk) == (False, 4, 4)
+
+
 def test_a_bag_cut_short_by_kill_9_is_repaired_with_every_flushed_message(
     tmp_path: Path,
 ) -> None:

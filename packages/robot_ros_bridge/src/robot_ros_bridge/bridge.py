@@ -40,7 +40,7 @@ from rclpy.executors import (
     SingleThreadedExecutor,
 )
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_ros_bridge.errors import BridgeClosedError, ServiceTimeoutError, ServiceUnavailableError
 
@@ -353,6 +353,24 @@ class RosBridge:
         return self.node.create_publisher(msg_type, topic, qos)
 
     # -- graph ---------------------------------------------------------------------------
+    def offered_qos(self, topic: str, depth: int = 10) -> QoSProfile:
+        """The strongest QoS every current publisher of ``topic`` offers: reliable and
+        transient-local when all offer it (a late subscriber then still gets the latched
+        last message of a publisher that is about to leave), else best effort / volatile,
+        which matches any publisher."""
+        profiles = [info.qos_profile for info in self.node.get_publishers_info_by_topic(topic)]
+        reliable = bool(profiles) and all(
+            p.reliability == ReliabilityPolicy.RELIABLE for p in profiles
+        )
+        latched = bool(profiles) and all(
+            p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in profiles
+        )
+        return QoSProfile(
+            depth=depth,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
+
     def topic_names_and_types(self) -> dict[str, list[str]]:
         """Every topic in the graph with its type names (e.g. ``pkg/msg/Type``)."""
         return {name: list(types) for name, types in self.node.get_topic_names_and_types()}

@@ -63,6 +63,19 @@ def nav_servers() -> list[McpServerConfig]:
     ]
 
 
+def harness_tools() -> FakeToolBackend:
+    """The fake servers of the harness: a navigation server whose drive never ends by itself
+    and a perception server that prewarms."""
+    tools = FakeToolBackend(nav_servers())
+    tools.add("navigation.navigate_to", lambda a: task_info("nav-1"), location="string")
+    tools.add("navigation.cancel_task", lambda a: {"cancelled": a["task_id"]}, task_id="string")
+    tools.add("navigation.stop_navigation", lambda a: {"stopped": True})
+    tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
+    tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
+    tools.annotate("perception.prewarm", {"readOnlyHint": False, "destructiveHint": False})
+    return tools
+
+
 def make_harness(
     tmp_path: Path,
     planner: FakeLLM,
@@ -75,13 +88,7 @@ def make_harness(
     trace: TraceRecorder | None = None,
     **agent: Any,
 ) -> Harness:
-    tools = FakeToolBackend(nav_servers())
-    tools.add("navigation.navigate_to", lambda a: task_info("nav-1"), location="string")
-    tools.add("navigation.cancel_task", lambda a: {"cancelled": a["task_id"]}, task_id="string")
-    tools.add("navigation.stop_navigation", lambda a: {"stopped": True})
-    tools.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")
-    tools.add("perception.prewarm", lambda a: {"ok": True}, query="string")
-    tools.annotate("perception.prewarm", {"readOnlyHint": False, "destructiveHint": False})
+    tools = harness_tools()
     emitter, speech = emitter or FakeEventEmitter(), FakeSpeechOutput()
     trace = trace or TraceRecorder(tmp_path / "missions")
     memory = MemoryClient(tools, memory_server)

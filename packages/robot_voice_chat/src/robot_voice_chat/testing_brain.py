@@ -1,29 +1,35 @@
-"""One process life of the brain for tests: the real composition root over the fake harness
-(fake planner, fake MCP servers behind the real policy guard), on a given data dir, so a test
-can stop it and assemble the next life on the same files."""
+"""One process life of the brain for tests: the real composition root over fake adapters
+(fake planner, fake MCP servers behind the real policy guard), so a test can stop it and
+assemble the next life on the same data dir."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 from robot_voice_chat.composition import Adapters, Container, assemble
 from robot_voice_chat.control.guard import GuardedToolBackend
+from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.base import LLMProvider
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import AppConfig
-from robot_voice_chat.testing import make_harness
+from robot_voice_chat.testing import harness_tools
 
 
 def brain_life(
-    tmp_path: Path,
-    planner: FakeLLM,
+    planner: LLMProvider,
     ui: FakeEventEmitter | None = None,
+    *,
+    tools: ToolBackend | None = None,
+    chat: LLMProvider | None = None,
+    camera: CameraFeed | None = None,
     **config: Any,
 ) -> Container:
-    """A brain assembled by ``assemble`` with fake adapters; ``config`` adds AppConfig sections
+    """A brain assembled by ``assemble`` with fake adapters (``chat`` default: a fake LLM;
+    ``tools``: the harness's fake servers); ``config`` adds or replaces AppConfig sections
     (e.g. ``control={"policy_file": ...}``). ``ui`` sees what the browser would."""
     app_config = AppConfig.model_validate(
         {
@@ -35,11 +41,12 @@ def brain_life(
         }
     )
     adapters = Adapters(
-        llm=FakeLLM([]),
+        llm=chat or FakeLLM([]),
         planner=planner,
-        tools=make_harness(tmp_path, planner).tools,
+        tools=tools if tools is not None else harness_tools(),
         speech_output=FakeSpeechOutput(),
         speech_input=FakeSpeechInput(),
+        camera=camera,
     )
     return assemble(app_config, adapters, ui or FakeEventEmitter())
 

@@ -15,15 +15,15 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.composition import Container
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import AppConfig
 from robot_voice_chat.socket_events import ChatMessage, MissionEventLine, MissionStarted
 from robot_voice_chat.testing import nav_servers
+from robot_voice_chat.testing_brain import brain_life
 from robot_voice_chat.testing_office import OfficeWorld
 
 PLACES = ["kitchen", "reception", "mailroom", "corridor_b", "dock"]
@@ -51,23 +51,16 @@ class Brain:
 async def brain(tmp_path: Path) -> AsyncIterator[Brain]:
     tools = FakeToolBackend(nav_servers())
     world = OfficeWorld(tools, drive_s=30.0)  # drives outlast the bursts below
-    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
-    config = AppConfig.model_validate(
-        {
-            "llm": {"_target_": "rules"},
-            "speech_output": {"_target_": "fake"},
-            "speech_input": {"_target_": "fake"},
-            "agent": {"memory_server": ""},
-        }
-    )
-    adapters = Adapters(
-        llm=RulesChat(),
-        planner=RulesPlanner(prewarm=False),
+    emitter = FakeEventEmitter()
+    container = brain_life(
+        RulesPlanner(prewarm=False),
+        emitter,
         tools=tools,
-        speech_output=speech,
-        speech_input=FakeSpeechInput(),
+        chat=RulesChat(),
+        llm={"_target_": "rules"},
     )
-    container = assemble(config, adapters, emitter)
+    speech = container.adapters.speech_output
+    assert isinstance(speech, FakeSpeechOutput)
     world.deliver = container.executor.on_task_event
     app = create_app(container, manage_lifecycle=False)
     transport = httpx.ASGITransport(app)

@@ -23,7 +23,7 @@ from robot_voice_chat.testing_brain import brain_life, fake_servers
 
 def brain(tmp_path: Path, planner: FakeLLM, ui: FakeEventEmitter | None = None) -> Container:
     """One process life of the brain: fresh in-memory state, the same data dir."""
-    return brain_life(tmp_path, planner, ui)
+    return brain_life(planner, ui)
 
 
 DRIVE: list[LLMResponse | Exception] = [

@@ -32,7 +32,7 @@ PLAN = [
 
 def brain(tmp_path: Path, planner: FakeLLM) -> Container:
     """One process life of the brain: fresh in-memory state, same data dir."""
-    return brain_life(tmp_path, planner)
+    return brain_life(planner)
 
 
 async def test_a_mission_and_its_log_are_served_after_a_restart(tmp_path: Path) -> None:

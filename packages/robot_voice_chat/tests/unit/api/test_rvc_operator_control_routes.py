@@ -25,7 +25,6 @@ def brain(tmp_path: Path, planner: FakeLLM) -> tuple[Container, FakeToolBackend]
     policy = tmp_path / "policy.yaml"
     policy.write_text("version: 3\ntools:\n  navigation.navigate_to: confirm\n")
     container = brain_life(
-        tmp_path,
         planner,
         agent={"memory_server": "", "data_dir": str(tmp_path / "data")},
         control={"policy_file": str(policy)},

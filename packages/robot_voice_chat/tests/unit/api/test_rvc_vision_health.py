@@ -7,7 +7,7 @@ import httpx
 import respx
 
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.composition import Container
 from robot_voice_chat.services.camera.base import (
     CameraFeed,
     CameraFrame,
@@ -15,32 +15,15 @@ from robot_voice_chat.services.camera.base import (
     VisionHealth,
 )
 from robot_voice_chat.services.camera.http import HttpCameraFeed
-from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
-from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import AppConfig
 from robot_voice_chat.testing import nav_servers
+from robot_voice_chat.testing_brain import brain_life
 
 
 def container_with(camera: CameraFeed | None) -> Container:
-    config = AppConfig.model_validate(
-        {
-            "llm": {"_target_": "fake"},
-            "speech_output": {"_target_": "fake"},
-            "speech_input": {"_target_": "fake"},
-            "agent": {"memory_server": ""},
-        }
-    )
-    adapters = Adapters(
-        llm=FakeLLM([]),
-        planner=FakeLLM([]),
-        tools=FakeToolBackend(nav_servers()),  # every MCP server connected
-        speech_output=FakeSpeechOutput(),
-        speech_input=FakeSpeechInput(),
-        camera=camera,
-    )
-    return assemble(config, adapters, FakeEventEmitter())
+    # every MCP server connected
+    return brain_life(FakeLLM([]), tools=FakeToolBackend(nav_servers()), camera=camera)
 
 
 async def readyz(camera: CameraFeed | None) -> dict[str, object]:

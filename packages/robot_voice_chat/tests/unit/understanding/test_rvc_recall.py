@@ -67,6 +67,21 @@ def understanding() -> Understanding:
         ("where were you at 3 pm", POSE_AT, {"time": "3pm"}),
         ("where were you at 15:30?", POSE_AT, {"time": "15:30"}),
         ("Where were you 10 minutes ago?", POSE_AT, {"time": "-600s"}),
+        # a clock time: the server's window around it, the clock passed as said
+        ("what did you see at 3 pm", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "3pm -5m", "end": "3pm +5m", "max_items": 100}),
+        ("What did you see around 15:30?", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "15:30 -5m", "end": "15:30 +5m", "max_items": 100}),
+        ("what did you see at half past two", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "2:30pm -5m", "end": "2:30pm +5m", "max_items": 100}),
+        ("what did you see at noon", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "12:00pm -5m", "end": "12:00pm +5m",
+          "max_items": 100}),
+        ("what did you spot in the mailroom around 3:32 pm", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "3:32pm -5m", "end": "3:32pm +5m", "max_items": 100,
+          "place": "mailroom"}),
+        ("what happened at 2:24 pm", WHAT_HAPPENED,
+         {"start": "2:24pm -5m", "end": "2:24pm +5m", "max_items": 100}),
     ],
 )  # fmt: skip
 def test_a_question_about_the_past_is_one_episodic_call_with_the_times_as_said(
@@ -174,6 +189,40 @@ async def test_while_away_starts_at_the_previous_turn_else_the_last_hour(
     assert text == (
         "Since you last spoke to me (10 min ago): I was at the kitchen; missions: started "
         "“Evening patrol” 9 min ago; I saw the parcel at the mailroom; you said “hello”."
+    )
+
+
+def test_a_clock_time_is_answered_with_the_servers_window_or_says_nothing_was_seen() -> None:
+    recall = read_recall("what did you see at 3 pm")
+    window = {
+        "start": {"time": "2026-09-21T13:55:00.000Z", "local": "2026-09-21 14:55:00 CET"},
+        "end": {"time": "2026-09-21T14:05:00.000Z", "local": "2026-09-21 15:05:00 CET"},
+    }
+    mug = {"kind": "sighting", "label": "red mug", "place": "kitchen", "ago": "2 h ago"}
+    seen = {**window, "items": [mug]}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(seen), False) == (
+        "Between 14:55 and 15:05 CET I saw the red mug at the kitchen (first seen 2 h ago)."
+    )
+    nothing = {**window, "items": []}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(nothing), False) == (
+        "I have no record of seeing anything around 3 pm (between 14:55 and 15:05 CET)."
+    )
+    # without the site's clock, the UTC times; a window across a clock change says both zones
+    utc = {"start": {"time": "2026-09-21T13:55:00.000Z"}, "end": {"time": "2026-09-21T14:05:00Z"}}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps({**utc, "items": []}), False).endswith(
+        "(between 13:55 and 14:05 UTC)."
+    )
+    change = {
+        "start": {"local": "2026-10-25 02:55:00 CEST"},
+        "end": {"local": "2026-10-25 02:05:00 CET"},
+        "items": [mug],
+    }
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(change), False).startswith(
+        "Between 02:55 CEST and 02:05 CET I saw"
+    )
+    digest = read_recall("what happened at 2:24 pm")
+    assert recollection(digest, WHAT_HAPPENED, json.dumps(nothing), False) == (
+        "I have no record of anything happening around 2:24 pm (between 14:55 and 15:05 CET)."
     )
 
 

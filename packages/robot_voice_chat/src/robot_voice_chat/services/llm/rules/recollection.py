@@ -124,12 +124,15 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by
 # --- what_happened --------------------------------------------------------------------------
 def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     items = [i for i in data.get("items") or [] if isinstance(i, dict)]
-    when = _when(data, recall)
+    when = none = _when(data, recall)
+    if recall is not None and recall.around:  # "at 3 pm": the window the server used
+        when = _between(data)
+        none = f"{recall.said} ({when})"
     kind = recall.kind if recall else "digest"
     if kind == "seen":
-        return seen_sentence(items, when, names)
+        return seen_sentence(items, when, names, none)
     if not items:
-        return f"I have no record of anything happening {when}."
+        return f"I have no record of anything happening {none}."
     parts = []
     visited = _visits(items, names)
     if visited:
@@ -149,15 +152,18 @@ def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = 
     if said:
         parts.append(_conversation(said))
     if not parts:
-        return f"I have no record of anything happening {when}."
+        return f"I have no record of anything happening {none}."
     more = " (only the latest events)" if data.get("truncated") else ""
     return f"{_capital(when)}{more}: " + "; ".join(parts) + "."
 
 
-def seen_sentence(items: list[dict[str, Any]], when: str, names: Names = by_id) -> str:
+def seen_sentence(
+    items: list[dict[str, Any]], when: str, names: Names = by_id, none: str | None = None
+) -> str:
+    """``none``: how the time is said when nothing was seen (default ``when``)."""
     seen = _sightings(items, names, with_ago=True)
     if not seen:
-        return f"I have no record of seeing anything {when}."
+        return f"I have no record of seeing anything {none or when}."
     return f"{_capital(when)} I saw {seen}."
 
 
@@ -186,6 +192,20 @@ def _when(data: dict[str, Any], recall: Recall | None) -> str:
             return "in the last hour (I don't know when you left)"
         return f"since you last spoke to me ({start.get('ago', '')})"
     return recall.said
+
+
+def _between(data: dict[str, Any]) -> str:
+    """``between 14:55 and 15:05 CET``: the window the server resolved, on the site's clock."""
+    (start, start_zone), (end, end_zone) = _minutes(data.get("start")), _minutes(data.get("end"))
+    if start_zone == end_zone:
+        return f"between {start} and {end} {end_zone}".rstrip()
+    return f"between {start} {start_zone} and {end} {end_zone}"  # the clocks changed
+
+
+def _minutes(when: object) -> tuple[str, str]:
+    """``(14:55, CET)``: a window is said to the minute."""
+    clock, _, zone = _clock(when).partition(" ")
+    return (clock[:5] if len(clock) == 8 and clock[2] == ":" else clock), zone
 
 
 def _visits(items: list[dict[str, Any]], names: Names) -> list[str]:

@@ -22,6 +22,7 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 from robot_voice_chat.testing_office import office
+from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
 
 EPISODIC = [ToolDefinition(name=n) for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT)]
 TOOLS = [*FAST_LOCAL_TOOLS, *EPISODIC]
@@ -263,6 +264,25 @@ async def test_the_rules_planner_answers_a_question_about_the_past_without_movin
     mission = await o.run("where were you at 3 pm")
     assert mission.state == "failed"
     assert mission.summary == NOT_CONNECTED
+
+
+async def test_the_rules_planner_says_places_by_their_human_names(tmp_path: Path) -> None:
+    o = office(tmp_path)  # the live place list: desk_alice is "Alice's desk ..."
+    o.tools.add("navigation.list_locations", lambda a: json.loads(OFFICE_LIST_LOCATIONS))
+    laptop = {
+        "query": "laptop", "found": True, "place": "desk_alice",
+        "results": [{"label": "laptop", "place": "desk_alice", "seen_for": "20 s",
+                     "last_seen": {"time": "2026-09-21T14:27:20.000Z", "ago": "5 min ago"}}],
+    }  # fmt: skip
+    o.tools.add(LAST_SEEN, lambda a: laptop, query="string", place="string")
+    mission = await o.run("did you see the laptop at Alice's desk?")
+    assert mission.state == "succeeded", mission.summary
+    assert mission.summary.startswith("I last saw the laptop at Alice's desk 5 min ago")
+    assert o.tools.called(LAST_SEEN) == [{"query": "laptop", "place": "desk_alice"}]
+    o.tools.add(WHAT_HAPPENED, lambda a: SIGHTINGS, start="string", kinds="array")
+    mission = await o.run("what did you see today?")
+    assert "the charger at the charging dock" in mission.summary
+    assert "desk alice" not in (await o.run("when did you last see the laptop")).summary
 
 
 async def test_a_cold_what_do_you_see_says_what_was_seen_last_and_when(tmp_path: Path) -> None:

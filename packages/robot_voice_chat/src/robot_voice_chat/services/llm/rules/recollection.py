@@ -8,6 +8,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
     POSE_AT,
@@ -26,6 +27,11 @@ Names = Callable[[str], str]  # a map id → how a sentence says it ("Alice's de
 def by_id(name: str) -> str:
     """Without the live place list: the map id with spaces ("the desk alice")."""
     return f"the {name.replace('_', ' ')}"
+
+
+def names_of(places: PlaceIndex | None) -> Names:
+    """How sentences say places: the live place list's human names, else the ids."""
+    return places.spoken if places is not None and places.places else by_id
 
 
 def recollection(

@@ -131,7 +131,7 @@ async def test_the_rules_chat_answers_when_it_last_saw_something(
     response = await _ask(chat, messages, "When did you last see the mug, and where?")
     assert [(c.name, c.arguments) for c in response.tool_calls] == [(LAST_SEEN, {"query": "mug"})]
     text = await _answer(chat, messages, response, MUG)
-    assert text.startswith("I last saw the red mug at the meeting room 1 h 41 min ago")
+    assert text.startswith("I last saw the red mug in the meeting room 1 h 41 min ago")
     assert "15:31:16 UTC" in text
 
 
@@ -188,8 +188,8 @@ async def test_while_away_starts_at_the_previous_turn_else_the_last_hour(
     ]}  # fmt: skip
     text = await _answer(chat, messages, second, digest)
     assert text == (
-        "Since you last spoke to me (10 min ago): I was at the kitchen; missions: started "
-        "“Evening patrol” 9 min ago; I saw the parcel at the mailroom; you said “hello”."
+        "Since you last spoke to me (10 min ago): I was in the kitchen; missions: started "
+        "“Evening patrol” 9 min ago; I saw the parcel in the mailroom; you said “hello”."
     )
 
 
@@ -202,7 +202,7 @@ def test_a_clock_time_is_answered_with_the_servers_window_or_says_nothing_was_se
     mug = {"kind": "sighting", "label": "red mug", "place": "kitchen", "ago": "2 h ago"}
     seen = {**window, "items": [mug]}
     assert recollection(recall, WHAT_HAPPENED, json.dumps(seen), False) == (
-        "Between 14:55 and 15:05 CET I saw the red mug at the kitchen (first seen 2 h ago)."
+        "Between 14:55 and 15:05 CET I saw the red mug in the kitchen (first seen 2 h ago)."
     )
     nothing = {**window, "items": []}
     assert recollection(recall, WHAT_HAPPENED, json.dumps(nothing), False) == (
@@ -246,7 +246,7 @@ def test_a_pose_and_a_place_filter_are_said_as_asked() -> None:
     recall = read_recall("did you see the scissors in the kitchen")
     none = {"found": False, "results": [], "place": "kitchen"}
     assert recollection(recall, LAST_SEEN, json.dumps(none), False) == (
-        "I have no record of seeing the scissors at the kitchen."
+        "I have no record of seeing the scissors in the kitchen."
     )
     assert recollection(None, LAST_SEEN, "not json", False).startswith("I couldn't look")
 
@@ -258,7 +258,7 @@ async def test_the_rules_planner_answers_a_question_about_the_past_without_movin
     o.tools.add(LAST_SEEN, lambda a: MUG, query="string")
     mission = await o.run("when did you last see the mug?")
     assert mission.state == "succeeded", mission.summary
-    assert mission.summary.startswith("I last saw the red mug at the meeting room 1 h 41 min ago")
+    assert mission.summary.startswith("I last saw the red mug in the meeting room 1 h 41 min ago")
     assert o.tools.called(LAST_SEEN) == [{"query": "mug"}]
     assert not o.tools.called("navigation.navigate_to")
     mission = await o.run("where were you at 3 pm")
@@ -293,7 +293,7 @@ async def test_a_cold_what_do_you_see_says_what_was_seen_last_and_when(tmp_path:
     mission = await o.run("what do you see?")
     assert mission.state == "succeeded", mission.summary
     assert mission.summary == (
-        "I see nothing new right now. The last I saw: the parcel at the mailroom 1 h 40 min ago "
+        "I see nothing new right now. The last I saw: the parcel in the mailroom 1 h 40 min ago "
         "(15:33:20 UTC) and the charger at the dock 3 h ago (14:13:20 UTC)."
     )
     assert o.tools.called(WHAT_HAPPENED) == [

@@ -8,7 +8,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
     POSE_AT,
@@ -115,7 +115,7 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by
     place = data.get("place")
     pose = data.get("pose") or {}
     if place:
-        where = f"at {names(str(place))}"
+        where = located(names(str(place)))
     elif isinstance(pose.get("x"), int | float) and isinstance(pose.get("y"), int | float):
         where = f"between places, at x={pose['x']:.1f} m, y={pose['y']:.1f} m"
     else:
@@ -143,7 +143,9 @@ def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = 
     visited = _visits(items, names)
     if visited:
         parts.append(
-            f"I was at {visited[0]}" if len(visited) == 1 else f"I went to {_listing(visited)}"
+            f"I was {located(visited[0])}"
+            if len(visited) == 1
+            else f"I went to {_listing(visited)}"
         )
     missions = _missions(items)
     if missions:
@@ -261,7 +263,8 @@ def _sightings(items: list[dict[str, Any]], names: Names, with_ago: bool = False
 
 # --- words ----------------------------------------------------------------------------------
 def _at(place: object, names: Names = by_id) -> str:
-    return f" at {names(str(place))}" if place else ""
+    """`` in the kitchen``, `` at Alice's desk``; "" without a place."""
+    return f" {located(names(str(place)))}" if place else ""
 
 
 def _the(thing: str) -> str:

@@ -335,6 +335,19 @@ def questions(shown: Shown) -> list[Ask]:
                  kind="pose_at"))  # fmt: skip
     q.append(Ask(end, "what were you doing at 3:31 pm", ("meeting room", "Evening patrol"),
                  kind="pose_at"))  # fmt: skip
+    # what was seen at a clock time: the server's window of 5 minutes either side, said back
+    q.append(Ask(end, "what did you see at 2:24 pm?",
+                 ("red mug", "coffee machine", "kitchen", "scissors",
+                  "between 14:19 and 14:29 UTC"), ("parcel", "notebook"), kind="seen"))  # fmt: skip
+    q.append(Ask(end, "What did you see around 15:30", ("red mug", "notebook", "meeting room",
+                 "between 15:25 and 15:35 UTC"), ("scissors", "laptop"), kind="seen"))  # fmt: skip
+    q.append(Ask(end, "what did you see at half past two",
+                 ("scissors", "laptop", "between 14:25 and 14:35 UTC"), ("red mug", "parcel"),
+                 kind="seen"))  # fmt: skip
+    q.append(Ask(end, "what did you spot in the mailroom around 3:32 pm", ("parcel", "mailroom"),
+                 ("red mug", "notebook"), kind="seen"))  # fmt: skip
+    q.append(Ask(end, "what did you see at 3 pm?",
+                 ("I have no record of seeing anything around 3 pm",), kind="nothing"))  # fmt: skip
     q.append(Ask(790, "where were you a minute ago?", ("reception",), kind="pose_at"))
     q.append(Ask(790, "where were you 3 minutes ago", ("kitchen",), kind="pose_at"))
     return q

@@ -3,9 +3,10 @@ happened, written for the mission planner.
 
 Every tool returns a JSON object as ``structuredContent`` (the text block mirrors it). Times
 are given as ISO 8601, relative (``-30s``, ``-10m``, ``-2h``), a clock time today (``15:00``)
-or ``now``; the server resolves them. Failures are tool errors whose text is JSON
-``{"error": code, "detail": sentence}`` with code ``invalid_time``, ``invalid_range``,
-``unknown_place``, ``invalid_argument``, ``store_unavailable`` or ``internal_error``.
+or ``now``, each optionally with one offset (``3pm -5m``); the server resolves them. Failures
+are tool errors whose text is JSON ``{"error": code, "detail": sentence}`` with code
+``invalid_time``, ``invalid_range``, ``unknown_place``, ``invalid_argument``,
+``store_unavailable`` or ``internal_error``.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ INSTRUCTIONS = (
     "The robot's episodic memory: what it saw (sightings with first/last seen, place, box), "
     "where it was (pose track, named places) and what happened (scene notes, missions, "
     "conversation). Pass times as -30s / -10m / -2h, ISO 8601, a clock time (15:00, 3 pm: the "
-    "site's local time, pass it as the user said it) or now and places as the map's names: the "
+    "site's local time, pass it as the user said it) or now, each optionally with one offset "
+    "('3pm -5m' to '3pm +5m' is around 3 pm), and places as the map's names: the "
     "server does the time arithmetic. Answers carry ISO UTC times, the site's local clock, "
     "'N s ago' and record ids; an 'answer' sentence can be read to the user as is."
 )
@@ -40,7 +42,7 @@ TimeText = Annotated[
     str,
     Field(
         description="ISO 8601, relative (-30s, -10m, -2h, -1d), a clock time in the site's "
-        "time zone (15:00, 3 pm) or now"
+        "time zone (15:00, 3 pm) or now; optionally one offset after it (3pm -5m, 15:00 +10m)"
     ),
 ]
 PlaceName = Annotated[

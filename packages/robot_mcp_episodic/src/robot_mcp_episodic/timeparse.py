@@ -1,7 +1,9 @@
 """Times as people and planners write them, resolved by the server (the model never does time
 arithmetic): ISO 8601 (``2026-11-24T15:00:00Z``; no zone = UTC), a clock time today
 (``15:00``, ``3pm``, ``3 pm``) read in the site's time zone, relative (``-30s``, ``-10m``,
-``-2h``, ``-1d``, ``30 s ago``) and ``now``.
+``-2h``, ``-1d``, ``30 s ago``) and ``now``; any of them with one offset after it
+(``3pm -5m``, ``15:00 +10m``, ``2026-11-24T15:00:00Z -30s``), so "around 3 pm" is a window the
+planner can pass as said (``3pm -5m`` to ``3pm +5m``).
 
 Clock times follow the zone's rules on the day meant (a "3 pm" asked the morning after the
 clocks changed is yesterday's 3 pm at yesterday's offset); a wall time that happened twice
@@ -16,12 +18,16 @@ from datetime import UTC, date, datetime, timedelta
 from datetime import time as wall_time
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-_RELATIVE = re.compile(
-    r"^\s*-\s*(\d+(?:\.\d+)?)\s*(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)\s*$"
+_UNITS = r"(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)"
+_RELATIVE = re.compile(rf"^\s*-\s*(\d+(?:\.\d+)?)\s*{_UNITS}\s*$")
+_AGO = re.compile(rf"^\s*(\d+(?:\.\d+)?)\s*{_UNITS}\s+ago\s*$")
+# "<time> ± <duration>": the time is anything non-empty before the sign (so "-10m" alone stays
+# a relative time, and an ISO zone such as "-05:00" is no offset: it has no unit)
+_OFFSET = re.compile(
+    rf"^\s*(?P<base>\S.*?)\s*(?P<sign>[+-])\s*(?P<n>\d+(?:\.\d+)?)\s*(?P<unit>{_UNITS})\s*$",
+    re.IGNORECASE,
 )
-_AGO = re.compile(
-    r"^\s*(\d+(?:\.\d+)?)\s*(s|sec|secs|seconds?|m|min|mins|minutes?|h|hr|hrs|hours?|d|days?)\s+ago\s*$"
-)
+_DANGLING = re.compile(r"\s[+-]\s*\S*$")  # "3pm +", "3pm -5", "3pm +5x": an offset misread
 _CLOCK = re.compile(r"^\s*(\d{1,2})(?::(\d{2}))?\s*(am|pm)?\s*$")
 _UNIT_S = {"s": 1.0, "m": 60.0, "h": 3600.0, "d": 86400.0}
 
@@ -49,11 +55,40 @@ def _unit(text: str) -> float:
 
 def parse_time(text: str | float | None, now: float, zone: ZoneInfo = UTC_ZONE) -> float:
     """Unix seconds for ``text`` relative to ``now`` (unix s); clock times are read in
-    ``zone``. ``None`` or empty = now."""
+    ``zone``. ``None`` or empty = now. One offset may follow any time (``3pm -5m``)."""
     if text is None:
         return now
     if isinstance(text, int | float):
         return float(text)
+    offset = _OFFSET.match(text)
+    if offset is None:
+        if _DANGLING.search(text.strip()):
+            raise TimeError(f"cannot read the offset in {text!r}: {_OFFSET_FORMS}")
+        return _base(text, now, zone)
+    base = offset["base"]
+    if _OFFSET.match(base) or not base.strip(" +-"):
+        raise TimeError(f"cannot read the time {text!r}: one offset only. {_OFFSET_FORMS}")
+    seconds = float(offset["n"]) * _unit(offset["unit"].lower())
+    try:
+        stamp = _base(base, now, zone)
+    except TimeError as exc:
+        raise TimeError(f"{exc} (in {text!r}: the time before the offset)") from None
+    return stamp + seconds if offset["sign"] == "+" else stamp - seconds
+
+
+_FORMS = (
+    "use ISO 8601 (2026-11-24T15:00:00Z), a relative time (-30s, -10m, -2h, -1d), a clock "
+    "time today (15:00, 3pm, 3 pm; the site's local time) or now, optionally followed by one "
+    "offset (3pm -5m, 15:00 +10m, 2026-11-24T15:00:00Z -30s)"
+)
+_OFFSET_FORMS = (
+    "an offset is a sign and a duration after the time (3pm -5m, 15:00 +10m, "
+    "2026-11-24T15:00:00Z -30s; units s, m, h, d)"
+)
+
+
+def _base(text: str, now: float, zone: ZoneInfo) -> float:
+    """A time without an offset."""
     value = text.strip().lower()
     if value in ("", "now"):
         return now
@@ -67,11 +102,7 @@ def parse_time(text: str | float | None, now: float, zone: ZoneInfo = UTC_ZONE) 
     try:
         parsed = datetime.fromisoformat(text.strip().replace("Z", "+00:00").replace("z", "+00:00"))
     except ValueError:
-        raise TimeError(
-            f"cannot read the time {text!r}: use ISO 8601 (2026-11-24T15:00:00Z), a relative "
-            "time (-30s, -10m, -2h, -1d), a clock time today (15:00, 3pm, 3 pm; the site's "
-            "local time) or now"
-        ) from None
+        raise TimeError(f"cannot read the time {text!r}: {_FORMS}") from None
     if parsed.tzinfo is None:
         parsed = parsed.replace(tzinfo=UTC)
     return parsed.timestamp()

@@ -116,6 +116,40 @@ def test_unreadable_times_name_the_accepted_forms(text: str) -> None:
         parse_time(text, NOW)
 
 
+@pytest.mark.parametrize(
+    ("text", "offset"),
+    [
+        ("3pm -5m", -5400.0 - 300), ("3 pm +5m", -5400.0 + 300), ("15:00 +10m", -5400.0 + 600),
+        ("15:00+10m", -5400.0 + 600), ("2026-11-24T15:00:00Z -30s", -5400.0 - 30),
+        ("2026-11-24T16:00:00+01:00 + 1 h", -5400.0 + 3600), ("now -5m", -300.0),
+        ("-1h +10 min", -3000.0), ("2 hours ago - 30 seconds", -7230.0), ("3PM -1.5M", -5490.0),
+    ],
+)  # fmt: skip
+def test_any_time_takes_one_offset(text: str, offset: float) -> None:
+    assert parse_time(text, NOW) == NOW + offset
+
+
+def test_an_offset_applies_to_the_clock_time_in_the_sites_zone() -> None:
+    now = utc(2026, 11, 24, 16, 30)
+    assert parse_time("3 pm -5m", now, BERLIN) == utc(2026, 11, 24, 13, 55)
+    assert parse_time("3 pm +5m", now, BERLIN) == utc(2026, 11, 24, 14, 5)
+    assert parse_time("2026-11-24T15:00:00-05:00", now) == utc(2026, 11, 24, 20, 0)  # a zone
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        ("3pm +5x", "offset"), ("3pm -5", "offset"), ("3pm +", "offset"),
+        ("3pm -5m +1m", "one offset only"), ("soon -5m", "the time before the offset"),
+        ("25:00 +5m", "not a clock time"), ("+5m", "ISO 8601"),
+    ],
+)  # fmt: skip
+def test_bad_offsets_say_what_is_wrong_and_the_forms(text: str, says: str) -> None:
+    with pytest.raises(TimeError, match=says) as caught:
+        parse_time(text, NOW)
+    assert "3pm -5m" in str(caught.value) or "clock time" in str(caught.value)
+
+
 def test_iso_ago_and_duration_texts() -> None:
     assert iso(NOW) == "2026-11-24T16:30:00.000Z"
     assert ago(NOW - 42, NOW) == "42 s ago"

@@ -61,6 +61,7 @@ async def test_the_server_lists_the_contract_tools(app: EpisodicApp) -> None:
     ("tool", "args", "code", "words"),
     [
         ("what_happened", {"start": "yesterday-ish"}, "invalid_time", "start"),
+        ("what_happened", {"start": "3pm +5x"}, "invalid_time", "offset"),
         ("what_happened", {"start": "-1m", "end": "-10m"}, "invalid_range", "before start"),
         ("what_happened", {"place": "garage"}, "unknown_place", "known places"),
         ("what_happened", {"kinds": ["dreams"]}, "invalid_argument", "unknown kinds"),

@@ -22,6 +22,7 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 from robot_voice_chat.testing_office import office
+from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
 
 EPISODIC = [ToolDefinition(name=n) for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT)]
 TOOLS = [*FAST_LOCAL_TOOLS, *EPISODIC]
@@ -67,6 +68,21 @@ def understanding() -> Understanding:
         ("where were you at 3 pm", POSE_AT, {"time": "3pm"}),
         ("where were you at 15:30?", POSE_AT, {"time": "15:30"}),
         ("Where were you 10 minutes ago?", POSE_AT, {"time": "-600s"}),
+        # a clock time: the server's window around it, the clock passed as said
+        ("what did you see at 3 pm", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "3pm -5m", "end": "3pm +5m", "max_items": 100}),
+        ("What did you see around 15:30?", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "15:30 -5m", "end": "15:30 +5m", "max_items": 100}),
+        ("what did you see at half past two", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "2:30pm -5m", "end": "2:30pm +5m", "max_items": 100}),
+        ("what did you see at noon", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "12:00pm -5m", "end": "12:00pm +5m",
+          "max_items": 100}),
+        ("what did you spot in the mailroom around 3:32 pm", WHAT_HAPPENED,
+         {"kinds": ["sightings"], "start": "3:32pm -5m", "end": "3:32pm +5m", "max_items": 100,
+          "place": "mailroom"}),
+        ("what happened at 2:24 pm", WHAT_HAPPENED,
+         {"start": "2:24pm -5m", "end": "2:24pm +5m", "max_items": 100}),
     ],
 )  # fmt: skip
 def test_a_question_about_the_past_is_one_episodic_call_with_the_times_as_said(
@@ -115,7 +131,7 @@ async def test_the_rules_chat_answers_when_it_last_saw_something(
     response = await _ask(chat, messages, "When did you last see the mug, and where?")
     assert [(c.name, c.arguments) for c in response.tool_calls] == [(LAST_SEEN, {"query": "mug"})]
     text = await _answer(chat, messages, response, MUG)
-    assert text.startswith("I last saw the red mug at the meeting room 1 h 41 min ago")
+    assert text.startswith("I last saw the red mug in the meeting room 1 h 41 min ago")
     assert "15:31:16 UTC" in text
 
 
@@ -172,8 +188,42 @@ async def test_while_away_starts_at_the_previous_turn_else_the_last_hour(
     ]}  # fmt: skip
     text = await _answer(chat, messages, second, digest)
     assert text == (
-        "Since you last spoke to me (10 min ago): I was at the kitchen; missions: started "
-        "“Evening patrol” 9 min ago; I saw the parcel at the mailroom; you said “hello”."
+        "Since you last spoke to me (10 min ago): I was in the kitchen; missions: started "
+        "“Evening patrol” 9 min ago; I saw the parcel in the mailroom; you said “hello”."
+    )
+
+
+def test_a_clock_time_is_answered_with_the_servers_window_or_says_nothing_was_seen() -> None:
+    recall = read_recall("what did you see at 3 pm")
+    window = {
+        "start": {"time": "2026-09-21T13:55:00.000Z", "local": "2026-09-21 14:55:00 CET"},
+        "end": {"time": "2026-09-21T14:05:00.000Z", "local": "2026-09-21 15:05:00 CET"},
+    }
+    mug = {"kind": "sighting", "label": "red mug", "place": "kitchen", "ago": "2 h ago"}
+    seen = {**window, "items": [mug]}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(seen), False) == (
+        "Between 14:55 and 15:05 CET I saw the red mug in the kitchen (first seen 2 h ago)."
+    )
+    nothing = {**window, "items": []}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(nothing), False) == (
+        "I have no record of seeing anything around 3 pm (between 14:55 and 15:05 CET)."
+    )
+    # without the site's clock, the UTC times; a window across a clock change says both zones
+    utc = {"start": {"time": "2026-09-21T13:55:00.000Z"}, "end": {"time": "2026-09-21T14:05:00Z"}}
+    assert recollection(recall, WHAT_HAPPENED, json.dumps({**utc, "items": []}), False).endswith(
+        "(between 13:55 and 14:05 UTC)."
+    )
+    change = {
+        "start": {"local": "2026-10-25 02:55:00 CEST"},
+        "end": {"local": "2026-10-25 02:05:00 CET"},
+        "items": [mug],
+    }
+    assert recollection(recall, WHAT_HAPPENED, json.dumps(change), False).startswith(
+        "Between 02:55 CEST and 02:05 CET I saw"
+    )
+    digest = read_recall("what happened at 2:24 pm")
+    assert recollection(digest, WHAT_HAPPENED, json.dumps(nothing), False) == (
+        "I have no record of anything happening around 2:24 pm (between 14:55 and 15:05 CET)."
     )
 
 
@@ -196,7 +246,7 @@ def test_a_pose_and_a_place_filter_are_said_as_asked() -> None:
     recall = read_recall("did you see the scissors in the kitchen")
     none = {"found": False, "results": [], "place": "kitchen"}
     assert recollection(recall, LAST_SEEN, json.dumps(none), False) == (
-        "I have no record of seeing the scissors at the kitchen."
+        "I have no record of seeing the scissors in the kitchen."
     )
     assert recollection(None, LAST_SEEN, "not json", False).startswith("I couldn't look")
 
@@ -208,12 +258,31 @@ async def test_the_rules_planner_answers_a_question_about_the_past_without_movin
     o.tools.add(LAST_SEEN, lambda a: MUG, query="string")
     mission = await o.run("when did you last see the mug?")
     assert mission.state == "succeeded", mission.summary
-    assert mission.summary.startswith("I last saw the red mug at the meeting room 1 h 41 min ago")
+    assert mission.summary.startswith("I last saw the red mug in the meeting room 1 h 41 min ago")
     assert o.tools.called(LAST_SEEN) == [{"query": "mug"}]
     assert not o.tools.called("navigation.navigate_to")
     mission = await o.run("where were you at 3 pm")
     assert mission.state == "failed"
     assert mission.summary == NOT_CONNECTED
+
+
+async def test_the_rules_planner_says_places_by_their_human_names(tmp_path: Path) -> None:
+    o = office(tmp_path)  # the live place list: desk_alice is "Alice's desk ..."
+    o.tools.add("navigation.list_locations", lambda a: json.loads(OFFICE_LIST_LOCATIONS))
+    laptop = {
+        "query": "laptop", "found": True, "place": "desk_alice",
+        "results": [{"label": "laptop", "place": "desk_alice", "seen_for": "20 s",
+                     "last_seen": {"time": "2026-09-21T14:27:20.000Z", "ago": "5 min ago"}}],
+    }  # fmt: skip
+    o.tools.add(LAST_SEEN, lambda a: laptop, query="string", place="string")
+    mission = await o.run("did you see the laptop at Alice's desk?")
+    assert mission.state == "succeeded", mission.summary
+    assert mission.summary.startswith("I last saw the laptop at Alice's desk 5 min ago")
+    assert o.tools.called(LAST_SEEN) == [{"query": "laptop", "place": "desk_alice"}]
+    o.tools.add(WHAT_HAPPENED, lambda a: SIGHTINGS, start="string", kinds="array")
+    mission = await o.run("what did you see today?")
+    assert "the charger at the charging dock" in mission.summary
+    assert "desk alice" not in (await o.run("when did you last see the laptop")).summary
 
 
 async def test_a_cold_what_do_you_see_says_what_was_seen_last_and_when(tmp_path: Path) -> None:
@@ -224,7 +293,7 @@ async def test_a_cold_what_do_you_see_says_what_was_seen_last_and_when(tmp_path:
     mission = await o.run("what do you see?")
     assert mission.state == "succeeded", mission.summary
     assert mission.summary == (
-        "I see nothing new right now. The last I saw: the parcel at the mailroom 1 h 40 min ago "
+        "I see nothing new right now. The last I saw: the parcel in the mailroom 1 h 40 min ago "
         "(15:33:20 UTC) and the charger at the dock 3 h ago (14:13:20 UTC)."
     )
     assert o.tools.called(WHAT_HAPPENED) == [

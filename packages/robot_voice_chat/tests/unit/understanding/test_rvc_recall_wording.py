@@ -13,7 +13,7 @@ import pytest
 from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
 from robot_voice_chat.services.llm.rules.recollection import recollection
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
     POSE_AT,
@@ -120,8 +120,8 @@ def test_the_first_sighting_on_record_is_said_when_asked_for_the_first() -> None
     ]  # fmt: skip
     answer = {"found": True, "results": results}
     assert recollection(recall, LAST_SEEN, json.dumps(answer), False) == (
-        "The first time I have on record, I saw the parcel at the mailroom 12 min ago "
-        "(15:31:20 UTC); I last saw it at the mailroom 9 min ago."
+        "The first time I have on record, I saw the parcel in the mailroom 12 min ago "
+        "(15:31:20 UTC); I last saw it in the mailroom 9 min ago."
     )
 
 
@@ -168,6 +168,44 @@ async def test_a_place_is_resolved_by_its_human_name_or_said_unknown(
 def test_a_place_is_said_by_its_human_name_else_its_id_with_spaces(name: str, spoken: str) -> None:
     places = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
     assert places.spoken(name) == spoken
+
+
+@pytest.mark.parametrize(
+    ("spoken", "said"),
+    [("the kitchen", "in the kitchen"), ("the mailroom", "in the mailroom"),
+     ("the meeting room Harbour", "in the meeting room Harbour"),
+     ("the east corridor", "in the east corridor"), ("the corridor b", "in the corridor b"),
+     ("the open-plan office", "in the open-plan office"), ("the Lab 3", "in the Lab 3"),
+     ("reception", "at reception"), ("the reception desk", "at the reception desk"),
+     ("Alice's desk", "at Alice's desk"), ("the charging dock", "at the charging dock"),
+     ("the desk bob", "at the desk bob"), ("the store room", "in the store room")],
+)  # fmt: skip
+def test_rooms_are_in_and_points_are_at(spoken: str, said: str) -> None:
+    assert located(spoken) == said
+
+
+def test_every_recall_sentence_says_in_for_rooms_and_at_for_points() -> None:
+    names = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS).spoken
+    pose = {"found": True, "time": "2026-09-21T15:00:00.000Z", "place": "meeting_room"}
+    at_three = read_recall("where were you at 3 pm")
+    assert recollection(at_three, POSE_AT, json.dumps(pose), False, names) == (
+        "At 3pm (15:00:00 UTC) I was in the meeting room Harbour."
+    )
+    pose["place"] = "dock"
+    assert recollection(at_three, POSE_AT, json.dumps(pose), False, names).endswith(
+        "I was at the charging dock."
+    )
+    digest = {"start": {"ago": "1 h ago"}, "items": [
+        {"kind": "visit", "place": "reception"},
+        {"kind": "sighting", "label": "parcel", "place": "mailroom", "ago": "5 min ago"},
+        {"kind": "sighting", "label": "laptop", "place": "desk_alice", "ago": "4 min ago"},
+    ]}  # fmt: skip
+    said = recollection(read_recall("what happened in the last hour"), WHAT_HAPPENED,
+                        json.dumps(digest), False, names)  # fmt: skip
+    assert said == (
+        "In the last hour: I was at the reception desk; I saw the parcel in the mailroom and "
+        "the laptop at Alice's desk."
+    )
 
 
 def test_a_description_that_names_something_else_is_not_used() -> None:

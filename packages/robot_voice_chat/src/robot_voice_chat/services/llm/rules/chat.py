@@ -24,7 +24,7 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
-from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, by_id, recollection
+from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, names_of, recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
@@ -124,8 +124,7 @@ class RulesChat(LLMProvider):
         if purpose == "history":
             recall, places = self._recalls.pop(result.tool_call_id, (None, None))
             tool = recall.tool if recall else _tool_of(result, messages)
-            say = places.spoken if places is not None and places.places else by_id
-            text = recollection(recall, tool, result.content, result.is_error, say)
+            text = recollection(recall, tool, result.content, result.is_error, names_of(places))
             return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")

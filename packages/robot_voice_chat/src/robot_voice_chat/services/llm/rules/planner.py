@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 from collections import OrderedDict
 from collections.abc import AsyncIterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import structlog
 
@@ -42,9 +42,11 @@ from robot_voice_chat.services.llm.rules.program import (
     Settings,
 )
 from robot_voice_chat.services.llm.rules.recall_program import recall_program
+from robot_voice_chat.services.llm.rules.recollection import names_of
 from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
 from robot_voice_chat.services.llm.understanding.legs import legs_of
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.recall import Recall
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 logger = structlog.get_logger(__name__)
@@ -177,7 +179,9 @@ class RulesPlanner(LLMProvider):
         reading = self.understanding.understand(session.instruction, places)
         if reading.kind == "answer" and reading.recall is not None:
             logger.info("rules_planner_recall", tool=reading.recall.tool, resumed=session.resumed)
-            return recall_program(reading.recall, session.tools, session.resumed)
+            recall = _on_the_map(reading.recall, places)
+            names = names_of(places)  # the places said by their human names, as the chat does
+            return recall_program(recall, session.tools, session.resumed, names)
         legs, refusal = legs_of(reading, session.instruction)
         logger.info(
             "rules_planner_mission",
@@ -229,6 +233,18 @@ def _drives_started(messages: list[Message]) -> set[str]:
         if (match := TASK_EVENT.match(line.strip())) is not None and match["kind"] != "watch_event"
     }
     return started - ended
+
+
+def _on_the_map(recall: Recall, places: PlaceIndex | None) -> Recall:
+    """The place asked about as its map id when the live list knows it for sure ("Alice's
+    desk" → desk_alice); else as said (the episodic server resolves it or says it is unknown)."""
+    if recall.place is None or places is None or not places.places:
+        return recall
+    match = places.resolve(recall.place)
+    if not match.sure:
+        return recall
+    arguments = {**recall.arguments, "place": match.names[0]}
+    return replace(recall, arguments=arguments, place=match.names[0])
 
 
 def _tool_call(call: Call, call_id: str) -> ToolCall:

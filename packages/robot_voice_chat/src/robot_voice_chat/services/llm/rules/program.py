@@ -16,7 +16,7 @@ from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
-from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence
+from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence, names_of
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
     Locations,
@@ -541,7 +541,10 @@ class MissionProgram:
                 self.plan_call(), Call(WHAT_HAPPENED, {**LAST_SIGHTINGS, "step_id": recall})
             )
         )[1:]
-        return "" if remembered.is_error else last_sightings_sentence(remembered.content)
+        if remembered.is_error:
+            return ""
+        places = PlaceIndex.from_result(self.listed) if self.listed is not None else None
+        return last_sightings_sentence(remembered.content, names_of(places))
 
     def _see(self) -> Steps:
         if not has_tool(self.tools, WHAT_DO_YOU_SEE) and has_tool(self.tools, WHAT_HAPPENED):

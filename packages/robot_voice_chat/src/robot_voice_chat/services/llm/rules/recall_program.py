@@ -5,12 +5,20 @@ from __future__ import annotations
 
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.rules.program import Act, Call, Program
-from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, recollection
+from robot_voice_chat.services.llm.rules.recollection import (
+    NOT_CONNECTED,
+    Names,
+    by_id,
+    recollection,
+)
 from robot_voice_chat.services.llm.rules.surface import has_tool
 from robot_voice_chat.services.llm.understanding.recall import Recall
 
 
-def recall_program(recall: Recall, tools: list[ToolDefinition], resumed: bool = False) -> Program:
+def recall_program(
+    recall: Recall, tools: list[ToolDefinition], resumed: bool = False, names: Names = by_id
+) -> Program:
+    """``names``: how the answer says places (the live place list's human names)."""
     prefix = "r" if resumed else "s"
     look, tell = f"{prefix}1", f"{prefix}2"
     if not has_tool(tools, recall.tool):
@@ -27,7 +35,7 @@ def recall_program(recall: Recall, tools: list[ToolDefinition], resumed: bool = 
         results = observation.results[1:]
         if results:
             result = results[0]
-            summary = recollection(recall, recall.tool, result.content, result.is_error)
+            summary = recollection(recall, recall.tool, result.content, result.is_error, names)
             outcome = "failed" if result.is_error else "succeeded"
         else:
             outcome, summary = "failed", "My memory gave no answer."

@@ -8,6 +8,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
     POSE_AT,
@@ -26,6 +27,11 @@ Names = Callable[[str], str]  # a map id → how a sentence says it ("Alice's de
 def by_id(name: str) -> str:
     """Without the live place list: the map id with spaces ("the desk alice")."""
     return f"the {name.replace('_', ' ')}"
+
+
+def names_of(places: PlaceIndex | None) -> Names:
+    """How sentences say places: the live place list's human names, else the ids."""
+    return places.spoken if places is not None and places.places else by_id
 
 
 def recollection(
@@ -109,7 +115,7 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by
     place = data.get("place")
     pose = data.get("pose") or {}
     if place:
-        where = f"at {names(str(place))}"
+        where = located(names(str(place)))
     elif isinstance(pose.get("x"), int | float) and isinstance(pose.get("y"), int | float):
         where = f"between places, at x={pose['x']:.1f} m, y={pose['y']:.1f} m"
     else:
@@ -124,17 +130,22 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by
 # --- what_happened --------------------------------------------------------------------------
 def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
     items = [i for i in data.get("items") or [] if isinstance(i, dict)]
-    when = _when(data, recall)
+    when = none = _when(data, recall)
+    if recall is not None and recall.around:  # "at 3 pm": the window the server used
+        when = _between(data)
+        none = f"{recall.said} ({when})"
     kind = recall.kind if recall else "digest"
     if kind == "seen":
-        return seen_sentence(items, when, names)
+        return seen_sentence(items, when, names, none)
     if not items:
-        return f"I have no record of anything happening {when}."
+        return f"I have no record of anything happening {none}."
     parts = []
     visited = _visits(items, names)
     if visited:
         parts.append(
-            f"I was at {visited[0]}" if len(visited) == 1 else f"I went to {_listing(visited)}"
+            f"I was {located(visited[0])}"
+            if len(visited) == 1
+            else f"I went to {_listing(visited)}"
         )
     missions = _missions(items)
     if missions:
@@ -149,15 +160,18 @@ def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = 
     if said:
         parts.append(_conversation(said))
     if not parts:
-        return f"I have no record of anything happening {when}."
+        return f"I have no record of anything happening {none}."
     more = " (only the latest events)" if data.get("truncated") else ""
     return f"{_capital(when)}{more}: " + "; ".join(parts) + "."
 
 
-def seen_sentence(items: list[dict[str, Any]], when: str, names: Names = by_id) -> str:
+def seen_sentence(
+    items: list[dict[str, Any]], when: str, names: Names = by_id, none: str | None = None
+) -> str:
+    """``none``: how the time is said when nothing was seen (default ``when``)."""
     seen = _sightings(items, names, with_ago=True)
     if not seen:
-        return f"I have no record of seeing anything {when}."
+        return f"I have no record of seeing anything {none or when}."
     return f"{_capital(when)} I saw {seen}."
 
 
@@ -186,6 +200,20 @@ def _when(data: dict[str, Any], recall: Recall | None) -> str:
             return "in the last hour (I don't know when you left)"
         return f"since you last spoke to me ({start.get('ago', '')})"
     return recall.said
+
+
+def _between(data: dict[str, Any]) -> str:
+    """``between 14:55 and 15:05 CET``: the window the server resolved, on the site's clock."""
+    (start, start_zone), (end, end_zone) = _minutes(data.get("start")), _minutes(data.get("end"))
+    if start_zone == end_zone:
+        return f"between {start} and {end} {end_zone}".rstrip()
+    return f"between {start} {start_zone} and {end} {end_zone}"  # the clocks changed
+
+
+def _minutes(when: object) -> tuple[str, str]:
+    """``(14:55, CET)``: a window is said to the minute."""
+    clock, _, zone = _clock(when).partition(" ")
+    return (clock[:5] if len(clock) == 8 and clock[2] == ":" else clock), zone
 
 
 def _visits(items: list[dict[str, Any]], names: Names) -> list[str]:
@@ -235,7 +263,8 @@ def _sightings(items: list[dict[str, Any]], names: Names, with_ago: bool = False
 
 # --- words ----------------------------------------------------------------------------------
 def _at(place: object, names: Names = by_id) -> str:
-    return f" at {names(str(place))}" if place else ""
+    """`` in the kitchen``, `` at Alice's desk``; "" without a place."""
+    return f" {located(names(str(place)))}" if place else ""
 
 
 def _the(thing: str) -> str:

@@ -21,6 +21,29 @@ _HEAD_END = re.compile(
 )
 
 
+# the head nouns of places one is *in* ("in the kitchen"); any other place one is *at* ("at
+# reception", "at Alice's desk", "at the charging dock")
+_ROOMS = {
+    "kitchen", "corridor", "hallway", "hall", "office", "lab", "laboratory", "lobby", "library",
+    "warehouse", "garage", "cafeteria", "canteen", "lounge", "basement", "cellar", "attic",
+    "workshop", "studio", "toilet", "toilets", "pantry", "foyer", "atrium", "wing", "area",
+    "building", "garden", "yard", "courtyard", "gym", "ward", "hangar",
+}  # fmt: skip
+
+
+def located(spoken: str) -> str:
+    """``spoken`` (a place as a sentence says it) with its preposition: "in the kitchen", "in
+    the meeting room Harbour", "at reception", "at Alice's desk". The head noun decides: the
+    last word that is not a name after it ("Harbour"), a letter or a number ("corridor b")."""
+    for word in reversed(re.findall(r"[\w'’-]+", spoken)):
+        low = word.lower()
+        if low in _ROOMS or low.endswith("room"):
+            return f"in {spoken}"
+        if len(word) > 1 and not word.isdigit() and not word[:1].isupper():
+            break
+    return f"at {spoken}"
+
+
 def words(text: str) -> list[str]:
     return re.findall(r"[a-z0-9]+", text.lower().replace("'s", " ").replace("’s", " "))
 

@@ -19,6 +19,7 @@ WHAT_HAPPENED = "episodic.what_happened"
 LAST_SEEN = "episodic.last_seen"
 POSE_AT = "episodic.pose_at"
 _FIRST_OF = 20  # "when did you first see X": the earliest of its last this-many sightings
+AROUND = "5m"  # "what did you see at 3 pm": the server's "3pm -5m" to "3pm +5m"
 DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
 RecallKind = Literal["seen", "digest", "away", "last_seen", "pose_at", "visits"]
 
@@ -201,6 +202,7 @@ class Recall:
     place: str | None = None
     since_turn: bool = False  # start at the person's previous turn, when it is known
     first: bool = False  # last_seen: the earliest sighting on record is asked for, not the last
+    around: bool = False  # a window around a clock time: the answer says the server's window
 
     def code(self) -> str:
         """The phrasing sets' label: answer:history | answer:last_seen | answer:pose_at."""
@@ -264,13 +266,15 @@ def follow_up_recall(text: str, previous: Recall) -> Recall | None:
     rest = match["rest"]
     if previous.kind == "pose_at" and (_clock(rest) or _ago(rest)):
         return _pose_at(f"where were you {rest}")
-    if previous.tool == WHAT_HAPPENED and (_span(rest) or _ago(rest) or _place_of(rest)):
+    if previous.tool == WHAT_HAPPENED and (
+        _span(rest) or _ago(rest) or _place_of(rest) or _clock(rest)
+    ):
         kinds = previous.arguments.get("kinds")
         said = {"seen": "what did you see", "visits": "where did you go"}.get(
             previous.kind, "what happened"
         )
         recall = _window(f"{said} {rest}", kinds, previous.kind, default=None)
-        if recall is not None and recall.place and not (_span(rest) or _ago(rest)):
+        if recall is not None and recall.place and not (_span(rest) or _ago(rest) or _clock(rest)):
             window = {k: v for k, v in previous.arguments.items() if k in ("start", "end")}
             arguments = {**recall.arguments, **window}
             return replace(recall, arguments=arguments, said=previous.said)
@@ -388,6 +392,10 @@ def _window(
         if seconds - half > 0:
             arguments["end"] = f"-{seconds - half}s"
         said = f"around {said}"
+    elif (clock := _clock(text)) is not None:  # "at 3 pm": 5 minutes either side of it
+        arguments["start"], arguments["end"] = f"{clock} -{AROUND}", f"{clock} +{AROUND}"
+        said = f"around {_said_clock(clock)}"
+        return Recall(kind, WHAT_HAPPENED, arguments, said, place=place, around=True)
     elif _TODAY.search(text):
         arguments["start"], said = "00:00", "today"
     elif _RECENT.search(text):
@@ -451,6 +459,11 @@ def _clock(text: str) -> str | None:
     return _meridiem({"noon": "12:00", "midday": "12:00", "midnight": "00:00"}.get(clock, clock))
 
 
+def _said_clock(clock: str) -> str:
+    """``3pm`` → ``3 pm``, ``2:30pm`` → ``2:30 pm``, ``15:30`` as is."""
+    return re.sub(r"(\d)(am|pm)$", r"\1 \2", clock)
+
+
 def _meridiem(clock: str) -> str:
     """A 12-hour clock said without am/pm ("half past two", "2:30") is read as people at work
     mean it: 1 to 7 and 12 in the afternoon, 8 to 11 in the morning. The answer restates the
@@ -487,7 +500,13 @@ def _place_of(text: str) -> str | None:
         return None
     place = match["place"].strip()
     words = place.split()
-    if not words or words[0] in ("all", "front", "view") or _ago(place) or _span(place):
+    clock_words = ("noon", "midday", "midnight")
+    if (
+        not words
+        or words[0] in ("all", "front", "view", *clock_words)
+        or _ago(place)
+        or _span(place)
+    ):
         return None
     return place
 

@@ -59,6 +59,9 @@ class Pose:
     yaw: float
 
 
+OBJECT_LIST_OUTPUTS = ("scene_objects", "objects")  # semantic outputs that list labels
+
+
 def new_id(prefix: str) -> str:
     return f"{prefix}-{uuid.uuid4().hex[:16]}"
 
@@ -222,7 +225,12 @@ class Indexer:
             self._dirty[sighting.id] = sighting
 
     def on_output(self, skill: str, output: str, t: float, value: Any) -> None:
-        """A semantic skill output becomes an ``observation`` note when its value changes."""
+        """A semantic skill output becomes an ``observation`` note when its value changes; a
+        list of objects in view (the scene describer's ``scene_objects``) is also a frame of
+        sightings, so what the robot saw is remembered even when no detector ran."""
+        if output in OBJECT_LIST_OUTPUTS and isinstance(value, list):
+            labels = [str(item).strip() for item in value if str(item).strip()]
+            self.on_detections(skill, t, [{"label": label, "score": 0.0} for label in labels])
         text = value if isinstance(value, str) else _compact(value)
         with self._lock:
             if self._outputs.get((skill, output)) == text:

@@ -125,6 +125,21 @@ def test_skill_outputs_become_notes_when_they_change(
     ]
 
 
+def test_the_objects_a_scene_describer_lists_are_sightings_where_the_robot_was(
+    indexer: Indexer, sqlite_store: EpisodicStore
+) -> None:
+    indexer.on_pose(T, 9.0, -3.0, 0.0)  # the kitchen
+    indexer.on_output("scene", "scene_objects", T, ["red mug", "kettle"])
+    indexer.on_output("scene", "scene_objects", T + 10, ["red mug"])  # the kettle is gone
+    indexer.flush()
+    seen = {s.label: s for s in sqlite_store.sightings(0, T + 100)}
+    assert set(seen) == {"red mug", "kettle"}
+    assert (seen["red mug"].place, seen["red mug"].skill) == ("kitchen", "scene")
+    assert (seen["red mug"].first_seen, seen["red mug"].last_seen) == (T, T + 10)
+    assert seen["kettle"].absent_since == T + 10
+    assert [n.kind for n in sqlite_store.notes(0, T + 100)] == ["observation", "observation"]
+
+
 def test_a_failed_flush_keeps_the_rows_for_the_next_one(
     indexer: Indexer, sqlite_store: EpisodicStore, monkeypatch: pytest.MonkeyPatch
 ) -> None:

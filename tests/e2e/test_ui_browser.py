@@ -422,7 +422,8 @@ def test_approve_lets_the_drive_run_and_deny_makes_the_planner_report(
     expect(card).to_be_hidden(timeout=20_000)
     expect(summary.last).to_contain_text("failed", timeout=STEP_TIMEOUT_MS)
     expect(summary.last).to_contain_text("denied")
-    assert robot_xy(page) == at_kitchen
+    # no drive after the deny; the pose of the arrival itself may land a poll late (cm)
+    assert math.dist(robot_xy(page), at_kitchen) < 0.2
     shoot(page, "13-denied-reported")
     assert errors == [], errors
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import rclpy
@@ -61,10 +61,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not client.wait_for_services(timeout_sec=args.timeout):
             sys.stderr.write(f"no {args.node} node answered within {args.timeout} s\n")
             return 2
-        answered = threading.Event()
-        future = client.set_parameters_atomically(changes)
-        future.add_done_callback(lambda _: answered.set())
-        if not answered.wait(args.timeout):
+        # A request sent right after discovery can be answered before the node's reply
+        # writer has matched this new client (rmw then drops the reply), so the same
+        # (idempotent) change is sent once more if the first half of the wait passes.
+        for _attempt in range(2):
+            answered = threading.Event()
+            future = client.set_parameters_atomically(changes)
+            future.add_done_callback(_setter(answered))
+            if answered.wait(args.timeout / 2):
+                break
+        else:
             sys.stderr.write(f"{args.node} did not answer within {args.timeout} s\n")
             return 2
         reply = future.result()
@@ -82,3 +88,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def _setter(event: threading.Event) -> Callable[[object], None]:
+    """A done callback that sets ``event`` (one per attempt)."""
+    return lambda _future: event.set()

@@ -472,11 +472,11 @@ def voice_brain(tmp_path: Path) -> Iterator[tuple[str, FakeTranscriptionServer]]
         process = launcher.start("brain", argv, env)
         try:
             wait_until(
-                lambda: _http_ok(f"http://127.0.0.1:{port}/api/livez") or not process.running,
+                lambda: _http_ok(f"http://127.0.0.1:{port}/api/livez") or not process.running(),
                 60.0,
                 "the brain to answer",
             )
-            assert process.running, process.log
+            assert process.running(), process.log()
             yield f"http://127.0.0.1:{port}", fake
         finally:
             launcher.stop_all()

@@ -235,4 +235,4 @@ async def test_a_watch_for_skill_on_the_real_vision_node_posts_one_signed_event_
 
 async def _task_state(perception: Client, task_id: str, state: str) -> bool:
     info = await call(perception, "get_task", {"task_id": task_id})
-    return info.get("state") == state
+    return bool(info.get("state") == state)

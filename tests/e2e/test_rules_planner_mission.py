@@ -69,7 +69,7 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
 
     kitchen = await mission(stack, "go to the kitchen")
     assert kitchen.outcome == "succeeded", kitchen.of("mission_finished")
-    assert kitchen.snapshot["summary"] == "I'm at the kitchen."
+    assert kitchen.snapshot["summary"] == "I'm in the kitchen."
     assert statuses(kitchen) == {"s1": "succeeded", "s2": "succeeded"}
 
     # robot-sim's camera shows the kitchen counter: the red mug is there.

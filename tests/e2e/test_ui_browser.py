@@ -381,7 +381,7 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
     expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
     wait_until(lambda: robot_xy(page) != (pose["x"], pose["y"]), 30.0, "the robot to drive")
     shoot(page, "10-driving-after-clear")
-    expect(summary.last).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
+    expect(summary.last).to_contain_text("I'm in the kitchen.", timeout=STEP_TIMEOUT_MS)
     expect(summary.last).to_contain_text("succeeded")
     assert errors == [], errors
 
@@ -426,7 +426,7 @@ def test_approve_lets_the_drive_run_and_deny_makes_the_planner_report(
     wait_until(lambda: robot_xy(page) != start, 30.0, "the approved drive to run")
     shoot(page, "12-approved-driving")
     summary = page.get_by_role("log", name="Conversation").get_by_role("article")
-    expect(summary.last).to_contain_text("I'm at the kitchen.", timeout=STEP_TIMEOUT_MS)
+    expect(summary.last).to_contain_text("I'm in the kitchen.", timeout=STEP_TIMEOUT_MS)
     at_kitchen = settled_xy(page)
 
     send(page, "go to the mailroom")
@@ -550,7 +550,7 @@ def test_a_typed_multi_step_request_drives_every_leg_in_order(
     expect(step(page, "s1")).to_have_attribute("data-status", "succeeded")  # arrived first
     summary = conversation.get_by_role("article")
     expect(summary).to_contain_text(
-        "I'm at the kitchen. I'm at the reception.", timeout=STEP_TIMEOUT_MS
+        "I'm in the kitchen. I'm at the reception desk.", timeout=STEP_TIMEOUT_MS
     )
     expect(summary).to_contain_text("succeeded")
     pose = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()

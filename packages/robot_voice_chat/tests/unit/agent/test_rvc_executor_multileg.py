@@ -37,7 +37,19 @@ async def test_a_sequence_drives_every_leg_in_order_after_each_arrival(tmp_path:
         "Tell the user",
     ]
     assert set(o.statuses(mission).values()) == {"succeeded"}
-    assert mission.summary == "I'm at the kitchen. I'm at the reception."
+    assert mission.summary == "I'm in the kitchen. I'm at the reception."
+
+
+async def test_the_summary_names_places_as_the_map_describes_them(tmp_path: Path) -> None:
+    o = office(tmp_path)
+    described = {"kitchen": "Kitchen with the coffee machine.", "reception": "Reception desk."}
+    listed = o.world.list_locations({})
+    for location in listed["locations"]:
+        location["description"] = described.get(location["name"], "")
+    o.tools.add("navigation.list_locations", lambda _args: listed)
+    mission = await o.run("go to the kitchen and then to reception")
+    assert mission.state == "succeeded", mission.summary
+    assert mission.summary == "I'm in the kitchen. I'm at the reception desk."
 
 
 async def test_three_legs_with_then_and_commas_keep_their_order(tmp_path: Path) -> None:

@@ -21,7 +21,7 @@ async def test_go_to_a_place_by_name_resolved_through_list_locations(tmp_path: P
     o = office(tmp_path)
     mission = await o.run("go to the kitchen")
     assert mission.state == "succeeded", mission.summary
-    assert mission.summary == "I'm at the kitchen."
+    assert mission.summary == "I'm in the kitchen."
     assert o.tools.called("navigation.list_locations") == [{}]
     assert o.tools.called("navigation.navigate_to") == [{"location": "kitchen"}]
     assert o.statuses(mission) == {"s1": "succeeded", "s2": "succeeded"}

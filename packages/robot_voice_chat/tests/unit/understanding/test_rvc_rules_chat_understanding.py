@@ -102,7 +102,30 @@ async def test_questions_are_answered_from_the_tools(understanding: Understandin
                  content='{"x": 9.0, "y": -3.0, "at_location": "kitchen", "moving": false}')])],
         TOOLS,
     )  # fmt: skip
-    assert answer.text == "I'm at the kitchen."
+    assert answer.text == "I'm in the kitchen."
+
+
+@pytest.mark.parametrize(
+    ("pose", "said"),
+    [
+        ('{"at_location": "desk_alice", "moving": false}', "I'm at Alice's desk."),
+        ('{"at_location": "reception", "moving": false}', "I'm at the reception desk."),
+        ('{"at_location": "mailroom", "moving": false}', "I'm in the mailroom."),
+        ('{"destination": "desk_alice", "moving": true}', "I'm driving to Alice's desk."),
+    ],
+)
+async def test_where_i_am_is_said_with_the_maps_human_place_names(
+    understanding: Understanding, pose: str, said: str
+) -> None:
+    chat = RulesChat(understanding)
+    where = await _turn(chat, [], "Where are you?")
+    [call] = where.tool_calls
+    answer = await chat.chat(
+        [Message(role="user", content="Where are you?"), where.as_message(),
+         Message(role="user", tool_results=[ToolResult(tool_call_id=call.id, content=pose)])],
+        TOOLS,
+    )  # fmt: skip
+    assert answer.text == said
 
 
 async def test_call_ids_renamed_on_the_way_still_reach_the_right_step(

@@ -24,8 +24,14 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
-from robot_voice_chat.services.llm.rules.recollection import NOT_CONNECTED, names_of, recollection
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.rules.recollection import (
+    NOT_CONNECTED,
+    Names,
+    by_id,
+    names_of,
+    recollection,
+)
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.reading import (
     Question,
     Reading,
@@ -85,6 +91,7 @@ class RulesChat(LLMProvider):
         self._calls: dict[str, str] = {}  # our tool call id → why we made it
         # our episodic call id → the question it answers, and the places to say it with
         self._recalls: dict[str, tuple[Recall, PlaceIndex | None]] = {}
+        self._pose_places: dict[str, PlaceIndex | None] = {}  # how each pose answer says places
         self._pending: Question | None = None
         self._last_turn: float | None = None  # when the person last spoke (this conversation)
         self._previous_turn: float | None = None  # ... before the turn being answered
@@ -120,7 +127,8 @@ class RulesChat(LLMProvider):
             places = None if result.is_error else self.understanding.places(result.content)
             return self._reply(request, places, messages, names)
         if purpose == "pose":
-            return LLMResponse(text=_where(result))
+            places = self._pose_places.pop(result.tool_call_id, None)
+            return LLMResponse(text=_where(result, names_of(places)))
         if purpose == "history":
             recall, places = self._recalls.pop(result.tool_call_id, (None, None))
             tool = recall.tool if recall else _tool_of(result, messages)
@@ -173,7 +181,11 @@ class RulesChat(LLMProvider):
     def _answer(self, topic: str, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
         if topic == "where":
             if GET_POSE in names:
-                return self._call(GET_POSE, {}, "pose")
+                response = self._call(GET_POSE, {}, "pose")
+                self._pose_places[response.tool_calls[0].id] = places
+                while len(self._pose_places) > 64:  # answers that never came back
+                    self._pose_places.pop(next(iter(self._pose_places)))
+                return response
             return LLMResponse(
                 text="I can't tell where I am: the navigation server is not connected."
             )
@@ -238,7 +250,7 @@ def _asked(question: Question, messages: list[Message]) -> bool:
     return not replies or replies[-1].strip().endswith(question.text)
 
 
-def _where(result: ToolResult) -> str:
+def _where(result: ToolResult, names: Names = by_id) -> str:
     if result.is_error:
         return f"I can't tell where I am right now: {result.content[:200]}"
     try:
@@ -248,9 +260,9 @@ def _where(result: ToolResult) -> str:
     if not isinstance(pose, dict):
         return "I can't tell where I am right now: the navigation server gave no pose."
     if pose.get("moving") and pose.get("destination"):
-        return f"I'm driving to the {str(pose['destination']).replace('_', ' ')}."
+        return f"I'm driving to {names(str(pose['destination']))}."
     if pose.get("at_location"):
-        return f"I'm at the {str(pose['at_location']).replace('_', ' ')}."
+        return f"I'm {located(names(str(pose['at_location'])))}."
     x, y = pose.get("x"), pose.get("y")
     if isinstance(x, int | float) and isinstance(y, int | float):
         return f"I'm between places, at x={x:.1f} m, y={y:.1f} m on the map."

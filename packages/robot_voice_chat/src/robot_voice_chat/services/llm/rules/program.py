@@ -16,7 +16,12 @@ from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
-from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence, names_of
+from robot_voice_chat.services.llm.rules.recollection import (
+    Names,
+    by_id,
+    last_sightings_sentence,
+    names_of,
+)
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
     Locations,
@@ -26,7 +31,7 @@ from robot_voice_chat.services.llm.rules.surface import (
     has_tool,
     task_id_of,
 )
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 
 NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"
@@ -261,12 +266,15 @@ class MissionProgram:
             plan.append((leg, drive, look, deliver))
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
         names: dict[str, str] = {}
+        spoken: Names = by_id
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
         if phrases and self.listed is not None:
             names = self._places(self.listed, phrases)  # the plan goes out with the first drive
+            spoken = names_of(PlaceIndex.from_result(self.listed))
         elif phrases:
             results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
             names = self._places(results[1].content, phrases)
+            spoken = names_of(PlaceIndex.from_result(results[1].content))
         else:
             yield from self.act(self.plan_call())
         said: list[str] = []
@@ -279,7 +287,7 @@ class MissionProgram:
                 if not self.planned:
                     yield from self.act(self.plan_call())
                 found = yield from self._look_for(leg.obj, look)
-                where = f" in the {place}" if place and leg.place else ""
+                where = f" {located(spoken(place))}" if place and leg.place else ""
                 if not found:
                     missed = f"I couldn't see the {leg.obj}{where}."
                     raise _Finished("failed", " ".join([*said, missed]))
@@ -287,9 +295,9 @@ class MissionProgram:
             if deliver is not None and leg.to is not None:
                 place = names[leg.to]
                 yield from self._drive(place, deliver, prepare=None)
-                said.append(f"I brought it to the {place}.")
-            elif look is None:
-                said.append(f"I'm at the {place}.")
+                said.append(f"I brought it to {spoken(place)}.")
+            elif look is None and place is not None:
+                said.append(f"I'm {located(spoken(place))}.")
         raise _Finished("succeeded", " ".join(said))
 
     def _places(self, listed: str, phrases: list[str]) -> dict[str, str]:

@@ -7,7 +7,7 @@ understanding layer) over the same server (``tests/integration/episodic_rules_qu
     uv run python benchmarks/episodic_accuracy.py [--postgres DSN|throwaway] [--through rules]
         # writes benchmarks/results/episodic_accuracy.json
         # (--through rules also benchmarks/results/episodic_accuracy_rules.json: the tuning
-        # set, written with the grammar, and the held-out set, written apart, scored apart)
+        # set, written with the grammar, and the held-out sets, written apart, scored apart)
 """
 
 from __future__ import annotations
@@ -76,7 +76,13 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
     and the real episodic server on an in-memory MCP session): the tuning set (written with
     the grammar) and the held-out set (written apart from it), scored separately."""
     sys.path.insert(0, str(RULES_QUESTIONS))
-    from episodic_rules_questions import fresh, held_out, rules_chat_on_the_office_day, summary
+    from episodic_rules_questions import (
+        fresh,
+        fresh_2,
+        held_out,
+        rules_chat_on_the_office_day,
+        summary,
+    )
 
     result: dict[str, Any] = {}
     async with rules_chat_on_the_office_day(work) as (asker, tuning):
@@ -84,6 +90,7 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
             "tuning": tuning,
             "held_out": held_out(asker.day.shown),
             "fresh": fresh(asker.day.shown),
+            "fresh_2": fresh_2(asker.day.shown),
         }
         for name, asked in sets.items():
             started = time.perf_counter()

@@ -58,6 +58,12 @@ _AWAY = re.compile(
 _SAW = r"(?:saw|spotted|noticed|have seen|'ve seen|had seen|came across|have come across)"
 _SEE = r"(?:see|seen|spot|spotted|notice|noticed|come across|came across|run into)"
 _LAST_SEEN = [
+    # the thing moved on: "where did the scissors end up", "where has my mug got to"
+    re.compile(
+        r"\bwhere(?:'d| did| has| have| had) (?!(?:you|we|i|it|they|the robot)\b)(?P<obj>.+?) "
+        r"(?:end(?:ed)? up|go|gone|went|get to|got to|gotten to|wind up|wound up|"
+        r"disappear(?:ed)?(?: to)?|vanish(?:ed)?(?: to)?)$"
+    ),
     # "the last time / place you saw X", "where's the last place you spotted X"
     re.compile(
         rf"\b(?:the )?(?:last|first) (?:time|place|spot) (?:that |where )?you {_SAW} (?P<obj>.+)"
@@ -118,12 +124,12 @@ _SEEN = re.compile(
     r"|\b(?:did|have) you (?:see|seen|spot|spotted|notice|noticed) (?:anything|something|"
     r"any(?:one|body)|things)\b"
     r"|\bwhat (?:was|were) (?:in front of you|you looking at|in view|on (?:your )?camera)\b"
-    r"|\bwhat (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted|notice|noticed)\b"
+    r"|\bwhat (?:objects|things|stuff) (?:did|have) you (?:see|seen|spot|spotted|notice|noticed)\b"
     r"|\bwhat (?:did|had) (?:your camera|the camera|you) (?:pick up|catch|detect|see)\b"
     r"|\bwhich (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted)\b"
     r"|\b(?:what )?(?:do|can) you remember (?:seeing|spotting|noticing|from|about)\b"
     r"|\bwhat (?:objects |things |stuff )?(?:was|were) (?:there |lying |standing )?"
-    r"(?:in|at|on|inside) (?!front\b)"
+    r"(?:in|at|on|inside) (?!front of\b)"
     r"|\bwhat (?:objects|things) (?:are|were) (?:there|around)\b"
 )
 _DIGEST = re.compile(
@@ -159,10 +165,18 @@ _HOURS = {
     "nine": 9, "ten": 10, "eleven": 11, "twelve": 12,
 }  # fmt: skip
 _HOUR = r"(?:1[0-2]|0?[1-9]|" + "|".join(_HOURS) + ")"
+_MINUTES = {"five": 5, "ten": 10, "twenty": 20, "twenty five": 25, "twenty-five": 25}
+_DAYPART = r"(?=\s+in the (?:morning|afternoon|evening))"
+# "half past two", "ten past four", "twenty to three", "25 minutes past 3", "quarter of five",
+# "four o'clock", "3 pm", "three in the afternoon", "9:15 in the evening"; not a range ("from
+# ten to eleven") and not a duration ("five to ten minutes ago")
 _SPOKEN_CLOCK = re.compile(
-    rf"\b(?:(?P<part>half|quarter) (?P<rel>past|to|after) (?P<h>{_HOUR})"
+    rf"(?<!from )(?<!between )\b(?:(?P<part>half|quarter|twenty[- ]five|twenty|ten|five"
+    rf"|(?P<digits>[1-5]?\d))(?P<unit> minutes?)? (?P<rel>past|after|to|till|til|before|of)"
+    rf" (?P<h>{_HOUR})(?:\s*(?P<m1>am|pm))?"
     rf"|(?P<h2>{_HOUR}) o'?clock|(?P<h3>{_HOUR}) (?P<m3>am|pm)"
-    rf"|(?P<h4>{_HOUR})(?=\s+in the (?:morning|afternoon|evening)))\b"
+    rf"|(?P<h4>{_HOUR}){_DAYPART}|(?P<h6>{_HOUR}):(?P<m6>[0-5]\d){_DAYPART})\b"
+    r"(?!\s*(?:minutes?|mins?|hours?|hrs?|seconds?|secs?|times|[hms])\b)"
     r"(?:\s+in the (?P<daypart>morning|afternoon|evening))?"
 )
 _BETWEEN = re.compile(
@@ -177,13 +191,20 @@ _OBJECT_TAIL = re.compile(
     r"this morning|this afternoon|please|again)\b.*"
     r"|\s+(?:is|are|was|were|for)$)"
 )
+# "and before that?", "and an hour before that?", "what about 10 minutes earlier?"
+_BEFORE_THAT = re.compile(
+    r"^(?:(?:and|so|ok|okay|but|then)\s+)?(?:(?:what|how) about\s+)?"
+    rf"(?:(?P<half>half an? (?:hour|minute))\s+|(?P<n>{_NUMBER})\s*(?P<unit>{_UNIT})\s+)?"
+    r"(?:before (?:that|then)|earlier(?: than that| on)?|prior to that)$"
+)
 _AGAIN = re.compile(r"^(?:and |so )?(?:where|when) (?:was|is) (?:that|it|this)(?: again)?$")
 _MORE = re.compile(r"^(?:and|also|ok and|okay and|(?:and )?(?:what|how) about)\s+(?P<rest>.+)$")
 _PAST_QUESTION = re.compile(
     r"^(?:where|when|what|which|how|did|have|has|had|is|are|was|were|do|does|any|you|seen|last)"
     r"\b.*(?:\byou (?:saw|spotted|noticed|have seen|'ve seen|had seen|were|went)\b"
     r"|\b(?:did|have|had) you (?:see|seen|spot|spotted|notice|noticed|come across)\b"
-    r"|\b(?:showed|turned|popped) up\b|\bago\b|\blast time\b|\bearlier\b|\bstill\b)"
+    r"|\b(?:showed|turned|popped|ended|end|wound) up\b|\bago\b|\blast time\b|\bearlier\b"
+    r"|\bstill\b)"
 )
 _PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
 _ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
@@ -226,32 +247,49 @@ def read_recall(text: str) -> Recall | None:
 
 
 def _clean(text: str) -> str:
-    """Lower case, texting shorthand spelled out ("u seen" → "you seen"), clock words as digits
-    ("half past two" → "2:30")."""
+    """Lower case, chatty openers dropped ("yo, ...", "hey robot, ...", "ok so ..."), texting
+    shorthand spelled out ("u seen" → "you seen"), clock words as digits ("half past two" →
+    "2:30")."""
     clean = normalise(text).strip(" .!?")
-    clean = re.sub(r"^(?:hey\s+|ok\s+|okay\s+)?robot[,\s]+", "", clean)
+    clean = _OPENER.sub("", clean)
     clean = " ".join(_SHORTHAND.get(w, w) for w in clean.split())
     return _SPOKEN_CLOCK.sub(_clock_digits, clean)
 
 
+_OPENER = re.compile(
+    r"^(?:(?:yo|hey|hi|hello|ok|okay|so|well|um+|uh+|erm|oh|alright|robot)\b[\s,;:!.-]*)+"
+    r"(?=\S)"
+)
+
+
 def _clock_digits(match: re.Match[str]) -> str:
-    hour_text = match["h"] or match["h2"] or match["h3"] or match["h4"]
+    hour_text = match["h"] or match["h2"] or match["h3"] or match["h4"] or match["h6"]
     hour = int(hour_text) if hour_text.isdigit() else _HOURS[hour_text]
-    minute = 0
-    if match["part"]:
-        minute = 30 if match["part"] == "half" else 15
-        if match["rel"] == "to":
+    minute = int(match["m6"] or 0)
+    if match["rel"]:
+        part, rel = match["part"], match["rel"]
+        if (rel == "of" and part != "quarter") or (
+            match["digits"] and not match["unit"] and rel not in ("past", "after")
+        ):  # "two of three", "10 to 11": not a clock time
+            return match[0]
+        minute = int(part) if match["digits"] else {"half": 30, "quarter": 15}.get(part, 0)
+        minute = minute or _MINUTES[part]
+        if not 0 < minute < 60:
+            return match[0]
+        if rel in ("to", "till", "til", "before", "of"):
             hour, minute = (hour - 2) % 12 + 1, 60 - minute
-    meridiem = match["m3"] or {"morning": "am", "afternoon": "pm", "evening": "pm"}.get(
-        match["daypart"] or "", ""
-    )
+    meridiem = (match["m1"] or match["m3"] or "") or {
+        "morning": "am", "afternoon": "pm", "evening": "pm"
+    }.get(match["daypart"] or "", "")  # fmt: skip
     return f"{hour}:{minute:02d}{meridiem}" if minute or not meridiem else f"{hour}{meridiem}"
 
 
 def looks_like_recall(text: str) -> bool:
     """A question about the past the grammar could not read: it gets an honest "I did not
-    understand" (never an action read from it)."""
-    return bool(_PAST_QUESTION.search(_clean(text)))
+    understand" (never an action read from it). "and before that?" with nothing earlier to step
+    back from is one too."""
+    clean = _clean(text)
+    return bool(_PAST_QUESTION.search(clean) or _BEFORE_THAT.match(clean))
 
 
 def follow_up_recall(text: str, previous: Recall) -> Recall | None:
@@ -260,6 +298,9 @@ def follow_up_recall(text: str, previous: Recall) -> Recall | None:
     clean = _clean(text)
     if _AGAIN.match(clean):
         return previous
+    before = _BEFORE_THAT.match(clean)
+    if before is not None:
+        return _before(previous, _amount_of(before))
     match = _MORE.match(clean)
     if match is None:
         return None
@@ -284,6 +325,89 @@ def follow_up_recall(text: str, previous: Recall) -> Recall | None:
     if _ago(rest) or _span(rest):
         return None
     return _last_seen(f"when did you last see {rest}")  # "and the laptop?": another thing
+
+
+def _amount_of(match: re.Match[str]) -> int | None:
+    """Seconds said in "(an hour) before that", None when no amount was said."""
+    if match["half"]:
+        return 1800 if "hour" in match["half"] else 30
+    if match["n"]:
+        return _number(match["n"]) * _UNIT_S[match["unit"][0]]
+    return None
+
+
+def _before(previous: Recall, back: int | None) -> Recall | None:
+    """ "and before that?": the same question ``back`` seconds earlier; without an amount, one
+    step of the earlier question's own length back (an hour ago → two hours ago, the last 30
+    minutes → the 30 minutes before them). The server resolves the times (a clock time gets an
+    offset: ``4:31pm -3600s``). None when the earlier question has no length to step back by
+    (a clock time, "today", since your last turn, a sighting): the caller says it did not
+    understand rather than guess."""
+    if previous.tool == POSE_AT:
+        time = str(previous.arguments.get("time", ""))
+        step = back or _relative(time)
+        shifted = _shift(time, step) if step else None
+        if shifted is None:
+            return None
+        return replace(previous, arguments={"time": shifted}, said=_said_time(shifted))
+    if previous.tool != WHAT_HAPPENED or previous.since_turn:
+        return None
+    start, end = str(previous.arguments.get("start", "")), previous.arguments.get("end")
+    start_s = _relative(start)
+    end_s = 0 if end is None and start_s else _relative(str(end)) if end else None
+    if back is None and start_s is not None and end_s is not None:
+        back = start_s - end_s
+    if not back or (end is None and start_s is None):
+        return None
+    new_start, new_end = _shift(start, back), _shift(str(end or "-0s"), back)
+    if new_start is None or new_end is None:
+        return None
+    arguments = {**previous.arguments, "start": new_start, "end": new_end}
+    said = f"{_amount(back)} earlier"
+    return replace(previous, arguments=arguments, said=said, around=True)
+
+
+_TIME = re.compile(r"(?P<base>[^+-]+?)(?:\s*(?P<sign>[+-])\s*(?P<n>\d+)(?P<unit>[smh]))?")
+
+
+def _relative(time: str) -> int | None:
+    """Seconds before now of a relative time (``-3600s``), else None."""
+    match = re.fullmatch(r"-(\d+)([smh])", time.strip())
+    return int(match[1]) * _UNIT_S[match[2]] if match else None
+
+
+def _shift(time: str, back: int) -> str | None:
+    """``time`` ``back`` seconds earlier, in the server's grammar: a relative time stays one
+    (``-3600s`` → ``-7200s``), a clock time gets (or adds to) its one offset (``4:31pm`` →
+    ``4:31pm -3600s``). None for any other time (ISO, "now")."""
+    seconds = _relative(time)
+    if seconds is not None:
+        return f"-{seconds + back}s"
+    match = _TIME.fullmatch(time.strip())
+    if match is None or not re.fullmatch(r"\d{1,2}(?::\d{2})?(?:am|pm)?", match["base"].strip()):
+        return None
+    offset = int(match["n"] or 0) * _UNIT_S[match["unit"] or "s"]
+    offset = -offset if match["sign"] == "-" else offset
+    offset -= back
+    base = match["base"].strip()
+    return base if offset == 0 else f"{base} {'-' if offset < 0 else '+'}{abs(offset)}s"
+
+
+def _said_time(time: str) -> str:
+    """How an answer restates a shifted time: "2 hours ago", "an hour before 4:31 pm"."""
+    seconds = _relative(time)
+    if seconds is not None:
+        return f"{_amount(seconds)} ago"
+    match = _TIME.fullmatch(time)
+    if match is None or not match["n"]:
+        return f"at {_said_clock(time.strip())}"
+    said = f"{_amount(int(match['n']))} {'before' if match['sign'] == '-' else 'after'}"
+    return f"{said} {_said_clock(match['base'].strip())}"
+
+
+def _amount(seconds: int) -> str:
+    """ "an hour", "a minute", "2 hours", "90 seconds"."""
+    return {60: "a minute", 3600: "an hour"}.get(seconds) or _spoken(seconds)
 
 
 def default_recall() -> Recall:
@@ -503,7 +627,8 @@ def _place_of(text: str) -> str | None:
     clock_words = ("noon", "midday", "midnight")
     if (
         not words
-        or words[0] in ("all", "front", "view", *clock_words)
+        or words[0] in ("all", "view", *clock_words)
+        or words[:2] in (["front"], ["front", "of"])  # "in front of you" is no place
         or _ago(place)
         or _span(place)
     ):

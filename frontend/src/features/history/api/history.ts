@@ -41,13 +41,14 @@ export interface HistoryWindow {
   since: string;
 }
 
+/** What the panel shows first. */
+export const DEFAULT_WINDOW: HistoryWindow = { id: '24h', label: 'Last 24 hours', span: 'in the last 24 hours', since: '-24h' };
 export const HISTORY_WINDOWS: readonly HistoryWindow[] = [
   { id: '1h', label: 'Last hour', span: 'in the last hour', since: '-1h' },
   { id: 'today', label: 'Today', span: 'today', since: '00:00' },
-  { id: '24h', label: 'Last 24 hours', span: 'in the last 24 hours', since: '-24h' },
+  DEFAULT_WINDOW,
   { id: '7d', label: 'Last 7 days', span: 'in the last 7 days', since: '-7d' },
 ];
-export const DEFAULT_WINDOW_ID = '24h';
 export const HISTORY_LIMIT = 50;
 
 export const fetchHistory = (since: string, limit = HISTORY_LIMIT) =>

@@ -5,7 +5,7 @@ import { ApiError } from '@/lib/api-client';
 import { usePolling } from '@/lib/usePolling';
 import { useHistoryStore } from '@/stores/historyStore';
 import {
-  DEFAULT_WINDOW_ID,
+  DEFAULT_WINDOW,
   fetchHistory,
   HISTORY_LIMIT,
   HISTORY_WINDOWS,
@@ -21,13 +21,13 @@ const UNAVAILABLE_PERIOD_MS = 30_000; // an absent memory server is asked again,
 type Failure = { kind: 'unavailable' | 'error'; detail: string };
 
 const windowById = (id: string): HistoryWindow =>
-  HISTORY_WINDOWS.find((w) => w.id === id) ?? HISTORY_WINDOWS[0]!;
+  HISTORY_WINDOWS.find((w) => w.id === id) ?? DEFAULT_WINDOW;
 
 /** Sightings in the chosen window (last hour … last 7 days) from the robot's episodic memory;
  *  choosing one marks on the map where the robot was when it saw it (choosing it again, or
  *  Clear, removes the marker). */
 export function HistoryPanel() {
-  const [windowId, setWindowId] = useState(DEFAULT_WINDOW_ID);
+  const [windowId, setWindowId] = useState(DEFAULT_WINDOW.id);
   const [history, setHistory] = useState<History | null>(null);
   const [failure, setFailure] = useState<Failure | null>(null);
   const [loading, setLoading] = useState(false);

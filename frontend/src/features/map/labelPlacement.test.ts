@@ -77,7 +77,7 @@ describe('placeLabels', () => {
           markerObstacles(mx, my, yaw, RING),
           240,
         );
-        const arrow = boxOf(arrowPoints(mx, my, yaw, RING));
+        const arrow = boxOf(arrowPoints(mx, my, yaw, RING), 3); // and a visible gap
         const ring: Box = { x0: mx - RING, y0: my - RING, x1: mx + RING, y1: my + RING };
         const names = places.map((p) => textBox(placed.get(p.name)!, p.name));
         const history = textBox(placed.get(HISTORY)!, HISTORY, 6.2);

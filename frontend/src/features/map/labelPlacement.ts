@@ -33,11 +33,15 @@ export function arrowPoints(cx: number, cy: number, yaw: number, ring: number): 
   return [at(ring - 1, -4), at(ring + 5, 0), at(ring - 1, 4)];
 }
 
+// Clear space kept around the marker: a name's descenders and its 1.5 px halo reach below the
+// box a name is given, and an arrow tip that touches a name reads as part of it.
+const MARKER_GAP = 3.5;
+
 /** A history marker's footprint for the names to avoid: its ring and its heading arrow. */
 export function markerObstacles(cx: number, cy: number, yaw: number, ring: number): Box[] {
   return [
-    { x0: cx - ring - 1, y0: cy - ring - 1, x1: cx + ring + 1, y1: cy + ring + 1 },
-    boxOf(arrowPoints(cx, cy, yaw, ring), 1.5),
+    { x0: cx - ring - 2, y0: cy - ring - 2, x1: cx + ring + 2, y1: cy + ring + 2 },
+    boxOf(arrowPoints(cx, cy, yaw, ring), MARKER_GAP),
   ];
 }
 

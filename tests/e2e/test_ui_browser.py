@@ -18,6 +18,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -285,8 +286,24 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
 
 def show_where_the_parcel_was_seen(page: Page, mailroom: dict[str, Any]) -> None:
     history = page.get_by_role("region", name="History")
+    window = history.get_by_role("combobox", name="History window")
+    expect(window).to_have_value("24h")  # the last 24 hours first
     parcel = history.get_by_role("button", name=re.compile("yellow package"))
     expect(parcel.first).to_be_visible(timeout=20_000)  # the panel polls every 5 s
+    # Today (since the site's midnight, resolved by the memory server; the stack runs in this
+    # machine's zone) and the last hour hold the parcel too: each window is fetched when chosen.
+    with page.expect_response(lambda r: "/api/history?since=00%3A00&" in r.url) as today:
+        window.select_option(label="Today")
+    assert today.value.status == 200, today.value.text()
+    since_midnight = datetime.now().astimezone()
+    if since_midnight.hour or since_midnight.minute >= 10:  # the mission began after midnight
+        expect(parcel.first).to_be_visible(timeout=5_000)
+    else:
+        expect(history).not_to_contain_text("unavailable", timeout=5_000)
+    with page.expect_response(lambda r: "/api/history?since=-1h&" in r.url) as hour:
+        window.select_option(label="Last hour")
+    assert hour.value.status == 200, hour.value.text()
+    expect(parcel.first).to_be_visible(timeout=5_000)
     expect(parcel.first).to_contain_text("mailroom")
     expect(parcel.first).to_contain_text(re.compile(r"\d{2}:\d{2}:\d{2}"))
     expect(parcel.first).to_contain_text(re.compile(r"\d+ (s|min) ago"))

@@ -1,7 +1,8 @@
 import { useEffect, useRef } from 'react';
 
-/** Run `tick` every `periodMs` while the page is visible (and `enabled`); one tick at a time. */
-export function usePolling(tick: () => Promise<void>, periodMs: number, enabled = true): void {
+/** Run `tick` every `periodMs` while the page is visible (and `enabled`); one tick at a time.
+ *  A new `restartKey` (e.g. the window a panel shows) runs a tick at once and restarts the period. */
+export function usePolling(tick: () => Promise<void>, periodMs: number, enabled = true, restartKey?: unknown): void {
   const saved = useRef(tick);
   useEffect(() => {
     saved.current = tick;
@@ -26,5 +27,5 @@ export function usePolling(tick: () => Promise<void>, periodMs: number, enabled 
       stopped = true;
       clearTimeout(timer);
     };
-  }, [periodMs, enabled]);
+  }, [periodMs, enabled, restartKey]);
 }

@@ -32,10 +32,26 @@ export interface History {
   sightings: Sighting[];
 }
 
-export const HISTORY_SINCE = '-24h';
+/** A window the History panel can show: `since` as the brain's API takes it (the episodic
+ *  server resolves it: "00:00" is midnight today in the site's time zone). */
+export interface HistoryWindow {
+  id: string;
+  label: string; // the choice, "Last hour"
+  span: string; // completes "Nothing seen …" / "the newest 50 of …"
+  since: string;
+}
+
+/** What the panel shows first. */
+export const DEFAULT_WINDOW: HistoryWindow = { id: '24h', label: 'Last 24 hours', span: 'in the last 24 hours', since: '-24h' };
+export const HISTORY_WINDOWS: readonly HistoryWindow[] = [
+  { id: '1h', label: 'Last hour', span: 'in the last hour', since: '-1h' },
+  { id: 'today', label: 'Today', span: 'today', since: '00:00' },
+  DEFAULT_WINDOW,
+  { id: '7d', label: 'Last 7 days', span: 'in the last 7 days', since: '-7d' },
+];
 export const HISTORY_LIMIT = 50;
 
-export const fetchHistory = (since = HISTORY_SINCE, limit = HISTORY_LIMIT) =>
+export const fetchHistory = (since: string, limit = HISTORY_LIMIT) =>
   apiGet<History>(`/api/history?${new URLSearchParams({ since, limit: String(limit) }).toString()}`);
 
 /** The local wall-clock time of an ISO instant, e.g. "14:03:12". */

@@ -50,10 +50,83 @@ describe('History panel', () => {
     expect(fetchMock).toHaveBeenCalledWith('/api/history?since=-24h&limit=50', expect.anything());
   });
 
-  it('says nothing has been recorded yet when the memory is empty', async () => {
+  it('says which window is empty when nothing was seen in it', async () => {
     answer(200, history([]));
     render(<HistoryPanel />);
-    expect(await screen.findByText('Nothing has been recorded yet.')).toBeInTheDocument();
+    expect(await screen.findByText('Nothing seen in the last 24 hours.')).toBeInTheDocument();
+  });
+
+  it('offers the windows the memory holds as a labelled choice, the last 24 hours first', async () => {
+    answer(200, history([]));
+    render(<HistoryPanel />);
+    const choice = within(screen.getByRole('region', { name: 'History' })).getByRole('combobox', {
+      name: 'History window',
+    });
+    expect(choice).toHaveDisplayValue('Last 24 hours');
+    expect(within(choice).getAllByRole('option').map((o) => o.textContent)).toEqual([
+      'Last hour',
+      'Today',
+      'Last 24 hours',
+      'Last 7 days',
+    ]);
+    await screen.findByText('Nothing seen in the last 24 hours.');
+  });
+
+  it('fetches a new window at once with its since, names it when empty, and keeps polling it', async () => {
+    vi.useFakeTimers({ shouldAdvanceTime: true });
+    const fetchMock = answer(200, history([]));
+    render(<HistoryPanel />);
+    await screen.findByText('Nothing seen in the last 24 hours.');
+    expect(fetchMock).toHaveBeenCalledTimes(1);
+    const choice = screen.getByRole('combobox', { name: 'History window' });
+
+    await userEvent.selectOptions(choice, 'Last hour');
+    expect(await screen.findByText('Nothing seen in the last hour.')).toBeInTheDocument();
+    expect(fetchMock).toHaveBeenCalledTimes(2); // at once, not at the next 5 s tick
+    expect(fetchMock).toHaveBeenLastCalledWith('/api/history?since=-1h&limit=50', expect.anything());
+
+    await userEvent.selectOptions(choice, 'Today');
+    expect(await screen.findByText('Nothing seen today.')).toBeInTheDocument();
+    // midnight in the site's time zone, resolved by the memory server
+    expect(fetchMock).toHaveBeenLastCalledWith('/api/history?since=00%3A00&limit=50', expect.anything());
+
+    await userEvent.selectOptions(choice, 'Last 7 days');
+    expect(await screen.findByText('Nothing seen in the last 7 days.')).toBeInTheDocument();
+    expect(fetchMock).toHaveBeenLastCalledWith('/api/history?since=-7d&limit=50', expect.anything());
+    const calls = fetchMock.mock.calls.length;
+    await act(async () => {
+      await vi.advanceTimersByTimeAsync(5000);
+    });
+    expect(fetchMock).toHaveBeenCalledTimes(calls + 1);
+    expect(fetchMock).toHaveBeenLastCalledWith('/api/history?since=-7d&limit=50', expect.anything());
+  });
+
+  it('drops a late answer for the window the operator has left', async () => {
+    let answerOld: (r: Response) => void = () => undefined;
+    const fetchMock = vi.fn((url: string) =>
+      url.includes('since=-24h')
+        ? new Promise<Response>((resolve) => {
+            answerOld = resolve;
+          })
+        : Promise.resolve(new Response(JSON.stringify(history([])), { status: 200 })),
+    );
+    vi.stubGlobal('fetch', fetchMock);
+    render(<HistoryPanel />);
+    await waitFor(() => expect(fetchMock).toHaveBeenCalledTimes(1));
+    await userEvent.selectOptions(screen.getByRole('combobox', { name: 'History window' }), 'Last hour');
+    await screen.findByText('Nothing seen in the last hour.');
+    await act(async () => {
+      answerOld(new Response(JSON.stringify(history([parcel])), { status: 200 }));
+      await Promise.resolve();
+    });
+    expect(screen.getByText('Nothing seen in the last hour.')).toBeInTheDocument();
+    expect(screen.queryByRole('button', { name: /yellow package/ })).toBeNull();
+  });
+
+  it('says when the window holds more than the panel lists', async () => {
+    answer(200, { ...history([parcel, mug]), truncated: true });
+    render(<HistoryPanel />);
+    expect(await screen.findByText('Showing the newest 50 sightings in the last 24 hours.')).toBeInTheDocument();
   });
 
   it('says the memory server is not connected on a 503', async () => {
@@ -116,7 +189,7 @@ describe('History panel', () => {
     vi.useFakeTimers({ shouldAdvanceTime: true });
     const fetchMock = answer(200, history([]));
     render(<HistoryPanel />);
-    await screen.findByText('Nothing has been recorded yet.');
+    await screen.findByText('Nothing seen in the last 24 hours.');
     expect(fetchMock).toHaveBeenCalledTimes(1);
     fetchMock.mockImplementation(async () => new Response(JSON.stringify(history([parcel])), { status: 200 }));
     await act(async () => {

@@ -1,39 +1,67 @@
-import { useCallback, useState } from 'react';
+import { useCallback, useId, useRef, useState } from 'react';
 import { Button } from '@/components/ui/Button';
 import { Panel } from '@/components/ui/Panel';
 import { ApiError } from '@/lib/api-client';
 import { usePolling } from '@/lib/usePolling';
 import { useHistoryStore } from '@/stores/historyStore';
-import { fetchHistory, localClock, type History, type Sighting } from '../api/history';
+import {
+  DEFAULT_WINDOW,
+  fetchHistory,
+  HISTORY_LIMIT,
+  HISTORY_WINDOWS,
+  localClock,
+  type History,
+  type HistoryWindow,
+  type Sighting,
+} from '../api/history';
 
 const PERIOD_MS = 5000;
 const UNAVAILABLE_PERIOD_MS = 30_000; // an absent memory server is asked again, less often
 
 type Failure = { kind: 'unavailable' | 'error'; detail: string };
 
-/** Recent sightings from the robot's episodic memory; choosing one marks on the map where the
- *  robot was when it saw it (choosing it again, or Clear, removes the marker). */
+const windowById = (id: string): HistoryWindow =>
+  HISTORY_WINDOWS.find((w) => w.id === id) ?? DEFAULT_WINDOW;
+
+/** Sightings in the chosen window (last hour … last 7 days) from the robot's episodic memory;
+ *  choosing one marks on the map where the robot was when it saw it (choosing it again, or
+ *  Clear, removes the marker). */
 export function HistoryPanel() {
+  const [windowId, setWindowId] = useState(DEFAULT_WINDOW.id);
   const [history, setHistory] = useState<History | null>(null);
   const [failure, setFailure] = useState<Failure | null>(null);
   const [loading, setLoading] = useState(false);
   const selected = useHistoryStore((s) => s.selected);
   const select = useHistoryStore((s) => s.select);
+  const shown = windowById(windowId);
+  // The window the panel shows now: an answer for a window the operator has left is dropped.
+  const current = useRef(shown.since);
+  const selectId = useId();
 
   const refresh = useCallback(async () => {
+    const since = shown.since;
     setLoading(true);
     try {
-      setHistory(await fetchHistory());
+      const answer = await fetchHistory(since);
+      if (current.current !== since) return;
+      setHistory(answer);
       setFailure(null);
     } catch (err) {
+      if (current.current !== since) return;
       const detail = err instanceof Error ? err.message : String(err);
       setFailure({ kind: err instanceof ApiError && err.status === 503 ? 'unavailable' : 'error', detail });
     } finally {
-      setLoading(false);
+      if (current.current === since) setLoading(false);
     }
-  }, []);
-  usePolling(refresh, failure?.kind === 'unavailable' ? UNAVAILABLE_PERIOD_MS : PERIOD_MS);
+  }, [shown.since]);
+  // A new window is fetched at once, and polled from then on.
+  usePolling(refresh, failure?.kind === 'unavailable' ? UNAVAILABLE_PERIOD_MS : PERIOD_MS, true, shown.since);
 
+  const chooseWindow = (id: string) => {
+    current.current = windowById(id).since;
+    setWindowId(id);
+    setHistory(null); // never the old window's rows under the new window's name
+  };
   const choose = (sighting: Sighting) => select(selected?.id === sighting.id ? null : sighting);
 
   return (
@@ -42,12 +70,30 @@ export function HistoryPanel() {
       title="History"
       className="md:col-span-2 lg:col-span-1"
       actions={
-        <Button variant="ghost" className="px-2 py-0.5 text-xs" onClick={() => void refresh()} disabled={loading}>
-          Refresh
-        </Button>
+        <div className="flex items-center gap-1.5">
+          <label htmlFor={selectId} className="sr-only">
+            History window
+          </label>
+          <select
+            id={selectId}
+            value={windowId}
+            onChange={(e) => chooseWindow(e.target.value)}
+            className="rounded-md border border-line bg-surface px-1.5 py-0.5 text-xs text-fg
+              focus-visible:outline-2 focus-visible:outline-offset-2 focus-visible:outline-accent"
+          >
+            {HISTORY_WINDOWS.map((w) => (
+              <option key={w.id} value={w.id}>
+                {w.label}
+              </option>
+            ))}
+          </select>
+          <Button variant="ghost" className="px-2 py-0.5 text-xs" onClick={() => void refresh()} disabled={loading}>
+            Refresh
+          </Button>
+        </div>
       }
     >
-      <Body history={history} failure={failure} selectedId={selected?.id ?? null} onChoose={choose} />
+      <Body history={history} failure={failure} span={shown.span} selectedId={selected?.id ?? null} onChoose={choose} />
       {selected && (
         <p className="border-t border-line px-3 py-1.5 text-xs text-muted" aria-live="polite">
           {selected.pose
@@ -62,11 +108,13 @@ export function HistoryPanel() {
 function Body({
   history,
   failure,
+  span,
   selectedId,
   onChoose,
 }: {
   history: History | null;
   failure: Failure | null;
+  span: string;
   selectedId: string | null;
   onChoose: (sighting: Sighting) => void;
 }) {
@@ -81,16 +129,23 @@ function Body({
   if (failure) return <p className="px-3 py-2 text-sm text-status-failed">History unavailable: {failure.detail}</p>;
   if (!history) return <p className="px-3 py-2 text-sm text-muted">Loading history…</p>;
   if (history.sightings.length === 0) {
-    return <p className="px-3 py-2 text-sm text-muted">Nothing has been recorded yet.</p>;
+    return <p className="px-3 py-2 text-sm text-muted">Nothing seen {span}.</p>;
   }
   return (
-    <ul aria-label="Recent sightings" className="max-h-64 divide-y divide-line overflow-y-auto lg:max-h-[24vh]">
-      {history.sightings.map((s) => (
-        <li key={s.id} data-sighting-id={s.id}>
-          <SightingRow sighting={s} chosen={s.id === selectedId} onChoose={onChoose} />
-        </li>
-      ))}
-    </ul>
+    <>
+      <ul aria-label="Recent sightings" className="max-h-64 divide-y divide-line overflow-y-auto lg:max-h-[24vh]">
+        {history.sightings.map((s) => (
+          <li key={s.id} data-sighting-id={s.id}>
+            <SightingRow sighting={s} chosen={s.id === selectedId} onChoose={onChoose} />
+          </li>
+        ))}
+      </ul>
+      {history.truncated && (
+        <p className="border-t border-line px-3 py-1 text-xs text-muted">
+          Showing the newest {HISTORY_LIMIT} sightings {span}.
+        </p>
+      )}
+    </>
   );
 }
 

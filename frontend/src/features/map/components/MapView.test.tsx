@@ -3,7 +3,7 @@ import userEvent from '@testing-library/user-event';
 import { afterEach, describe, expect, it, vi } from 'vitest';
 import { localClock, type Sighting } from '@/features/history/api/history';
 import { useHistoryStore } from '@/stores/historyStore';
-import { MapView, placeLabels } from './MapView';
+import { MapView } from './MapView';
 
 const LOCATIONS = {
   map: 'office',
@@ -52,6 +52,7 @@ describe('map: where the robot was when it saw something', () => {
     expect(marker).toHaveAttribute('data-y', '-2.5');
     expect(marker).toHaveAccessibleName(`Robot was here at ${localClock(parcel.first_seen)} when it saw yellow package (mailroom)`);
     expect(marker).toHaveTextContent(`yellow package · ${localClock(parcel.first_seen)}`);
+    expect(within(marker).getByTestId('history-heading')).toBeInTheDocument();
     expect(within(map).getByTestId('robot')).toHaveAttribute('data-x', '0');
 
     await userEvent.click(within(map).getByRole('button', { name: 'Clear history marker' }));
@@ -76,29 +77,5 @@ describe('map: where the robot was when it saw something', () => {
     const map = screen.getByRole('region', { name: 'Map' });
     await waitFor(() => expect(map).toHaveTextContent('yellow package was seen on map warehouse, not this one'));
     expect(within(map).queryByTestId('history-marker')).toBeNull();
-  });
-});
-
-describe('placeLabels', () => {
-  it('puts a history label beside a place, never over its name, and inside the map', () => {
-    const history = 'yellow package · 23:54:33';
-    const placed = placeLabels([
-      { name: 'mailroom', cx: 266, cy: 130 },
-      { name: 'reception', cx: 89, cy: 150 },
-      { name: history, cx: 266, cy: 130, r: 17, charWidth: 6.2 },
-    ]);
-    const box = (name: string, charWidth: number) => {
-      const [x, y, anchor] = placed.get(name)!;
-      const w = name.length * charWidth;
-      const x0 = anchor === 'start' ? x : anchor === 'end' ? x - w : x - w / 2;
-      return { x0, x1: x0 + w, y0: y - 10, y1: y + 2 };
-    };
-    const label = box(history, 6.2);
-    expect(label.x0).toBeGreaterThanOrEqual(2);
-    expect(label.x1).toBeLessThanOrEqual(298);
-    for (const other of [box('mailroom', 5.6), box('reception', 5.6)]) {
-      const apart = label.x1 <= other.x0 || other.x1 <= label.x0 || label.y1 <= other.y0 || other.y1 <= label.y0;
-      expect(apart).toBe(true);
-    }
   });
 });

@@ -6,9 +6,10 @@ import { Button } from '@/components/ui/Button';
 import { useChatStore } from '@/stores/chatStore';
 import { useHistoryStore } from '@/stores/historyStore';
 import { fetchLocations, fetchPose, type LocationList, type Pose } from '../api/map';
+import { arrowPoints, MAP_WIDTH, markerObstacles, placeLabels, type LabelPoint, type LabelSpot } from '../labelPlacement';
 
 const POSE_PERIOD_MS = 400; // 2.5 Hz
-const WIDTH = 300;
+const WIDTH = MAP_WIDTH;
 const PAD = 34;
 
 type Point = { x: number; y: number };
@@ -22,47 +23,6 @@ function projection(list: LocationList, points: Point[]) {
   const height = Math.min(WIDTH, Math.max(140, 2 * PAD + (maxY - minY) * scale));
   const project = (x: number, y: number) => [PAD + (x - minX) * scale, height - PAD - (y - minY) * scale] as const;
   return { project, height };
-}
-
-type Box = { x0: number; y0: number; x1: number; y1: number };
-const overlaps = (a: Box, b: Box) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
-
-type Anchor = 'middle' | 'start' | 'end';
-type LabelPoint = { name: string; cx: number; cy: number; r?: number; charWidth?: number };
-
-/** Name positions (label baselines) that avoid each other and the dots (radius `r`, 7 by
- *  default): above, below, right, left — inside the map's width (a centred name slides in). */
-export function placeLabels(points: LabelPoint[], width = WIDTH): Map<string, [number, number, Anchor]> {
-  const placed: Box[] = points.map((p) => {
-    const r = p.r ?? 7;
-    return { x0: p.cx - r, y0: p.cy - r, x1: p.cx + r, y1: p.cy + r };
-  });
-  const result = new Map<string, [number, number, Anchor]>();
-  for (const p of points) {
-    const w = p.name.length * (p.charWidth ?? 5.6);
-    const r = p.r ?? 7;
-    const options: [number, number, Anchor, Box][] = [
-      [p.cx, p.cy - r - 5, 'middle', { x0: p.cx - w / 2, y0: p.cy - r - 15, x1: p.cx + w / 2, y1: p.cy - r - 3 }],
-      [p.cx, p.cy + r + 13, 'middle', { x0: p.cx - w / 2, y0: p.cy + r + 3, x1: p.cx + w / 2, y1: p.cy + r + 15 }],
-      [p.cx + r + 3, p.cy + 4, 'start', { x0: p.cx + r + 3, y0: p.cy - 6, x1: p.cx + r + 3 + w, y1: p.cy + 6 }],
-      [p.cx - r - 3, p.cy + 4, 'end', { x0: p.cx - r - 3 - w, y0: p.cy - 6, x1: p.cx - r - 3, y1: p.cy + 6 }],
-    ];
-    for (const option of options) {
-      // A centred name that would leave the map slides back inside it.
-      const box = option[3];
-      const shift = option[2] !== 'middle' ? 0 : box.x0 < 2 ? 2 - box.x0 : box.x1 > width - 2 ? width - 2 - box.x1 : 0;
-      option[0] += shift;
-      option[3] = { ...box, x0: box.x0 + shift, x1: box.x1 + shift };
-    }
-    const free = (box: Box) => !placed.some((b) => overlaps(b, box));
-    const inside = (box: Box) => box.x0 >= 2 && box.x1 <= width - 2 && box.y0 >= 0;
-    const best =
-      options.find(([, , , box]) => free(box) && inside(box)) ?? options.find(([, , , box]) => free(box)) ?? options[0];
-    if (!best) continue;
-    placed.push(best[3]);
-    result.set(p.name, [best[0], best[1], best[2]]);
-  }
-  return result;
 }
 
 const HISTORY_KEY = '\u0000history'; // never a location's name
@@ -97,17 +57,19 @@ export function MapView() {
   const project = view?.project ?? null;
   const pastText = past && pastPose ? `${past.label} · ${localClock(past.first_seen)}` : null;
   const labels = useMemo(() => {
-    if (!list || !view) return new Map<string, [number, number, Anchor]>();
+    if (!list || !view) return new Map<string, LabelSpot>();
     const points: LabelPoint[] = list.locations.map((l) => {
       const [cx, cy] = view.project(l.x, l.y);
       return { name: l.name, cx, cy };
     });
+    // The history marker's ring and heading arrow are kept clear of every name.
+    const obstacles = pastPose ? markerObstacles(...view.project(pastPose.x, pastPose.y), pastPose.yaw, HISTORY_RING) : [];
     if (pastPose && pastText) {
       // Placed last: the history label moves around the places' names, never over them.
       const [cx, cy] = view.project(pastPose.x, pastPose.y);
       points.push({ name: pastText, cx, cy, r: HISTORY_RING + 3, charWidth: 6.2 });
     }
-    const placed = placeLabels(points);
+    const placed = placeLabels(points, WIDTH, obstacles, view.height);
     const history = pastText ? placed.get(pastText) : undefined;
     if (history) placed.set(HISTORY_KEY, history);
     return placed;
@@ -120,6 +82,16 @@ export function MapView() {
         <p className="p-3 text-sm text-muted">{error ? `Navigation unavailable: ${error}` : 'Loading the map…'}</p>
       ) : (
         <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor lg:max-h-[38vh]" role="group" aria-label="Floor map">
+          {/* Under the places' names (haloed, placed clear of its ring and arrow) and under the
+              live robot, so both stay readable where they coincide. */}
+          {past && pastPose && (
+            <HistoryMarker
+              sighting={past}
+              pose={pastPose}
+              at={project(pastPose.x, pastPose.y)}
+              label={labels.get(HISTORY_KEY) ?? [project(pastPose.x, pastPose.y)[0], project(pastPose.x, pastPose.y)[1] - 22, 'middle']}
+            />
+          )}
           {list.locations.map((loc) => {
             const [cx, cy] = project(loc.x, loc.y);
             const [lx, ly, anchor] = labels.get(loc.name) ?? [cx, cy - 12, 'middle'];
@@ -150,21 +122,19 @@ export function MapView() {
                   className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
                   strokeWidth={2}
                 />
-                <text x={lx} y={ly} textAnchor={anchor} className="fill-fg text-[10px]">
+                <text
+                  x={lx}
+                  y={ly}
+                  textAnchor={anchor}
+                  className="fill-fg stroke-map-floor text-[10px]"
+                  strokeWidth={3}
+                  style={{ paintOrder: 'stroke' }}
+                >
                   {loc.name}
                 </text>
               </g>
             );
           })}
-          {/* Under the live robot, so the robot stays visible where both coincide. */}
-          {past && pastPose && (
-            <HistoryMarker
-              sighting={past}
-              pose={pastPose}
-              at={project(pastPose.x, pastPose.y)}
-              label={labels.get(HISTORY_KEY) ?? [project(pastPose.x, pastPose.y)[0], project(pastPose.x, pastPose.y)[1] - 22, 'middle']}
-            />
-          )}
           {pose &&
             (() => {
               const [x, y] = project(pose.x, pose.y);
@@ -229,12 +199,11 @@ function HistoryMarker({
   sighting: Sighting;
   pose: RobotPose;
   at: readonly [number, number];
-  label: [number, number, Anchor];
+  label: LabelSpot;
 }) {
   const [x, y] = at;
   const [lx, ly, anchor] = label;
   const clock = localClock(sighting.first_seen);
-  const deg = (-pose.yaw * 180) / Math.PI;
   return (
     <g
       data-testid="history-marker"
@@ -243,11 +212,15 @@ function HistoryMarker({
       role="img"
       aria-label={`Robot was here at ${clock} when it saw ${sighting.label}${sighting.place ? ` (${sighting.place})` : ''}`}
     >
-      <g transform={`translate(${x} ${y}) rotate(${deg})`}>
-        <circle r={HISTORY_RING - 1} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
-        <path d={`M ${HISTORY_RING - 1} -4 L ${HISTORY_RING + 5} 0 L ${HISTORY_RING - 1} 4 Z`} className="fill-history" />
-        <circle r={3} className="fill-history" />
-      </g>
+      <circle cx={x} cy={y} r={HISTORY_RING - 1} className="fill-none stroke-history" strokeWidth={2.5} strokeDasharray="4 2.5" />
+      <polygon
+        data-testid="history-heading"
+        points={arrowPoints(x, y, pose.yaw, HISTORY_RING)
+          .map(([px, py]) => `${px.toFixed(1)},${py.toFixed(1)}`)
+          .join(' ')}
+        className="fill-history"
+      />
+      <circle cx={x} cy={y} r={3} className="fill-history" />
       <text
         x={lx}
         y={ly}

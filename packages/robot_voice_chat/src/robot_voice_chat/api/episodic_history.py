@@ -21,7 +21,13 @@ MAX_LIMIT = 100
 MAX_SINCE_CHARS = 40
 LAST_SEEN_N = 50  # the server's maximum: every row of one label in a window of MAX_LIMIT rows
 _RELATIVE = re.compile(r"^-(\d+(?:\.\d+)?)(s|m|min|h|d)$")
-SINCE_FORMS = "a relative time (-30s, -10m, -2h, -1d) or an ISO 8601 time (2026-11-24T15:00:00Z)"
+# A clock time today in the site's zone, as the episodic server reads it ("00:00" = since
+# midnight): the server resolves it, so the brain never does clock arithmetic.
+_CLOCK = re.compile(r"^([01]?\d|2[0-3]):[0-5]\d$")
+SINCE_FORMS = (
+    "a relative time (-30s, -10m, -2h, -1d), a clock time today in the site's time zone "
+    "(00:00 = since midnight) or an ISO 8601 time (2026-11-24T15:00:00Z)"
+)
 QUERY_ERRORS = frozenset({"invalid_time", "invalid_range"})
 
 
@@ -52,7 +58,7 @@ def check_since(text: str, now: float) -> str:
     value = text.strip()
     if not value or len(value) > MAX_SINCE_CHARS:
         raise HistoryError(422, "invalid_query", f"since must be {SINCE_FORMS}")
-    if _RELATIVE.match(value):
+    if _RELATIVE.match(value) or _CLOCK.match(value):
         return value
     try:
         parsed = datetime.fromisoformat(value.replace("Z", "+00:00"))

@@ -263,6 +263,16 @@ async def test_since_and_limit_choose_the_window_and_the_newest_rows(
     assert tools.called("episodic.what_happened")[-1]["start"] == since
 
 
+async def test_today_is_passed_as_midnight_for_the_memory_server_to_resolve(
+    client: httpx.AsyncClient, tools: FakeToolBackend
+) -> None:
+    FakeEpisodic(tools, SIGHTINGS)
+    response = await client.get("/api/history", params={"since": "00:00"})
+    assert response.status_code == 200, response.text
+    # the brain passes the clock time on as said: the server knows the site's zone
+    assert tools.called("episodic.what_happened")[0]["start"] == "00:00"
+
+
 async def test_nothing_recorded_is_an_empty_list(
     client: httpx.AsyncClient, tools: FakeToolBackend
 ) -> None:
@@ -278,6 +288,9 @@ async def test_nothing_recorded_is_an_empty_list(
         ("yesterday-ish", "is not a time"),
         ("-1x", "is not a time"),
         ("1h", "is not a time"),
+        ("24:00", "is not a time"),
+        ("7:5", "is not a time"),
+        ("12:60", "is not a time"),
         (" ", "since must be"),
         ("-" + "1" * 60 + "s", "since must be"),
         ("2099-01-01T00:00:00Z", "in the future"),
@@ -521,3 +534,32 @@ async def test_the_route_reads_what_the_real_episodic_server_recorded(
     assert row["score"] == 0.9
     assert row["count"] == 2
     assert bad.status_code == 422
+
+
+async def test_since_midnight_lists_only_what_the_real_server_saw_today(tmp_path: Path) -> None:
+    noon = datetime(2026, 11, 24, 15, 0, tzinfo=UTC).timestamp()  # 15:00 in the site's zone
+    built = build_app(
+        EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False, timezone="UTC"),
+        record_ros=False,
+        clock=ManualClock(noon),
+    )
+    try:
+        indexer = built.memory.indexer
+        indexer.on_pose(noon - 16 * 3600, 2.0, 3.0, 0.0)  # yesterday 23:00
+        indexer.on_detections("find_object", noon - 16 * 3600, [{"label": "red mug", "score": 0.8}])
+        indexer.on_pose(noon - 3 * 3600, 9.0, -3.0, 1.0)  # today 12:00
+        indexer.on_detections(
+            "find_object", noon - 3 * 3600, [{"label": "yellow package", "score": 0.9}]
+        )
+        async with Client(built.server) as mcp_client:
+            app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
+            async with httpx.AsyncClient(
+                transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+            ) as http:
+                today = (await http.get("/api/history", params={"since": "00:00"})).json()
+                day = (await http.get("/api/history", params={"since": "-24h"})).json()
+    finally:
+        built.close()
+    assert today["since"] == "2026-11-24T00:00:00.000Z"
+    assert [row["label"] for row in today["sightings"]] == ["yellow package"]
+    assert [row["label"] for row in day["sightings"]] == ["yellow package", "red mug"]

@@ -8,7 +8,8 @@ export interface RobotPose {
   map: string | null;
 }
 
-/** One row of GET /api/history: an interval in which a skill kept seeing a label. */
+/** One row of GET /api/history: an interval in which the robot kept seeing a label at a place
+ * (`skill` is the one whose data the row holds; `skills` every skill that saw it then). */
 export interface Sighting {
   id: string;
   label: string;
@@ -22,6 +23,7 @@ export interface Sighting {
   pose: RobotPose | null;
   score: number | null;
   count: number | null;
+  skills?: (string | null)[];
 }
 
 export interface History {

@@ -3,7 +3,8 @@
 The server's ``what_happened`` lists the sightings of a window (label, skill, first seen,
 place); its ``last_seen`` adds what a row on the map needs (the robot's pose when it first saw
 the thing, last seen, best score, count). The route calls both and :func:`sighting_rows`
-joins them by sighting id, newest first.
+joins them by sighting id, newest first. One thing seen at one place at the same time by two
+skills (a detector and the scene describer's object list) is one row for the operator.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ SINCE_FORMS = (
     "(00:00 = since midnight) or an ISO 8601 time (2026-11-24T15:00:00Z)"
 )
 QUERY_ERRORS = frozenset({"invalid_time", "invalid_range"})
+SAME_SIGHTING_SLACK_S = 2.0  # two skills' intervals this close apart are one sighting
 
 
 class HistoryError(Exception):
@@ -118,9 +120,56 @@ def sighting_rows(happened: dict[str, Any], details: list[dict[str, Any]]) -> li
                 "pose": _pose(found.get("robot_pose")),
                 "score": found.get("best_score"),
                 "count": found.get("count"),
+                "skills": [item.get("skill")],
             }
         )
-    return rows
+    return _one_row_per_sighting(rows)
+
+
+def _one_row_per_sighting(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Rows of one label at one place whose intervals overlap are one sighting by several
+    skills: the row kept is a scored one (a detector's, with a box and score) if any, listing
+    every skill that saw it."""
+    kept: list[dict[str, Any]] = []
+    for row in rows:
+        twin = next((k for k in kept if _same_sighting(k, row)), None)
+        if twin is None:
+            kept.append(row)
+            continue
+        skills = [*twin["skills"], *(s for s in row["skills"] if s not in twin["skills"])]
+        if twin.get("score") is None and row.get("score") is not None:
+            twin.clear()
+            twin.update(row)
+        twin["skills"] = skills
+    return kept
+
+
+def _same_sighting(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    if a["label"] != b["label"] or a.get("place") != b.get("place"):
+        return False
+    a_span, b_span = _interval(a), _interval(b)
+    if a_span is None or b_span is None:
+        return False
+    slack = SAME_SIGHTING_SLACK_S
+    return a_span[0] <= b_span[1] + slack and b_span[0] <= a_span[1] + slack
+
+
+def _interval(row: dict[str, Any]) -> tuple[float, float] | None:
+    first = _epoch(row.get("first_seen"))
+    if first is None:
+        return None
+    last = _epoch(row.get("last_seen"))
+    return first, last if last is not None else first
+
+
+def _epoch(text: Any) -> float | None:
+    if not isinstance(text, str):
+        return None
+    try:
+        parsed = datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    return (parsed if parsed.tzinfo else parsed.replace(tzinfo=UTC)).timestamp()
 
 
 def _sightings(happened: dict[str, Any]) -> list[dict[str, Any]]:

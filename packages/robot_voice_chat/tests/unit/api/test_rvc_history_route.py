@@ -92,6 +92,7 @@ def sighting(
         "pose": {"x": pose[0], "y": pose[1], "yaw": 0.5, "map": "office"} if pose else None,
         "score": 0.9,
         "count": 7,
+        "skills": ["find_object"],
     }
 
 
@@ -236,6 +237,7 @@ async def test_history_lists_sightings_newest_first_with_time_place_and_pose(
         "pose": {"x": 2.5, "y": 3.0, "yaw": 0.5, "map": "office"},
         "score": 0.9,
         "count": 7,
+        "skills": ["find_object"],
     }
     assert body["sightings"][1]["pose"] == {"x": 9.0, "y": -3.0, "yaw": 0.5, "map": "office"}
     # one what_happened for the window, one last_seen per label (not per row)
@@ -534,6 +536,38 @@ async def test_the_route_reads_what_the_real_episodic_server_recorded(
     assert row["score"] == 0.9
     assert row["count"] == 2
     assert bad.status_code == 422
+
+
+async def test_one_thing_seen_by_a_detector_and_the_scene_describer_is_one_row(
+    tmp_path: Path, real_episodic: EpisodicApp
+) -> None:
+    indexer = real_episodic.memory.indexer
+    indexer.on_pose(NOW - 300, 9.0, -3.0, 1.0)  # in the mailroom of the default map
+    indexer.on_output("scene", "scene_objects", NOW - 291, ["yellow package", "cardboard box"])
+    indexer.on_detections("find_object", NOW - 290, [{"label": "yellow package", "score": 0.9}])
+    indexer.on_output("scene", "scene_objects", NOW - 289, ["yellow package", "cardboard box"])
+    indexer.on_output("scene", "scene_objects", NOW - 200, ["cardboard box"])  # it was taken
+    indexer.on_output("scene", "scene_objects", NOW - 100, ["yellow package", "cardboard box"])
+    async with Client(real_episodic.server) as mcp_client:
+        app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
+        async with httpx.AsyncClient(
+            transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+        ) as http:
+            response = await http.get("/api/history", params={"since": "-10m"})
+    assert response.status_code == 200, response.text
+    rows = response.json()["sightings"]
+    packages = [r for r in rows if r["label"] == "yellow package"]
+    assert [(r["first_seen"], r["skills"]) for r in packages] == [
+        (_iso(NOW - 100), ["scene"]),  # back later: a sighting of its own
+        (_iso(NOW - 290), ["find_object", "scene"]),  # the detector's row, with its score
+    ]
+    assert packages[1]["score"] == 0.9
+    boxes = [(r["first_seen"], r["last_seen"]) for r in rows if r["label"] == "cardboard box"]
+    assert boxes == [  # only the describer saw it: three lists far apart, three sightings
+        (_iso(NOW - 100), _iso(NOW - 100)),
+        (_iso(NOW - 200), _iso(NOW - 200)),
+        (_iso(NOW - 291), _iso(NOW - 289)),
+    ]
 
 
 async def test_since_midnight_lists_only_what_the_real_server_saw_today(tmp_path: Path) -> None:

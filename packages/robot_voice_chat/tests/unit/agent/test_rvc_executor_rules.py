@@ -8,6 +8,8 @@ import asyncio
 import json
 from pathlib import Path
 
+import pytest
+
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
@@ -79,6 +81,25 @@ async def test_find_here_and_not_found_elsewhere(tmp_path: Path) -> None:
     mission = await o.run("find the stapler")
     assert mission.state == "failed"
     assert mission.summary == "I couldn't see the stapler."
+
+
+@pytest.mark.parametrize(
+    ("described", "said"),
+    [
+        ("The mailroom shelf. On it: a parcel.", "I see the mailroom shelf. On it: a parcel."),
+        ("Alice's desk with a green bottle.", "I see Alice's desk with a green bottle."),
+    ],
+)
+async def test_what_i_see_reads_on_as_one_sentence(
+    tmp_path: Path, described: str, said: str
+) -> None:
+    o = office(tmp_path)
+    answer = {"skill": "describe_scene", "detections": [],
+              "outputs": {"scene_description": {"value": described}}}  # fmt: skip
+    o.tools.add("perception.wait_for_result", lambda _args: answer, skill="string",
+                timeout_s="number")  # fmt: skip
+    mission = await o.run("what do you see?")
+    assert mission.summary == said
 
 
 async def test_what_do_you_see_takes_a_fresh_look_when_the_buffer_is_cold(

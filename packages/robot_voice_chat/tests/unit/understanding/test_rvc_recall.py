@@ -193,6 +193,24 @@ async def test_while_away_starts_at_the_previous_turn_else_the_last_hour(
     )
 
 
+async def test_while_away_never_reports_the_question_itself_as_something_that_happened(
+    understanding: Understanding,
+) -> None:
+    chat, messages = RulesChat(understanding), []
+    asked = "what happened while I was away?"
+    response = await _ask(chat, messages, asked)
+    digest = {"start": {"ago": "1 h ago"}, "truncated": False, "items": [
+        {"kind": "user", "text": "go to the kitchen"},
+        {"kind": "robot", "text": "I'm in the kitchen."},
+        {"kind": "user", "text": "hello"},
+        {"kind": "user", "text": asked},  # the brain recorded this turn before asking
+    ]}  # fmt: skip
+    text = await _answer(chat, messages, response, digest)
+    assert asked not in text
+    assert text.endswith("I said “I'm in the kitchen.”; you said “hello” (and 1 more line of "
+                         "conversation).")  # fmt: skip
+
+
 def test_a_clock_time_is_answered_with_the_servers_window_or_says_nothing_was_seen() -> None:
     recall = read_recall("what did you see at 3 pm")
     window = {

@@ -132,7 +132,9 @@ class RulesChat(LLMProvider):
         if purpose == "history":
             recall, places = self._recalls.pop(result.tool_call_id, (None, None))
             tool = recall.tool if recall else _tool_of(result, messages)
-            text = recollection(recall, tool, result.content, result.is_error, names_of(places))
+            text = recollection(
+                recall, tool, result.content, result.is_error, names_of(places), request
+            )
             return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")

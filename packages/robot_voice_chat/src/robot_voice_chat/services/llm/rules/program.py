@@ -624,7 +624,7 @@ class MissionProgram:
             raise _Finished(
                 "failed", "I can't tell what I see right now: the camera gave me nothing."
             )
-        raise _Finished("succeeded", f"I see {text}")
+        raise _Finished("succeeded", f"I see {_mid_sentence(text)}")
 
     def _watch(self, thing: str) -> Steps:
         self.needs(INSTANTIATE)
@@ -685,6 +685,13 @@ def _labels(data: Any) -> str:
     if not labels and isinstance(found, dict) and found.get("value") is True:
         labels = ["it is visible"]
     return ", ".join(labels)
+
+
+def _mid_sentence(text: str) -> str:
+    """A description that starts with an article reads on after "I see": "The mailroom
+    shelf." → "the mailroom shelf."; a name ("Alice's desk") keeps its capital."""
+    first, _, rest = text.partition(" ")
+    return f"{first.lower()} {rest}" if rest and first in ("The", "A", "An", "Some") else text
 
 
 def _scene_text(data: dict[str, Any]) -> str:

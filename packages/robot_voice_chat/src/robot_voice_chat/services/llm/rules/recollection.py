@@ -35,10 +35,16 @@ def names_of(places: PlaceIndex | None) -> Names:
 
 
 def recollection(
-    recall: Recall | None, tool: str, content: str, is_error: bool, names: Names = by_id
+    recall: Recall | None,
+    tool: str,
+    content: str,
+    is_error: bool,
+    names: Names = by_id,
+    asked: str = "",
 ) -> str:
     """The answer to ``recall`` (None: a call whose question we no longer hold) from what
-    ``tool`` returned; ``names`` says the places (the live place list's human names)."""
+    ``tool`` returned; ``names`` says the places (the live place list's human names);
+    ``asked``: the question itself, which the memory may already hold as the newest line."""
     if is_error:
         return f"I couldn't look that up in my memory: {_error_detail(content)}"
     data = _json(content)
@@ -49,7 +55,7 @@ def recollection(
     if tool == POSE_AT:
         return pose_sentence(data, recall, names)
     if tool == WHAT_HAPPENED:
-        return digest_sentence(data, recall, names)
+        return digest_sentence(data, recall, names, asked)
     return str(data.get("answer") or data.get("summary") or "Done.")
 
 
@@ -128,8 +134,12 @@ def pose_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by
 
 
 # --- what_happened --------------------------------------------------------------------------
-def digest_sentence(data: dict[str, Any], recall: Recall | None, names: Names = by_id) -> str:
-    items = [i for i in data.get("items") or [] if isinstance(i, dict)]
+def digest_sentence(
+    data: dict[str, Any], recall: Recall | None, names: Names = by_id, asked: str = ""
+) -> str:
+    items = _without_the_question(
+        [i for i in data.get("items") or [] if isinstance(i, dict)], asked
+    )
     when = none = _when(data, recall)
     if recall is not None and recall.around:  # "at 3 pm": the window the server used
         when = _between(data)
@@ -236,6 +246,19 @@ def _missions(items: list[dict[str, Any]]) -> str:
     return "missions: " + "; ".join(said) if said else ""
 
 
+def _without_the_question(items: list[dict[str, Any]], asked: str) -> list[dict[str, Any]]:
+    """The items less the newest line the person said if it is the question being answered
+    (the brain records each turn as it arrives, so the digest can already hold it)."""
+    question = asked.strip()
+    for index in range(len(items) - 1, -1, -1):
+        item = items[index]
+        if item.get("kind") == "user":
+            if question and str(item.get("text", "")).strip() == question:
+                return items[:index] + items[index + 1 :]
+            break
+    return items
+
+
 def _conversation(lines: list[dict[str, Any]]) -> str:
     """The last two lines said, quoted (who said them), and how many more there were."""
     quoted = [
@@ -243,7 +266,8 @@ def _conversation(lines: list[dict[str, Any]]) -> str:
         for line in lines[-2:]
     ]
     more = len(lines) - len(quoted)
-    return "; ".join(quoted) + (f" (and {more} more lines of conversation)" if more else "")
+    lines_more = f"{more} more line{'s' if more != 1 else ''} of conversation"
+    return "; ".join(quoted) + (f" (and {lines_more})" if more else "")
 
 
 def _sightings(items: list[dict[str, Any]], names: Names, with_ago: bool = False) -> str:

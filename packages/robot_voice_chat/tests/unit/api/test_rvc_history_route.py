@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -511,6 +512,17 @@ class InMemoryEpisodic(ToolBackend):
         pass
 
 
+@asynccontextmanager
+async def history_api(tmp_path: Path, episodic: EpisodicApp) -> AsyncIterator[httpx.AsyncClient]:
+    """The brain's HTTP API over a real episodic server (in-memory MCP)."""
+    async with Client(episodic.server) as mcp_client:
+        app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
+        async with httpx.AsyncClient(
+            transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+        ) as http:
+            yield http
+
+
 async def test_the_route_reads_what_the_real_episodic_server_recorded(
     tmp_path: Path, real_episodic: EpisodicApp
 ) -> None:
@@ -518,13 +530,9 @@ async def test_the_route_reads_what_the_real_episodic_server_recorded(
     indexer.on_pose(NOW - 300, 9.0, -3.0, 1.0)  # in the mailroom of the default map
     indexer.on_detections("find_object", NOW - 290, [{"label": "yellow package", "score": 0.8}])
     indexer.on_detections("find_object", NOW - 288, [{"label": "yellow package", "score": 0.9}])
-    async with Client(real_episodic.server) as mcp_client:
-        app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
-        async with httpx.AsyncClient(
-            transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
-        ) as http:
-            response = await http.get("/api/history", params={"since": "-10m"})
-            bad = await http.get("/api/history", params={"since": "-10 fortnights"})
+    async with history_api(tmp_path, real_episodic) as http:
+        response = await http.get("/api/history", params={"since": "-10m"})
+        bad = await http.get("/api/history", params={"since": "-10 fortnights"})
     assert response.status_code == 200, response.text
     [row] = response.json()["sightings"]
     assert row["label"] == "yellow package"
@@ -548,12 +556,8 @@ async def test_one_thing_seen_by_a_detector_and_the_scene_describer_is_one_row(
     indexer.on_output("scene", "scene_objects", NOW - 289, ["yellow package", "cardboard box"])
     indexer.on_output("scene", "scene_objects", NOW - 200, ["cardboard box"])  # it was taken
     indexer.on_output("scene", "scene_objects", NOW - 100, ["yellow package", "cardboard box"])
-    async with Client(real_episodic.server) as mcp_client:
-        app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
-        async with httpx.AsyncClient(
-            transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
-        ) as http:
-            response = await http.get("/api/history", params={"since": "-10m"})
+    async with history_api(tmp_path, real_episodic) as http:
+        response = await http.get("/api/history", params={"since": "-10m"})
     assert response.status_code == 200, response.text
     rows = response.json()["sightings"]
     packages = [r for r in rows if r["label"] == "yellow package"]
@@ -585,13 +589,9 @@ async def test_since_midnight_lists_only_what_the_real_server_saw_today(tmp_path
         indexer.on_detections(
             "find_object", noon - 3 * 3600, [{"label": "yellow package", "score": 0.9}]
         )
-        async with Client(built.server) as mcp_client:
-            app = create_app(container_for(tmp_path, InMemoryEpisodic(mcp_client)))
-            async with httpx.AsyncClient(
-                transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
-            ) as http:
-                today = (await http.get("/api/history", params={"since": "00:00"})).json()
-                day = (await http.get("/api/history", params={"since": "-24h"})).json()
+        async with history_api(tmp_path, built) as http:
+            today = (await http.get("/api/history", params={"since": "00:00"})).json()
+            day = (await http.get("/api/history", params={"since": "-24h"})).json()
     finally:
         built.close()
     assert today["since"] == "2026-11-24T00:00:00.000Z"

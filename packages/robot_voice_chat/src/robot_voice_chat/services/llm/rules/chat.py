@@ -146,7 +146,7 @@ class RulesChat(LLMProvider):
         if pending is not None and _asked(pending, messages):
             reading = self.understanding.follow_up(pending, text, places)
         if reading is None:
-            reading = _history_follow_up(text, messages)
+            reading = _history_follow_up(text, messages, places)
         if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
@@ -280,16 +280,23 @@ _PURPOSE_OF_TOOL = {
 }
 
 
-def _history_follow_up(text: str, messages: list[Message]) -> Reading | None:
-    """A short follow-up ("and the laptop?", "what about 2:24 pm?") to the person's earlier
-    questions about the past in this conversation, read against them (a few turns back)."""
+def _history_follow_up(
+    text: str, messages: list[Message], places: PlaceIndex | None = None
+) -> Reading | None:
+    """A short follow-up ("and the laptop?", "what about 2:24 pm?", "what about the
+    reception?") to the person's earlier questions about the past in this conversation, read
+    against them (a few turns back); ``places``: the live place list, so a follow-up naming a
+    place is read as that place."""
     said = [m.content for m in messages if m.role == "user" and m.content][:-1][-_FOLLOW_UPS:]
+    is_place = places.only_place if places is not None and places.places else None
     recall: Recall | None = None
     for earlier in said:
-        recall = (follow_up_recall(earlier, recall) if recall else None) or read_recall(earlier)
+        recall = (follow_up_recall(earlier, recall, is_place) if recall else None) or read_recall(
+            earlier
+        )
     if recall is None:
         return None
-    read = follow_up_recall(text, recall)
+    read = follow_up_recall(text, recall, is_place)
     return Reading("answer", topic="history", recall=read, intent="history") if read else None
 
 

@@ -10,6 +10,7 @@ never moves the robot.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
@@ -206,6 +207,12 @@ _PAST_QUESTION = re.compile(
     r"|\b(?:showed|turned|popped|ended|end|wound) up\b|\bago\b|\blast time\b|\bearlier\b"
     r"|\bstill\b)"
 )
+# "at about 3:30", "at roughly half past two": a hedge before a time, never a place
+_HEDGES = frozenset(
+    ("about", "around", "roughly", "approximately", "approx", "circa", "nearly", "almost",
+     "exactly", "precisely", "sometime", "some", "just", "like", "ish")
+)  # fmt: skip
+_HEDGE = r"(?:" + "|".join(sorted(_HEDGES)) + r"|at (?:" + "|".join(sorted(_HEDGES)) + r"))\b"
 _PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
 _ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
 
@@ -292,9 +299,14 @@ def looks_like_recall(text: str) -> bool:
     return bool(_PAST_QUESTION.search(clean) or _BEFORE_THAT.match(clean))
 
 
-def follow_up_recall(text: str, previous: Recall) -> Recall | None:
+def follow_up_recall(
+    text: str, previous: Recall, is_place: Callable[[str], bool] | None = None
+) -> Recall | None:
     """A short follow-up to a question about the past, read against it: "and the laptop?",
-    "what about 2:24 pm?", "and in the mailroom?", "where was that?"."""
+    "what about 2:24 pm?", "and in the mailroom?", "where was that?". ``is_place``: whether a
+    phrase names one of the map's places ("the reception"): after a question about what was
+    seen or happened, "what about the reception?" asks about that place, not a thing called
+    "reception"."""
     clean = _clean(text)
     if _AGAIN.match(clean):
         return previous
@@ -305,6 +317,13 @@ def follow_up_recall(text: str, previous: Recall) -> Recall | None:
     if match is None:
         return None
     rest = match["rest"]
+    bare = _ARTICLE.sub("", rest).strip()
+    if is_place is not None and _place_of(rest) is None and is_place(bare):
+        if previous.tool == WHAT_HAPPENED:  # "what about the reception?": the same, there
+            return replace(previous, arguments={**previous.arguments, "place": bare}, place=bare)
+        if previous.tool == LAST_SEEN and previous.obj:
+            return _last_seen(f"when did you last see {previous.obj} in {bare}")
+        return None  # "where were you at 3 pm" + "what about the kitchen?": not guessed
     if previous.kind == "pose_at" and (_clock(rest) or _ago(rest)):
         return _pose_at(f"where were you {rest}")
     if previous.tool == WHAT_HAPPENED and (
@@ -617,7 +636,9 @@ def _place_of(text: str) -> str | None:
         r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)"
         r"(?:the\s+|my\s+|our\s+)?(?P<place>[a-z' ]+?)"
         r"(?=\s+(?:today|recently|lately|earlier|in the|during|over|this|\d|a |an |half|just|"
-        r"around|when|while|between|from|before|after)|$)",
+        r"around|when|while|between|from|before|after|at (?:\d|noon|midday|midnight)|"
+        + _HEDGE
+        + r")|$)",
         text,
     )
     if match is None:
@@ -627,7 +648,7 @@ def _place_of(text: str) -> str | None:
     clock_words = ("noon", "midday", "midnight")
     if (
         not words
-        or words[0] in ("all", "view", *clock_words)
+        or words[0] in ("all", "view", *clock_words, *_HEDGES)
         or words[:2] in (["front"], ["front", "of"])  # "in front of you" is no place
         or _ago(place)
         or _span(place)

@@ -33,6 +33,7 @@ from robot_voice_chat.services.llm.rules.recollection import (
 )
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.reading import (
+    Action,
     Question,
     Reading,
     instruction_of,
@@ -133,6 +134,9 @@ class RulesChat(LLMProvider):
             recall, places = self._recalls.pop(result.tool_call_id, (None, None))
             tool = recall.tool if recall else _tool_of(result, messages)
             text = recollection(recall, tool, result.content, result.is_error, names_of(places))
+            if recall is not None and recall.offer and recall.obj and "start_mission" in names:
+                self._pending = _look_offer(recall.obj)  # asked; only a yes starts a search
+                text = f"{text} {self._pending.text}"
             return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")
@@ -298,6 +302,16 @@ def _history_follow_up(
         return None
     read = follow_up_recall(text, recall, is_place)
     return Reading("answer", topic="history", recall=read, intent="history") if read else None
+
+
+def _look_offer(obj: str) -> Question:
+    """ "where is the mug?" is answered from memory; going to look is offered, never done."""
+    thing = obj if obj.split(" ", 1)[0] in ("the", "a", "an", "my") else f"the {obj}"
+    return Question(
+        text=f"Shall I go and look for {thing}?",
+        mode="confirm",
+        actions=[Action("find", obj=obj)],
+    )
 
 
 def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:

@@ -115,6 +115,13 @@ _LAST_SEEN = [
     re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
     re.compile(r"\bhave you (?:got any idea|any idea) where (?P<obj>.+?) (?:is|are|was|were)\b"),
 ]
+# "where's the red mug now?", "where are the scissors": present tense, but the robot can only
+# say where it last saw the thing; the answer offers to go and look (a question, never a motion)
+_WHERE_NOW = re.compile(
+    r"^where(?:'s| is| are|'re| r)\s+(?!(?:you|we|i|it|they|he|she|that|this|those|these|the robot|"
+    r"everyone|everybody|everything|my location|your location)\b)(?P<obj>.+?)"
+    r"(?:\s+(?:now|right now|at the moment|currently|then|kept|located|hiding|at))?$"
+)
 # "is my mug still in the kitchen": its sighting there, and whether it was gone later
 _IS_STILL = re.compile(r"^(?:is|are) (?P<obj>.+?) still (?P<rest>(?:in|at|on|by|near) .+|there)$")
 _SEEN = re.compile(
@@ -231,6 +238,7 @@ class Recall:
     since_turn: bool = False  # start at the person's previous turn, when it is known
     first: bool = False  # last_seen: the earliest sighting on record is asked for, not the last
     around: bool = False  # a window around a clock time: the answer says the server's window
+    offer: bool = False  # "where is X": the answer offers to go and look (asks, never moves)
 
     def code(self) -> str:
         """The phrasing sets' label: answer:history | answer:last_seen | answer:pose_at."""
@@ -461,6 +469,9 @@ def _last_seen(text: str) -> Recall | None:
         match = pattern.search(text)
         if match is not None:
             phrase = match["obj"]
+    now = _WHERE_NOW.match(text) if phrase is None else None
+    if now is not None:
+        phrase = now["obj"]
     if phrase is None:
         return None
     obj, place = _object(phrase)
@@ -473,7 +484,8 @@ def _last_seen(text: str) -> Recall | None:
     first = bool(re.search(r"\bfirst\b", text))
     if first:
         arguments["n"] = _FIRST_OF
-    return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place, first=first)
+    offer = now is not None
+    return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place, first=first, offer=offer)
 
 
 def _seen(text: str) -> Recall | None:

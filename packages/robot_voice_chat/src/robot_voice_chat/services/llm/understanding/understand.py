@@ -108,6 +108,8 @@ class Understanding:
 
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
         recall = read_recall(text)  # a question about the past: answered, never acted on
+        if recall and recall.offer and places and recall.obj and places.only_place(recall.obj):
+            recall = None  # "where is the kitchen": a place, not a thing last seen
         if recall is not None:
             return Reading("answer", topic="history", recall=recall, intent="history")
         if looks_like_recall(text):  # about the past, but not read: never an action from it

@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from difflib import SequenceMatcher
 from typing import Any, Literal
 
 from robot_voice_chat.services.llm.understanding.clauses import normalise
@@ -250,15 +251,51 @@ class Recall:
 
 
 def read_recall(text: str) -> Recall | None:
-    """The question about the past in ``text``, or None (not one, or not sure)."""
+    """The question about the past in ``text``, or None (not one, or not sure); a typo in the
+    question word or the verb ("wher did you see", "did you sea") is read past when the
+    question reads no other way."""
     clean = _clean(text)
     if not clean:
         return None
+    recall = _read(clean)
+    if recall is None and (fixed := _typos_fixed(clean)) != clean:
+        recall = _read(fixed)
+    return recall
+
+
+def _read(clean: str) -> Recall | None:
     for reader in (_pose_at, _last_seen, _seen, _visits, _digest):
         recall = reader(clean)
         if recall is not None:
             return recall
     return None
+
+
+# the grammar's own function words a typo is corrected to: the word that opens the question,
+# and the verb after "you"; never an object's name (the memory corrects those to labels it holds)
+_OPENING_WORDS = ("where", "what", "when", "which", "have", "did", "were")
+_VERBS = ("see", "seen", "saw", "spot", "spotted", "notice", "noticed", "last")
+_TYPO_CUTOFF = 0.85  # one letter dropped, added or swapped in a short word ("wher", "wat")
+_RUN_TOGETHER = {"wheres": "where's", "whats": "what's", "whens": "when's"}
+
+
+def _typos_fixed(clean: str) -> str:
+    words = clean.split()
+    for i, word in enumerate(words):
+        if i == 0:
+            words[i] = _RUN_TOGETHER.get(word) or _closest(word, _OPENING_WORDS)
+        elif words[i - 1] == "you":
+            words[i] = _closest(word, _VERBS)
+    return " ".join(words)
+
+
+def _closest(word: str, vocabulary: tuple[str, ...]) -> str:
+    """``word``, or the one vocabulary word at least :data:`_TYPO_CUTOFF` alike (ties: none)."""
+    if word in vocabulary or len(word) < 3 or not word.isalpha():
+        return word
+    scored = sorted(((SequenceMatcher(None, word, v).ratio(), v) for v in vocabulary), reverse=True)
+    best = [v for ratio, v in scored if ratio >= _TYPO_CUTOFF and ratio == scored[0][0]]
+    return best[0] if len(best) == 1 else word
 
 
 def _clean(text: str) -> str:
@@ -303,7 +340,7 @@ def looks_like_recall(text: str) -> bool:
     """A question about the past the grammar could not read: it gets an honest "I did not
     understand" (never an action read from it). "and before that?" with nothing earlier to step
     back from is one too."""
-    clean = _clean(text)
+    clean = _typos_fixed(_clean(text)) if text.strip() else ""
     return bool(_PAST_QUESTION.search(clean) or _BEFORE_THAT.match(clean))
 
 

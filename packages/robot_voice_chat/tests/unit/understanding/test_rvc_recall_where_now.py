@@ -55,11 +55,20 @@ def test_where_is_without_a_thing_is_no_sighting(text: str) -> None:
     assert read_recall(text) is None
 
 
-def test_where_is_a_known_place_is_not_a_sighting() -> None:
-    reading = Understanding().understand(
-        "where is the kitchen", PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
-    )
+@pytest.mark.parametrize("text", ["where is the kitchen", "where's the front desk"])
+def test_where_is_a_known_place_is_not_a_sighting(text: str) -> None:
+    reading = Understanding().understand(text, PlaceIndex.from_result(OFFICE_LIST_LOCATIONS))
     assert reading.recall is None
+
+
+@pytest.mark.parametrize(("text", "thing"), [("where's the charger?", "charger"),
+                                             ("where is the parcel?", "parcel")])  # fmt: skip
+def test_a_thing_a_place_description_mentions_is_still_a_thing(text: str, thing: str) -> None:
+    """The dock is described as "charging dock", the mailroom as where parcels are collected:
+    "where is the parcel" is still its last sighting (and an offer), never a drive there."""
+    reading = Understanding().understand(text, PlaceIndex.from_result(OFFICE_LIST_LOCATIONS))
+    assert reading.recall is not None
+    assert (reading.kind, reading.recall.arguments) == ("answer", {"query": thing})
 
 
 async def _turn(chat: RulesChat, messages: list[Message], text: str) -> LLMResponse:

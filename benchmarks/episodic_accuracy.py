@@ -79,6 +79,7 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
     from episodic_rules_questions import (
         fresh,
         fresh_2,
+        fresh_3,
         held_out,
         rules_chat_on_the_office_day,
         summary,
@@ -91,6 +92,7 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
             "held_out": held_out(asker.day.shown),
             "fresh": fresh(asker.day.shown),
             "fresh_2": fresh_2(asker.day.shown),
+            "fresh_3": fresh_3(asker.day.shown),
         }
         for name, asked in sets.items():
             started = time.perf_counter()

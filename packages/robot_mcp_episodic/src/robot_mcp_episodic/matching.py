@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from difflib import SequenceMatcher
 
 _STOP_WORDS_TEXT = """
 a an the my your our their his her its this that these those of in on at to from for
@@ -49,3 +50,26 @@ def label_matches(label: str, query_words: Iterable[str]) -> float:
 def matching_labels(labels: Iterable[str], query: str, threshold: float = 1.0) -> list[str]:
     query_words = words(query)
     return [label for label in labels if label_matches(label, query_words) >= threshold]
+
+
+def corrected_query(labels: Iterable[str], query: str, cutoff: float = 0.8) -> str | None:
+    """``query`` with each word no label holds replaced by the one label word closest to it (a
+    typo: "scisors" → "scissor"), or None: no word needed it, a word is too short to correct
+    (under 4 letters), or none or several label words are as close. Only words of labels on
+    record are ever offered: a correction never invents a thing."""
+    vocabulary = sorted({w for label in labels for w in words(label)})
+    fixed: list[str] = []
+    for word in words(query):
+        if word in vocabulary:
+            fixed.append(word)
+            continue
+        if len(word) < 4:
+            return None
+        scored = sorted(
+            ((SequenceMatcher(None, word, v).ratio(), v) for v in vocabulary), reverse=True
+        )
+        best = [v for ratio, v in scored if ratio >= cutoff and ratio == scored[0][0]]
+        if len(best) != 1:
+            return None
+        fixed.append(best[0])
+    return " ".join(fixed) if fixed and fixed != words(query) else None

@@ -18,7 +18,7 @@ import structlog
 
 from robot_mcp_episodic.bags import BagRecorder
 from robot_mcp_episodic.ingest import NOTE_KINDS, Indexer
-from robot_mcp_episodic.matching import label_matches, matching_labels, words
+from robot_mcp_episodic.matching import corrected_query, label_matches, matching_labels, words
 from robot_mcp_episodic.places import Places, UnknownPlaceError
 from robot_mcp_episodic.store.base import EpisodicStore, Note, PoseSample, Sighting, Visit
 from robot_mcp_episodic.timeparse import (
@@ -241,7 +241,13 @@ class Episodic:
         if not 1 <= n <= 50:
             raise EpisodicError("invalid_argument", "n must be between 1 and 50")
         self._flush()
-        labels = matching_labels(self.store.labels(), query)
+        known = self.store.labels()
+        labels = matching_labels(known, query)
+        read_as = None
+        if not labels:  # a typo ("scisors"): the one label word close to it, said back
+            read_as = corrected_query(known, query)
+            labels = matching_labels(known, read_as) if read_as else []
+            read_as = read_as if labels else None
         found = self.store.sightings(
             EPOCH_START, until, labels=labels, place=where, limit=n, newest_first=True
         )
@@ -258,8 +264,11 @@ class Episodic:
             )
             if top["absent_since"]:
                 answer += f" When I looked again {top['absent_since']['ago']} it was gone."
+            if read_as:
+                answer += f" (I read {query!r} as {top['label']}.)"
         return {
             "query": query,
+            "read_as": read_as,
             "before": self._when(until, now),
             "place": where,
             "found": bool(results),

@@ -17,8 +17,10 @@ from robot_voice_chat.testing_understanding import (
 )
 
 DATA = Path(__file__).parent / "data"
-# the floors reached (issue 22); a change that lowers one is a regression
-FLOORS_A = {"answer": 1.0, "fetch": 0.92, "find": 0.83, "goto": 0.92, "greet": 1.0, "refuse": 0.94,
+# the floors reached (issue 22); a change that lowers one is a regression. find: 20/24 until
+# issue 20 moved "where is the red mug" / "where's the green bottle" to answer:last_seen (the
+# last sighting, then an offer to look); the same 4 misses are 18/22
+FLOORS_A = {"answer": 1.0, "fetch": 0.92, "find": 0.81, "goto": 0.92, "greet": 1.0, "refuse": 0.94,
             "see": 0.9, "sequence": 1.0, "stop": 1.0, "watch": 0.9, "ask": 0.9}  # fmt: skip
 TOTAL_FLOOR = {"set_a.yaml": 0.92, "set_b.yaml": 0.77}
 

@@ -33,6 +33,7 @@ from robot_voice_chat.services.llm.rules.recollection import (
 )
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.reading import (
+    Action,
     Question,
     Reading,
     instruction_of,
@@ -135,6 +136,9 @@ class RulesChat(LLMProvider):
             text = recollection(
                 recall, tool, result.content, result.is_error, names_of(places), request
             )
+            if recall is not None and recall.offer and recall.obj and "start_mission" in names:
+                self._pending = _look_offer(recall.obj)  # asked; only a yes starts a search
+                text = f"{text} {self._pending.text}"
             return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {result.content}")
@@ -148,7 +152,7 @@ class RulesChat(LLMProvider):
         if pending is not None and _asked(pending, messages):
             reading = self.understanding.follow_up(pending, text, places)
         if reading is None:
-            reading = _history_follow_up(text, messages)
+            reading = _history_follow_up(text, messages, places)
         if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
@@ -282,17 +286,34 @@ _PURPOSE_OF_TOOL = {
 }
 
 
-def _history_follow_up(text: str, messages: list[Message]) -> Reading | None:
-    """A short follow-up ("and the laptop?", "what about 2:24 pm?") to the person's earlier
-    questions about the past in this conversation, read against them (a few turns back)."""
+def _history_follow_up(
+    text: str, messages: list[Message], places: PlaceIndex | None = None
+) -> Reading | None:
+    """A short follow-up ("and the laptop?", "what about 2:24 pm?", "what about the
+    reception?") to the person's earlier questions about the past in this conversation, read
+    against them (a few turns back); ``places``: the live place list, so a follow-up naming a
+    place is read as that place."""
     said = [m.content for m in messages if m.role == "user" and m.content][:-1][-_FOLLOW_UPS:]
+    is_place = places.only_place if places is not None and places.places else None
     recall: Recall | None = None
     for earlier in said:
-        recall = (follow_up_recall(earlier, recall) if recall else None) or read_recall(earlier)
+        recall = (follow_up_recall(earlier, recall, is_place) if recall else None) or read_recall(
+            earlier
+        )
     if recall is None:
         return None
-    read = follow_up_recall(text, recall)
+    read = follow_up_recall(text, recall, is_place)
     return Reading("answer", topic="history", recall=read, intent="history") if read else None
+
+
+def _look_offer(obj: str) -> Question:
+    """ "where is the mug?" is answered from memory; going to look is offered, never done."""
+    thing = obj if obj.split(" ", 1)[0] in ("the", "a", "an", "my") else f"the {obj}"
+    return Question(
+        text=f"Shall I go and look for {thing}?",
+        mode="confirm",
+        actions=[Action("find", obj=obj)],
+    )
 
 
 def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:

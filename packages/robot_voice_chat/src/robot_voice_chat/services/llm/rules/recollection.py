@@ -72,8 +72,11 @@ def last_seen_sentence(data: dict[str, Any], recall: Recall | None, names: Names
         return _first_seen_sentence(results, asked, more, names)
     top = results[0]
     last = top.get("last_seen") or {}
+    label = str(top.get("label") or asked)
+    # the server corrected a typo against the labels it holds: said, so the person can tell
+    read_as = f" (I read '{data['query']}' as {label})" if data.get("read_as") else ""
     sentence = (
-        f"I last saw {_the(str(top.get('label') or asked))}{_at(top.get('place'), names)} "
+        f"I last saw {_the(label)}{read_as}{_at(top.get('place'), names)} "
         f"{last.get('ago', '')} ({_clock(last)})"
     )
     if top.get("seen_for"):

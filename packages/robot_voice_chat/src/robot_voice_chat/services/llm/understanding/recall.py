@@ -10,7 +10,9 @@ never moves the robot.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from difflib import SequenceMatcher
 from typing import Any, Literal
 
 from robot_voice_chat.services.llm.understanding.clauses import normalise
@@ -114,6 +116,13 @@ _LAST_SEEN = [
     re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
     re.compile(r"\bhave you (?:got any idea|any idea) where (?P<obj>.+?) (?:is|are|was|were)\b"),
 ]
+# "where's the red mug now?", "where are the scissors": present tense, but the robot can only
+# say where it last saw the thing; the answer offers to go and look (a question, never a motion)
+_WHERE_NOW = re.compile(
+    r"^where(?:'s| is| are|'re| r)\s+(?!(?:you|we|i|it|they|he|she|that|this|those|these|the robot|"
+    r"everyone|everybody|everything|my location|your location)\b)(?P<obj>.+?)"
+    r"(?:\s+(?:now|right now|at the moment|currently|then|kept|located|hiding|at))?$"
+)
 # "is my mug still in the kitchen": its sighting there, and whether it was gone later
 _IS_STILL = re.compile(r"^(?:is|are) (?P<obj>.+?) still (?P<rest>(?:in|at|on|by|near) .+|there)$")
 _SEEN = re.compile(
@@ -206,6 +215,12 @@ _PAST_QUESTION = re.compile(
     r"|\b(?:showed|turned|popped|ended|end|wound) up\b|\bago\b|\blast time\b|\bearlier\b"
     r"|\bstill\b)"
 )
+# "at about 3:30", "at roughly half past two": a hedge before a time, never a place
+_HEDGES = frozenset(
+    ("about", "around", "roughly", "approximately", "approx", "circa", "nearly", "almost",
+     "exactly", "precisely", "sometime", "some", "just", "like", "ish")
+)  # fmt: skip
+_HEDGE = r"(?:" + "|".join(sorted(_HEDGES)) + r"|at (?:" + "|".join(sorted(_HEDGES)) + r"))\b"
 _PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
 _ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
 
@@ -224,6 +239,7 @@ class Recall:
     since_turn: bool = False  # start at the person's previous turn, when it is known
     first: bool = False  # last_seen: the earliest sighting on record is asked for, not the last
     around: bool = False  # a window around a clock time: the answer says the server's window
+    offer: bool = False  # "where is X": the answer offers to go and look (asks, never moves)
 
     def code(self) -> str:
         """The phrasing sets' label: answer:history | answer:last_seen | answer:pose_at."""
@@ -235,15 +251,51 @@ class Recall:
 
 
 def read_recall(text: str) -> Recall | None:
-    """The question about the past in ``text``, or None (not one, or not sure)."""
+    """The question about the past in ``text``, or None (not one, or not sure); a typo in the
+    question word or the verb ("wher did you see", "did you sea") is read past when the
+    question reads no other way."""
     clean = _clean(text)
     if not clean:
         return None
+    recall = _read(clean)
+    if recall is None and (fixed := _typos_fixed(clean)) != clean:
+        recall = _read(fixed)
+    return recall
+
+
+def _read(clean: str) -> Recall | None:
     for reader in (_pose_at, _last_seen, _seen, _visits, _digest):
         recall = reader(clean)
         if recall is not None:
             return recall
     return None
+
+
+# the grammar's own function words a typo is corrected to: the word that opens the question,
+# and the verb after "you"; never an object's name (the memory corrects those to labels it holds)
+_OPENING_WORDS = ("where", "what", "when", "which", "have", "did", "were")
+_VERBS = ("see", "seen", "saw", "spot", "spotted", "notice", "noticed", "last")
+_TYPO_CUTOFF = 0.85  # one letter dropped, added or swapped in a short word ("wher", "wat")
+_RUN_TOGETHER = {"wheres": "where's", "whats": "what's", "whens": "when's"}
+
+
+def _typos_fixed(clean: str) -> str:
+    words = clean.split()
+    for i, word in enumerate(words):
+        if i == 0:
+            words[i] = _RUN_TOGETHER.get(word) or _closest(word, _OPENING_WORDS)
+        elif words[i - 1] == "you":
+            words[i] = _closest(word, _VERBS)
+    return " ".join(words)
+
+
+def _closest(word: str, vocabulary: tuple[str, ...]) -> str:
+    """``word``, or the one vocabulary word at least :data:`_TYPO_CUTOFF` alike (ties: none)."""
+    if word in vocabulary or len(word) < 3 or not word.isalpha():
+        return word
+    scored = sorted(((SequenceMatcher(None, word, v).ratio(), v) for v in vocabulary), reverse=True)
+    best = [v for ratio, v in scored if ratio >= _TYPO_CUTOFF and ratio == scored[0][0]]
+    return best[0] if len(best) == 1 else word
 
 
 def _clean(text: str) -> str:
@@ -288,13 +340,18 @@ def looks_like_recall(text: str) -> bool:
     """A question about the past the grammar could not read: it gets an honest "I did not
     understand" (never an action read from it). "and before that?" with nothing earlier to step
     back from is one too."""
-    clean = _clean(text)
+    clean = _typos_fixed(_clean(text)) if text.strip() else ""
     return bool(_PAST_QUESTION.search(clean) or _BEFORE_THAT.match(clean))
 
 
-def follow_up_recall(text: str, previous: Recall) -> Recall | None:
+def follow_up_recall(
+    text: str, previous: Recall, is_place: Callable[[str], bool] | None = None
+) -> Recall | None:
     """A short follow-up to a question about the past, read against it: "and the laptop?",
-    "what about 2:24 pm?", "and in the mailroom?", "where was that?"."""
+    "what about 2:24 pm?", "and in the mailroom?", "where was that?". ``is_place``: whether a
+    phrase names one of the map's places ("the reception"): after a question about what was
+    seen or happened, "what about the reception?" asks about that place, not a thing called
+    "reception"."""
     clean = _clean(text)
     if _AGAIN.match(clean):
         return previous
@@ -305,6 +362,13 @@ def follow_up_recall(text: str, previous: Recall) -> Recall | None:
     if match is None:
         return None
     rest = match["rest"]
+    bare = _ARTICLE.sub("", rest).strip()
+    if is_place is not None and _place_of(rest) is None and is_place(bare):
+        if previous.tool == WHAT_HAPPENED:  # "what about the reception?": the same, there
+            return replace(previous, arguments={**previous.arguments, "place": bare}, place=bare)
+        if previous.tool == LAST_SEEN and previous.obj:
+            return _last_seen(f"when did you last see {previous.obj} in {bare}")
+        return None  # "where were you at 3 pm" + "what about the kitchen?": not guessed
     if previous.kind == "pose_at" and (_clock(rest) or _ago(rest)):
         return _pose_at(f"where were you {rest}")
     if previous.tool == WHAT_HAPPENED and (
@@ -442,6 +506,9 @@ def _last_seen(text: str) -> Recall | None:
         match = pattern.search(text)
         if match is not None:
             phrase = match["obj"]
+    now = _WHERE_NOW.match(text) if phrase is None else None
+    if now is not None:
+        phrase = now["obj"]
     if phrase is None:
         return None
     obj, place = _object(phrase)
@@ -454,7 +521,8 @@ def _last_seen(text: str) -> Recall | None:
     first = bool(re.search(r"\bfirst\b", text))
     if first:
         arguments["n"] = _FIRST_OF
-    return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place, first=first)
+    offer = now is not None
+    return Recall("last_seen", LAST_SEEN, arguments, obj=obj, place=place, first=first, offer=offer)
 
 
 def _seen(text: str) -> Recall | None:
@@ -617,7 +685,9 @@ def _place_of(text: str) -> str | None:
         r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)"
         r"(?:the\s+|my\s+|our\s+)?(?P<place>[a-z' ]+?)"
         r"(?=\s+(?:today|recently|lately|earlier|in the|during|over|this|\d|a |an |half|just|"
-        r"around|when|while|between|from|before|after)|$)",
+        r"around|when|while|between|from|before|after|at (?:\d|noon|midday|midnight)|"
+        + _HEDGE
+        + r")|$)",
         text,
     )
     if match is None:
@@ -627,7 +697,7 @@ def _place_of(text: str) -> str | None:
     clock_words = ("noon", "midday", "midnight")
     if (
         not words
-        or words[0] in ("all", "view", *clock_words)
+        or words[0] in ("all", "view", *clock_words, *_HEDGES)
         or words[:2] in (["front"], ["front", "of"])  # "in front of you" is no place
         or _ago(place)
         or _span(place)

@@ -108,6 +108,14 @@ class Understanding:
 
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
         recall = read_recall(text)  # a question about the past: answered, never acted on
+        if (
+            recall
+            and recall.offer
+            and places
+            and recall.obj
+            and _spells_a_place(places, recall.obj)
+        ):
+            recall = None  # "where is the kitchen": a place, not a thing last seen
         if recall is not None:
             return Reading("answer", topic="history", recall=recall, intent="history")
         if looks_like_recall(text):  # about the past, but not read: never an action from it
@@ -487,3 +495,10 @@ def _has_verb(part: str, intents: dict[str, object]) -> bool:
         "watch",
         "check",
     }
+
+
+def _spells_a_place(places: PlaceIndex, phrase: str) -> bool:
+    """``phrase`` is a place's name or alias ("the kitchen", "front desk"); a word of a place's
+    description is not ("where is the charger?" asks for a thing, not the charging dock)."""
+    wanted = key(phrase)
+    return any(wanted in place.spellings() for place in places.places)

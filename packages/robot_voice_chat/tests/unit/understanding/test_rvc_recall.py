@@ -45,11 +45,6 @@ SIGHTINGS = {
 }  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def understanding() -> Understanding:
-    return Understanding()
-
-
 @pytest.mark.parametrize(
     ("text", "tool", "arguments"),
     [

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
+from robot_voice_chat.services.llm.base import Message
+from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
@@ -18,12 +18,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     read_recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
+from robot_voice_chat.testing_recall import recall_turn
 from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
 
-TOOLS = [
-    ToolDefinition(name=n)
-    for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT, LIST_LOCATIONS, "start_mission")
-]
 OFFICE = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
 
 
@@ -109,22 +106,11 @@ def test_a_place_after_where_were_you_is_not_guessed() -> None:
     )
 
 
-async def _turn(chat: RulesChat, messages: list[Message], text: str) -> LLMResponse:
-    messages.append(Message(role="user", content=text))
-    response = await chat.chat(messages, TOOLS)
-    if response.tool_calls and response.tool_calls[0].name == LIST_LOCATIONS:
-        messages.append(response.as_message())
-        result = ToolResult(tool_call_id=response.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)
-        messages.append(Message(role="user", tool_results=[result]))
-        response = await chat.chat(messages, TOOLS)
-    return response
-
-
 async def test_the_chat_reads_what_about_the_reception_as_the_place() -> None:
     chat, messages = RulesChat(Understanding()), []
-    await _turn(chat, messages, "what did you see in the kitchen today")
+    await recall_turn(chat, messages, "what did you see in the kitchen today")
     messages.append(Message(role="assistant", content="Today I saw the red mug in the kitchen."))
-    response = await _turn(chat, messages, "what about the reception?")
+    response = await recall_turn(chat, messages, "what about the reception?")
     [call] = response.tool_calls
     assert (call.name, call.arguments) == (
         WHAT_HAPPENED,

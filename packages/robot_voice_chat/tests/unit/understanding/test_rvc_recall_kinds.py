@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
+from robot_voice_chat.services.llm.base import Message
+from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.recollection import recollection
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
@@ -22,18 +22,8 @@ from robot_voice_chat.services.llm.understanding.recall import (
     read_recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import NOT_READ_RECALL, Understanding
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS, OFFICE_LOCATIONS
-
-TOOLS = [
-    ToolDefinition(name=n)
-    for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT, LIST_LOCATIONS, "start_mission")
-]
-SEEN = {"kinds": ["sightings"], "max_items": 100}
-
-
-@pytest.fixture(scope="module")
-def understanding() -> Understanding:
-    return Understanding()
+from robot_voice_chat.testing_recall import SIGHTINGS_ONLY, recall_turn
+from robot_voice_chat.testing_understanding import OFFICE_LOCATIONS
 
 
 @pytest.mark.parametrize(
@@ -77,7 +67,7 @@ def test_what_was_noticed_at_a_place_is_the_sightings_there(text: str, place: st
     assert recall is not None, text
     assert (recall.tool, recall.arguments) == (
         WHAT_HAPPENED,
-        {**SEEN, "place": place, "start": "-24h"},
+        {**SIGHTINGS_ONLY, "place": place, "start": "-24h"},
     )
 
 
@@ -87,24 +77,10 @@ def test_in_front_of_you_is_still_no_place() -> None:
     assert "place" not in recall.arguments
 
 
-async def _turn(
-    chat: RulesChat, messages: list[Message], text: str, locations: str = OFFICE_LIST_LOCATIONS
-) -> LLMResponse:
-    """One turn up to its episodic call (or its answer): the places are read first."""
-    messages.append(Message(role="user", content=text))
-    response = await chat.chat(messages, TOOLS)
-    if response.tool_calls and response.tool_calls[0].name == LIST_LOCATIONS:
-        messages.append(response.as_message())
-        result = ToolResult(tool_call_id=response.tool_calls[0].id, content=locations)
-        messages.append(Message(role="user", tool_results=[result]))
-        response = await chat.chat(messages, TOOLS)
-    return response
-
-
 async def test_the_front_desk_is_reception_by_the_maps_alias(
     understanding: Understanding,
 ) -> None:
-    response = await _turn(
+    response = await recall_turn(
         RulesChat(understanding), [], "what things did you notice at the front desk?"
     )
     [call] = response.tool_calls
@@ -120,7 +96,7 @@ async def test_without_the_alias_the_front_desk_is_said_unknown_never_guessed(
         for place in OFFICE_LOCATIONS
     ]
     listed = json.dumps({"map": "office", "locations": locations})
-    response = await _turn(
+    response = await recall_turn(
         RulesChat(understanding), [], "what things did you notice at the front desk?", listed
     )
     assert not response.tool_calls
@@ -182,9 +158,9 @@ def _recalled(text: str) -> Any:
         ("what happened in the last 30 minutes", "and before that?",
          {"max_items": 100, "start": "-3600s", "end": "-1800s"}, "30 minutes earlier"),
         ("what did you see 2 minutes ago", "and before that",
-         {**SEEN, "start": "-300s", "end": "-180s"}, "2 minutes earlier"),
+         {**SIGHTINGS_ONLY, "start": "-300s", "end": "-180s"}, "2 minutes earlier"),
         ("what did you see at 3 pm", "and an hour before that?",
-         {**SEEN, "start": "3pm -3900s", "end": "3pm -3300s"}, "an hour earlier"),
+         {**SIGHTINGS_ONLY, "start": "3pm -3900s", "end": "3pm -3300s"}, "an hour earlier"),
     ],
 )  # fmt: skip
 def test_before_that_steps_back_by_the_amount_or_the_questions_own_length(
@@ -219,9 +195,9 @@ async def test_an_unreadable_before_that_is_said_not_understood_never_acted_on(
     reading = understanding.understand("and before that?")
     assert (reading.kind, reading.text) == ("refuse", NOT_READ_RECALL)
     chat, messages = RulesChat(understanding), []
-    await _turn(chat, messages, "where were you at 4:31 pm")
+    await recall_turn(chat, messages, "where were you at 4:31 pm")
     messages.append(Message(role="assistant", content="At 4:31pm I was at the dock."))
-    response = await _turn(chat, messages, "and before that?")
+    response = await recall_turn(chat, messages, "and before that?")
     assert not response.tool_calls
     assert "did not understand" in response.text
 
@@ -230,9 +206,9 @@ async def test_the_chat_steps_back_from_the_previous_question_and_says_when(
     understanding: Understanding,
 ) -> None:
     chat, messages = RulesChat(understanding), []
-    await _turn(chat, messages, "where were you an hour ago")
+    await recall_turn(chat, messages, "where were you an hour ago")
     messages.append(Message(role="assistant", content="An hour ago I was at the dock."))
-    response = await _turn(chat, messages, "and before that?")
+    response = await recall_turn(chat, messages, "and before that?")
     [call] = response.tool_calls
     assert (call.name, call.arguments) == (POSE_AT, {"time": "-7200s"})
     pose = {"found": True, "time": "2026-09-21T15:13:20.000Z", "place": "dock"}

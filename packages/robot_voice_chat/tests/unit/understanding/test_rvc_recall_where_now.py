@@ -8,23 +8,18 @@ import json
 
 import pytest
 
-from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
+from robot_voice_chat.services.llm.base import Message, ToolResult
+from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
-    POSE_AT,
-    WHAT_HAPPENED,
     read_recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import Understanding
+from robot_voice_chat.testing_recall import RECALL_TOOLS, recall_turn
 from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
 
-TOOLS = [
-    ToolDefinition(name=n)
-    for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT, LIST_LOCATIONS, "start_mission")
-]
-SEEN = {
+RED_MUG_SEEN = {
     "query": "red mug",
     "found": True,
     "results": [
@@ -71,25 +66,14 @@ def test_a_thing_a_place_description_mentions_is_still_a_thing(text: str, thing:
     assert (reading.kind, reading.recall.arguments) == ("answer", {"query": thing})
 
 
-async def _turn(chat: RulesChat, messages: list[Message], text: str) -> LLMResponse:
-    messages.append(Message(role="user", content=text))
-    response = await chat.chat(messages, TOOLS)
-    if response.tool_calls and response.tool_calls[0].name == LIST_LOCATIONS:
-        messages.append(response.as_message())
-        result = ToolResult(tool_call_id=response.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)
-        messages.append(Message(role="user", tool_results=[result]))
-        response = await chat.chat(messages, TOOLS)
-    return response
-
-
 async def _answered(chat: RulesChat, messages: list[Message], text: str) -> str:
-    response = await _turn(chat, messages, text)
+    response = await recall_turn(chat, messages, text)
     [call] = response.tool_calls
     assert (call.name, call.arguments) == (LAST_SEEN, {"query": "red mug"})
     messages.append(response.as_message())
-    result = ToolResult(tool_call_id=call.id, content=json.dumps(SEEN))
+    result = ToolResult(tool_call_id=call.id, content=json.dumps(RED_MUG_SEEN))
     messages.append(Message(role="user", tool_results=[result]))
-    answer = await chat.chat(messages, TOOLS)
+    answer = await chat.chat(messages, RECALL_TOOLS)
     assert not answer.tool_calls
     messages.append(Message(role="assistant", content=answer.text))
     return answer.text
@@ -107,10 +91,10 @@ async def test_the_chat_answers_from_memory_and_only_offers_to_look() -> None:
 async def test_a_yes_to_the_offer_starts_the_search_and_a_no_moves_nothing() -> None:
     chat, messages = RulesChat(Understanding()), []
     await _answered(chat, messages, "where is the red mug?")
-    response = await _turn(chat, messages, "yes please")
+    response = await recall_turn(chat, messages, "yes please")
     [call] = response.tool_calls
     assert (call.name, call.arguments["instruction"]) == ("start_mission", "find red mug")
     chat, messages = RulesChat(Understanding()), []
     await _answered(chat, messages, "where is the red mug?")
-    response = await _turn(chat, messages, "no thanks")
+    response = await recall_turn(chat, messages, "no thanks")
     assert not response.tool_calls

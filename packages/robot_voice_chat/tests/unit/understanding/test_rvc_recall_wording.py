@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
+from robot_voice_chat.services.llm.base import Message, ToolResult
+from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.recollection import recollection
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.recall import (
@@ -22,18 +22,8 @@ from robot_voice_chat.services.llm.understanding.recall import (
     read_recall,
 )
 from robot_voice_chat.services.llm.understanding.understand import NOT_READ_RECALL, Understanding
+from robot_voice_chat.testing_recall import RECALL_TOOLS, SIGHTINGS_ONLY, recall_turn
 from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
-
-TOOLS = [
-    ToolDefinition(name=n)
-    for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT, LIST_LOCATIONS, "start_mission")
-]
-SEEN = {"kinds": ["sightings"], "max_items": 100}
-
-
-@pytest.fixture(scope="module")
-def understanding() -> Understanding:
-    return Understanding()
 
 
 @pytest.mark.parametrize(
@@ -58,9 +48,9 @@ def understanding() -> Understanding:
         ("anything interesting in the last quarter hour", WHAT_HAPPENED,
          {"start": "-900s", "max_items": 100}),
         ("what do you remember seeing in the last 90 seconds", WHAT_HAPPENED,
-         {**SEEN, "start": "-90s"}),
+         {**SIGHTINGS_ONLY, "start": "-90s"}),
         ("what was in the kitchen when you were there", WHAT_HAPPENED,
-         {**SEEN, "place": "kitchen", "start": "-24h"}),
+         {**SIGHTINGS_ONLY, "place": "kitchen", "start": "-24h"}),
     ],
 )  # fmt: skip
 def test_operator_wording_is_one_episodic_call(
@@ -87,7 +77,7 @@ def test_a_follow_up_is_read_against_the_previous_question() -> None:
     assert kitchen is not None
     mailroom = follow_up_recall("and in the mailroom?", kitchen)
     assert mailroom is not None
-    assert mailroom.arguments == {**SEEN, "place": "mailroom", "start": "00:00"}
+    assert mailroom.arguments == {**SIGHTINGS_ONLY, "place": "mailroom", "start": "00:00"}
     assert follow_up_recall("go to the kitchen", seen) is None
     assert follow_up_recall("and the kitchen?", pose) is None  # a place after a pose: not read
 
@@ -125,26 +115,14 @@ def test_the_first_sighting_on_record_is_said_when_asked_for_the_first() -> None
     )
 
 
-async def _turn(chat: RulesChat, messages: list[Message], text: str) -> LLMResponse:
-    """One turn up to its episodic call (or its answer): the places are read first."""
-    messages.append(Message(role="user", content=text))
-    response = await chat.chat(messages, TOOLS)
-    if response.tool_calls and response.tool_calls[0].name == LIST_LOCATIONS:
-        messages.append(response.as_message())
-        result = ToolResult(tool_call_id=response.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)
-        messages.append(Message(role="user", tool_results=[result]))
-        response = await chat.chat(messages, TOOLS)
-    return response
-
-
 async def test_the_chat_reads_a_follow_up_from_the_conversation(
     understanding: Understanding,
 ) -> None:
     chat, messages = RulesChat(understanding), []
-    first = await _turn(chat, messages, "have you seen the scissors?")
+    first = await recall_turn(chat, messages, "have you seen the scissors?")
     assert first.tool_calls[0].arguments == {"query": "scissors"}
     messages.append(Message(role="assistant", content="I last saw the scissors ..."))
-    second = await _turn(chat, messages, "and the laptop?")
+    second = await recall_turn(chat, messages, "and the laptop?")
     assert [(c.name, c.arguments) for c in second.tool_calls] == [(LAST_SEEN, {"query": "laptop"})]
 
 
@@ -152,9 +130,9 @@ async def test_a_place_is_resolved_by_its_human_name_or_said_unknown(
     understanding: Understanding,
 ) -> None:
     chat = RulesChat(understanding)
-    alice = await _turn(chat, [], "what did you see at Alice's desk")
+    alice = await recall_turn(chat, [], "what did you see at Alice's desk")
     assert alice.tool_calls[0].arguments["place"] == "desk_alice"
-    garage = await _turn(chat, [], "what did you see in the garage today")
+    garage = await recall_turn(chat, [], "what did you see in the garage today")
     assert not garage.tool_calls
     assert garage.text.startswith("I don't know a place called 'garage'. I know: dock,")
 
@@ -224,7 +202,7 @@ def test_a_description_that_names_something_else_is_not_used() -> None:
 
 async def test_the_chat_says_places_by_their_human_names(understanding: Understanding) -> None:
     chat, messages = RulesChat(understanding), []
-    response = await _turn(chat, messages, "where did you see the laptop?")
+    response = await recall_turn(chat, messages, "where did you see the laptop?")
     [call] = response.tool_calls
     found = {"query": "laptop", "found": True, "results": [{
         "label": "laptop", "place": "desk_alice", "last_seen": {
@@ -234,5 +212,5 @@ async def test_the_chat_says_places_by_their_human_names(understanding: Understa
         Message(role="user", tool_results=[ToolResult(tool_call_id=call.id,
                                                       content=json.dumps(found))]),
     ]  # fmt: skip
-    reply = await chat.chat(messages, TOOLS)
+    reply = await chat.chat(messages, RECALL_TOOLS)
     assert reply.text == "I last saw the laptop at Alice's desk 3 min ago (14:27:20 UTC)."

@@ -15,11 +15,6 @@ TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.list_locations"),
          ToolDefinition(name="navigation.get_pose")]  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def understanding() -> Understanding:
-    return Understanding()
-
-
 async def _turn(chat: RulesChat, history: list[Message], text: str) -> LLMResponse:
     """One fast-path turn as the pipeline runs it: list_locations, then the reply."""
     messages = [*history, Message(role="user", content=text)]

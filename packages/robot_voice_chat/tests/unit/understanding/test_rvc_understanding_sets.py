@@ -25,11 +25,6 @@ FLOORS_A = {"answer": 1.0, "fetch": 0.92, "find": 0.81, "goto": 0.92, "greet": 1
 TOTAL_FLOOR = {"set_a.yaml": 0.92, "set_b.yaml": 0.77}
 
 
-@pytest.fixture(scope="module")
-def understanding() -> Understanding:
-    return Understanding()
-
-
 def _reader(understanding: Understanding):  # type: ignore[no-untyped-def]
     places = understanding.places(OFFICE_LIST_LOCATIONS)
     return lambda text: understanding.understand(text, places).code()

@@ -71,6 +71,11 @@ async def ask_all(store: EpisodicStore | None, data_dir: Path) -> dict[str, Any]
         app.close()
 
 
+# Written before the grammar was changed for the last set's misses: scored, its misses kept
+# out of the printout (read them in the JSON only after the grammar work is done).
+JSON_ONLY = {"fresh_4"}
+
+
 async def ask_through_rules(work: Path) -> dict[str, Any]:
     """The plain-words sets through the rules chat (the chat pipeline, its understanding layer
     and the real episodic server on an in-memory MCP session): the tuning set (written with
@@ -80,6 +85,7 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
         fresh,
         fresh_2,
         fresh_3,
+        fresh_4,
         held_out,
         rules_chat_on_the_office_day,
         summary,
@@ -93,6 +99,7 @@ async def ask_through_rules(work: Path) -> dict[str, Any]:
             "fresh": fresh(asker.day.shown),
             "fresh_2": fresh_2(asker.day.shown),
             "fresh_3": fresh_3(asker.day.shown),
+            "fresh_4": fresh_4(asker.day.shown),
         }
         for name, asked in sets.items():
             started = time.perf_counter()
@@ -136,6 +143,11 @@ def main() -> None:
     if args.through == "rules":
         rules = asyncio.run(ask_through_rules(work / "rules"))
         for name, got in rules.items():
+            if name in JSON_ONLY:
+                print(f"through the rules chat, {name} set: {got['correct']}/{got['questions']} "
+                      f"correct; would move the robot: {len(got['would_move'])} "
+                      "(misses in the JSON)")  # fmt: skip
+                continue
             print(f"through the rules chat, {name} set: {got['correct']}/{got['questions']} "
                   f"correct (accuracy {got['accuracy']:.1%}, goal >= 90 %); by kind "
                   f"{got['by_kind']}; {got['ms_per_question']} ms per question; "

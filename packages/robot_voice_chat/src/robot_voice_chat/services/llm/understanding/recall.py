@@ -140,7 +140,16 @@ _SEEN = re.compile(
     r"|\bwhat (?:objects |things |stuff )?(?:was|were) (?:there |lying |standing )?"
     r"(?:in|at|on|inside) (?!front of\b)"
     r"|\bwhat (?:objects|things) (?:are|were) (?:there|around)\b"
+    r"|^(?:was|were) there (?:anything|anyone|anybody|something|someone|somebody)\b"
 )
+# "anything at the reception earlier?", "anyone in the kitchen at 3 pm?": a digest of what was
+# seen there, when a time in the past is said (without one it may be a request to go and look)
+_ANYTHING_AT = re.compile(
+    r"^(?:(?:and|so|but)\s+)?(?:(?:did you see|you see|see|seen|saw)\s+)?(?:anything|anyone|"
+    r"anybody|something|someone|somebody)(?: (?:interesting|unusual|new|else|at all))?"
+    r" (?:in|at|on|inside|near|by) "
+)
+_PAST_MARK = re.compile(r"\b(?:earlier|before|ago|yesterday|previously|so far)\b")
 _DIGEST = re.compile(
     r"\bwhat(?:'s| has| had|'d)?\s+(?:just\s+)?(?:happened|happening|been happening|been going on|"
     r"went on|going on)\b"
@@ -305,7 +314,56 @@ def _clean(text: str) -> str:
     clean = normalise(text).strip(" .!?")
     clean = _OPENER.sub("", clean)
     clean = " ".join(_SHORTHAND.get(w, w) for w in clean.split())
+    clean = _ROBOT_SUBJECT.sub(_as_you, _SEEING.sub(_plain_seeing, clean))
     return _SPOKEN_CLOCK.sub(_clock_digits, clean)
+
+
+# Other verbs of seeing, said after their subject ("did you catch sight of", "have you come
+# across", "when did it last lay eyes on"), read as see / saw / seen: the auxiliary before the
+# verb picks the form ("have you come across" → "have you seen", "did you run into" → "did you
+# see"). Only after a subject, so "run into the kitchen" stays a request's words.
+_SEEING_FORMS = {
+    "base": r"catch sight of|catch a glimpse of|get a glimpse of|glimpse|lay eyes on|clap eyes on",
+    "both": r"come across|run into|bump into|set eyes on",  # base and participle alike
+    "past": r"caught sight of|caught a glimpse of|got a glimpse of|glimpsed|laid eyes on"
+    r"|clapped eyes on|came across|ran into|bumped into",
+}
+_ROBOT = r"(?:the robot|the bot|this robot|our robot|your robot|robot|robbie|it)"
+_SEEING = re.compile(
+    rf"\b(?P<subject>you|{_ROBOT})\s+(?P<adverb>(?:last|first|ever|just|already|recently|"
+    r"actually|most recently)\s+)?(?:"
+    + "|".join(f"(?P<{form}>{verbs})" for form, verbs in _SEEING_FORMS.items())
+    + r")\b"
+)
+_HAVE = re.compile(r"\b(?:have|has|had|'ve)\b")
+_DO = re.compile(r"\b(?:did|do|does)\b")
+# the robot named in the third person as the one who saw ("what did the robot see", "did it
+# spot the mug"): the same question as "you"; never "was it seen" (there "it" is the thing)
+_ROBOT_SUBJECT = re.compile(
+    rf"\b(?P<aux>did|does|has|have|had) {_ROBOT}(?=\s+(?:(?:last|first|ever|just|already|"
+    r"recently|most recently)\s+)?(?:see|seen|spot|spotted|notice|noticed|observe|observed|"
+    r"detect|detected|pick up|picked up)\b)"
+)
+
+
+def _as_you(match: re.Match[str]) -> str:
+    return f"{_SECOND_PERSON.get(match['aux'], match['aux'])} you"
+
+
+_SECOND_PERSON = {"has": "have", "does": "do"}
+
+
+def _plain_seeing(match: re.Match[str]) -> str:
+    before = match.string[: match.start()]
+    have = max((m.start() for m in _HAVE.finditer(before)), default=-1)
+    do = max((m.start() for m in _DO.finditer(before)), default=-1)
+    if have > do:
+        verb = "seen"
+    elif do > have or match["base"] or match["both"]:
+        verb = "see"
+    else:
+        verb = "saw"
+    return f"{match['subject']} {match['adverb'] or ''}{verb}"
 
 
 _OPENER = re.compile(
@@ -526,9 +584,19 @@ def _last_seen(text: str) -> Recall | None:
 
 
 def _seen(text: str) -> Recall | None:
-    if not _SEEN.search(text):
+    if not (
+        _SEEN.search(text) or (_ANYTHING_AT.search(text) and _place_of(text) and _in_the_past(text))
+    ):
         return None
     return _window(text, ["sightings"], "seen", default=("-1h", "in the last hour"))
+
+
+def _in_the_past(text: str) -> bool:
+    """A time in the past is said: an amount ago, the last N, a clock time, today, earlier."""
+    return bool(
+        _PAST_MARK.search(text) or _ago(text) or _span(text) or _clock(text)
+        or _TODAY.search(text) or _RECENT.search(text) or _BETWEEN.search(text)
+    )  # fmt: skip
 
 
 def _visits(text: str) -> Recall | None:

@@ -626,7 +626,7 @@ def fresh_4(shown: Shown) -> list[Ask]:
             ("coffee machine", "parcel"), kind="seen"),
         Ask(end, "what did it see in the mailroom?", ("parcel",), ("red mug", "scissors"),
             kind="seen"),
-        Ask(end, "what did robbie spot at Alice's desk?", ("laptop",), ("parcel",),
+        Ask(end, "what did the bot spot at Alice's desk?", ("laptop",), ("parcel",),
             kind="seen"),
         Ask(end, "was there anything in the kitchen at about 2:24?",
             ("red mug", "coffee machine"), ("parcel", "notebook"), kind="seen"),

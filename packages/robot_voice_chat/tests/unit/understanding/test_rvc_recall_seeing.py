@@ -41,7 +41,7 @@ def test_other_verbs_of_seeing_are_its_last_sighting(text: str) -> None:
     [
         ("what did the robot see at the reception desk?", "reception desk"),
         ("what did it see in the mailroom", "mailroom"),
-        ("what did robbie spot in the kitchen", "kitchen"),
+        ("what did the bot spot in the kitchen", "kitchen"),
         ("what has the robot noticed in the kitchen", "kitchen"),
     ],
 )
@@ -54,7 +54,7 @@ def test_the_robot_in_the_third_person_is_the_one_who_saw(text: str, place: str)
 @pytest.mark.parametrize(
     ("text", "thing"),
     [("did the robot see the laptop?", "laptop"), ("when did it last spot the mug", "mug"),
-     ("has robbie come across my keys", "keys")],
+     ("has your robot come across my keys", "keys")],
 )  # fmt: skip
 def test_did_the_robot_see_a_thing_is_its_last_sighting(text: str, thing: str) -> None:
     recall = read_recall(text)

@@ -328,7 +328,7 @@ _SEEING_FORMS = {
     "past": r"caught sight of|caught a glimpse of|got a glimpse of|glimpsed|laid eyes on"
     r"|clapped eyes on|came across|ran into|bumped into",
 }
-_ROBOT = r"(?:the robot|the bot|this robot|our robot|your robot|robot|robbie|it)"
+_ROBOT = r"(?:the robot|the bot|this robot|our robot|your robot|robot|it)"
 _SEEING = re.compile(
     rf"\b(?P<subject>you|{_ROBOT})\s+(?P<adverb>(?:last|first|ever|just|already|recently|"
     r"actually|most recently)\s+)?(?:"

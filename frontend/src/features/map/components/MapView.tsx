@@ -1,4 +1,4 @@
-import { useCallback, useMemo, useState } from 'react';
+import { useCallback, useMemo, useState, type ReactNode } from 'react';
 import { Panel } from '@/components/ui/Panel';
 import { usePolling } from '@/lib/usePolling';
 import { localClock, type RobotPose, type Sighting } from '@/features/history/api/history';
@@ -6,7 +6,15 @@ import { Button } from '@/components/ui/Button';
 import { useChatStore } from '@/stores/chatStore';
 import { useHistoryStore } from '@/stores/historyStore';
 import { fetchLocations, fetchPose, type LocationList, type Pose } from '../api/map';
-import { arrowPoints, MAP_WIDTH, markerObstacles, placeLabels, type LabelPoint, type LabelSpot } from '../labelPlacement';
+import {
+  arrowPoints,
+  MAP_WIDTH,
+  markerObstacles,
+  placeLabels,
+  type Anchor,
+  type LabelPoint,
+  type LabelSpot,
+} from '../labelPlacement';
 
 const POSE_PERIOD_MS = 400; // 2.5 Hz
 const WIDTH = MAP_WIDTH;
@@ -122,16 +130,9 @@ export function MapView() {
                   className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
                   strokeWidth={2}
                 />
-                <text
-                  x={lx}
-                  y={ly}
-                  textAnchor={anchor}
-                  className="fill-fg stroke-map-floor text-[10px]"
-                  strokeWidth={3}
-                  style={{ paintOrder: 'stroke' }}
-                >
+                <MapLabel x={lx} y={ly} anchor={anchor} className="fill-fg">
                   {loc.name}
-                </text>
+                </MapLabel>
               </g>
             );
           })}
@@ -190,6 +191,34 @@ export function MapView() {
 
 /** Where the robot stood when it saw a sighting: a dashed ring with its heading in the history
  *  colour, and the label + local time where `label` says (placed around the places' names). */
+/** A name on the map, drawn over a halo of the floor colour so lines under it stay legible. */
+function MapLabel({
+  x,
+  y,
+  anchor,
+  className,
+  children,
+}: {
+  x: number;
+  y: number;
+  anchor: Anchor;
+  className: string;
+  children: ReactNode;
+}) {
+  return (
+    <text
+      x={x}
+      y={y}
+      textAnchor={anchor}
+      className={`${className} stroke-map-floor text-[10px]`}
+      strokeWidth={3}
+      style={{ paintOrder: 'stroke' }}
+    >
+      {children}
+    </text>
+  );
+}
+
 function HistoryMarker({
   sighting,
   pose,
@@ -221,16 +250,9 @@ function HistoryMarker({
         className="fill-history"
       />
       <circle cx={x} cy={y} r={3} className="fill-history" />
-      <text
-        x={lx}
-        y={ly}
-        textAnchor={anchor}
-        className="fill-history stroke-map-floor text-[10px] font-semibold"
-        strokeWidth={3}
-        style={{ paintOrder: 'stroke' }}
-      >
+      <MapLabel x={lx} y={ly} anchor={anchor} className="fill-history font-semibold">
         {sighting.label} · {clock}
-      </text>
+      </MapLabel>
     </g>
   );
 }

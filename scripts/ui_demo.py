@@ -44,7 +44,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # stop the stack by PID, too
+    # Ctrl+C, and SIGINT or SIGTERM by PID, stop the stack; a shell that starts the demo in the
+    # background hands it SIGINT ignored, and Python then keeps ignoring it unless told
+    for stop_signal in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(stop_signal, signal.default_int_handler)
     if not (STATIC / "index.html").is_file():
         say("demo: the UI is not built — run `make setup` (needs Node 20 + npm)")
         return 2

@@ -214,6 +214,15 @@ async def test_while_away_never_reports_the_question_itself_as_something_that_ha
                          "conversation).")  # fmt: skip
 
 
+def test_a_digest_ending_on_a_quoted_sentence_ends_once() -> None:
+    digest = {"start": {"ago": "5 min ago"}, "truncated": False, "items": [
+        {"kind": "user", "text": "have you seen my keys?"},
+        {"kind": "robot", "text": "I have no record of seeing the keys."},
+    ]}  # fmt: skip
+    text = recollection(None, WHAT_HAPPENED, json.dumps(digest), False)
+    assert text.endswith("I said “I have no record of seeing the keys.”")
+
+
 def test_a_clock_time_is_answered_with_the_servers_window_or_says_nothing_was_seen() -> None:
     recall = read_recall("what did you see at 3 pm")
     window = {

@@ -175,7 +175,8 @@ def digest_sentence(
     if not parts:
         return f"I have no record of anything happening {none}."
     more = " (only the latest events)" if data.get("truncated") else ""
-    return f"{_capital(when)}{more}: " + "; ".join(parts) + "."
+    digest = f"{_capital(when)}{more}: " + "; ".join(parts)
+    return digest if digest.endswith((".”", "?”", "!”")) else f"{digest}."
 
 
 def seen_sentence(

@@ -10,7 +10,7 @@ import json
 import re
 import time
 from collections.abc import AsyncIterator, Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from typing import Any
 
@@ -78,6 +78,16 @@ def ack(command: Command) -> str:
     return "Let me look."
 
 
+@dataclass(frozen=True)
+class _Sent:
+    """Why the chat made a tool call, and what its answer needs: the question a memory call
+    answers, and the live places to say places with."""
+
+    purpose: str
+    recall: Recall | None = None
+    places: PlaceIndex | None = None
+
+
 class RulesChat(LLMProvider):
     name = "rules"
 
@@ -89,10 +99,7 @@ class RulesChat(LLMProvider):
         self.understanding = understanding or Understanding()
         self._clock = clock
         self._ids = 0
-        self._calls: dict[str, str] = {}  # our tool call id → why we made it
-        # our episodic call id → the question it answers, and the places to say it with
-        self._recalls: dict[str, tuple[Recall, PlaceIndex | None]] = {}
-        self._pose_places: dict[str, PlaceIndex | None] = {}  # how each pose answer says places
+        self._sent: dict[str, _Sent] = {}  # our tool call id → why we made it
         self._pending: Question | None = None
         self._last_turn: float | None = None  # when the person last spoke (this conversation)
         self._previous_turn: float | None = None  # ... before the turn being answered
@@ -120,7 +127,8 @@ class RulesChat(LLMProvider):
     def _on_result(
         self, result: ToolResult, messages: list[Message], names: set[str]
     ) -> LLMResponse:
-        purpose = self._calls.pop(result.tool_call_id, "") or _purpose_of(result, messages)
+        sent = self._sent.pop(result.tool_call_id, None) or _Sent(_purpose_of(result, messages))
+        purpose = sent.purpose
         request = next(
             (m.content for m in reversed(messages) if m.role == "user" and m.content), ""
         )
@@ -128,13 +136,12 @@ class RulesChat(LLMProvider):
             places = None if result.is_error else self.understanding.places(result.content)
             return self._reply(request, places, messages, names)
         if purpose == "pose":
-            places = self._pose_places.pop(result.tool_call_id, None)
-            return LLMResponse(text=_where(result, names_of(places)))
+            return LLMResponse(text=_where(result, names_of(sent.places)))
         if purpose == "history":
-            recall, places = self._recalls.pop(result.tool_call_id, (None, None))
+            recall = sent.recall
             tool = recall.tool if recall else _tool_of(result, messages)
             text = recollection(
-                recall, tool, result.content, result.is_error, names_of(places), request
+                recall, tool, result.content, result.is_error, names_of(sent.places), request
             )
             if recall is not None and recall.offer and recall.obj and "start_mission" in names:
                 self._pending = _look_offer(recall.obj)  # asked; only a yes starts a search
@@ -187,11 +194,7 @@ class RulesChat(LLMProvider):
     def _answer(self, topic: str, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
         if topic == "where":
             if GET_POSE in names:
-                response = self._call(GET_POSE, {}, "pose")
-                self._pose_places[response.tool_calls[0].id] = places
-                while len(self._pose_places) > 64:  # answers that never came back
-                    self._pose_places.pop(next(iter(self._pose_places)))
-                return response
+                return self._call(GET_POSE, {}, "pose", places=places)
             return LLMResponse(
                 text="I can't tell where I am: the navigation server is not connected."
             )
@@ -218,11 +221,7 @@ class RulesChat(LLMProvider):
         if recall.since_turn and self._previous_turn is not None:
             arguments["start"] = _iso(self._previous_turn)
             recall = replace(recall, arguments=arguments, said="since your last turn")
-        response = self._call(recall.tool, arguments, "history")
-        self._recalls[response.tool_calls[0].id] = (recall, places)
-        while len(self._recalls) > 64:
-            self._recalls.pop(next(iter(self._recalls)))
-        return response
+        return self._call(recall.tool, arguments, "history", recall=recall, places=places)
 
     def _stamp_turn(self, messages: list[Message]) -> None:
         """A new turn (not a tool round): remember when the person spoke before it, if this
@@ -232,12 +231,19 @@ class RulesChat(LLMProvider):
         self._previous_turn = self._last_turn if earlier else None
         self._last_turn = now
 
-    def _call(self, name: str, arguments: dict[str, Any], purpose: str) -> LLMResponse:
+    def _call(
+        self,
+        name: str,
+        arguments: dict[str, Any],
+        purpose: str,
+        recall: Recall | None = None,
+        places: PlaceIndex | None = None,
+    ) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
-        self._calls[call.id] = purpose
-        while len(self._calls) > 64:  # answers that never came back
-            self._calls.pop(next(iter(self._calls)))
+        self._sent[call.id] = _Sent(purpose, recall, places)
+        while len(self._sent) > 64:  # answers that never came back
+            self._sent.pop(next(iter(self._sent)))
         return LLMResponse(tool_calls=[call], stop_reason="tool_use")
 
     async def chat_stream(

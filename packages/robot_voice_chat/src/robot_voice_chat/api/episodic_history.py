@@ -62,15 +62,10 @@ def check_since(text: str, now: float) -> str:
         raise HistoryError(422, "invalid_query", f"since must be {SINCE_FORMS}")
     if _RELATIVE.match(value) or _CLOCK.match(value):
         return value
-    try:
-        parsed = datetime.fromisoformat(value.replace("Z", "+00:00"))
-    except ValueError:
-        raise HistoryError(
-            422, "invalid_query", f"since {text!r} is not a time: use {SINCE_FORMS}"
-        ) from None
-    if parsed.tzinfo is None:  # as the server reads it: no zone = UTC
-        parsed = parsed.replace(tzinfo=UTC)
-    if parsed.timestamp() > now:
+    stamp = _epoch(value)
+    if stamp is None:
+        raise HistoryError(422, "invalid_query", f"since {text!r} is not a time: use {SINCE_FORMS}")
+    if stamp > now:
         raise HistoryError(422, "invalid_query", f"since {text!r} is in the future")
     return value
 
@@ -163,6 +158,7 @@ def _interval(row: dict[str, Any]) -> tuple[float, float] | None:
 
 
 def _epoch(text: Any) -> float | None:
+    """An ISO 8601 time as the episodic server reads it (no zone = UTC), else None."""
     if not isinstance(text, str):
         return None
     try:

@@ -269,12 +269,10 @@ class MissionProgram:
         spoken: Names = by_id
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
         if phrases and self.listed is not None:
-            names = self._places(self.listed, phrases)  # the plan goes out with the first drive
-            spoken = names_of(PlaceIndex.from_result(self.listed))
+            names, spoken = self._places(self.listed, phrases)  # the plan goes with the 1st drive
         elif phrases:
             results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
-            names = self._places(results[1].content, phrases)
-            spoken = names_of(PlaceIndex.from_result(results[1].content))
+            names, spoken = self._places(results[1].content, phrases)
         else:
             yield from self.act(self.plan_call())
         said: list[str] = []
@@ -300,8 +298,9 @@ class MissionProgram:
                 said.append(f"I'm {located(spoken(place))}.")
         raise _Finished("succeeded", " ".join(said))
 
-    def _places(self, listed: str, phrases: list[str]) -> dict[str, str]:
-        """Each phrase's place on the live map; unknown or ambiguous ends before any drive."""
+    def _places(self, listed: str, phrases: list[str]) -> tuple[dict[str, str], Names]:
+        """Each phrase's place on the live map (unknown or ambiguous ends before any drive),
+        and how sentences say the map's places."""
         locations = Locations.from_result(listed)
         index = PlaceIndex.from_result(listed)
         names: dict[str, str] = {}
@@ -318,7 +317,7 @@ class MissionProgram:
                     "failed", f"I don't know a place called {phrase!r}. I know: {known}."
                 )
             names[phrase] = exact or match.names[0]
-        return names
+        return names, names_of(index)
 
     def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
         """Drive to ``place``; on a failure try its suggestions in order, then give up."""

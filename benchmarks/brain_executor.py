@@ -20,8 +20,8 @@ from typing import Any
 
 import structlog
 
+from robot_voice_chat.agent.harness import make_harness
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import make_harness
 
 RESULTS = Path(__file__).with_name("results")
 PLAN = reply(

@@ -25,17 +25,19 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import signed_headers
 from robot_stack_testing import free_tcp_port, wait_for_tcp_port
 
-SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # = robot_voice_chat.testing.NAV_SECRET
+SECRET = (
+    "nav-event-secret-for-tests-0123456789abcdef"  # = robot_voice_chat.agent.harness.NAV_SECRET
+)
 RESULTS = Path(__file__).with_name("results")
 
 
 def build_container(trace_dir: str) -> Any:
+    from robot_voice_chat.agent.harness import make_harness
     from robot_voice_chat.composition import Adapters, assemble
     from robot_voice_chat.services.emitter.base import FakeEventEmitter
     from robot_voice_chat.services.llm.fake import FakeLLM
     from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
     from robot_voice_chat.settings import AppConfig
-    from robot_voice_chat.testing import make_harness
 
     h = make_harness(Path(trace_dir), FakeLLM([]))
     config = AppConfig.model_validate(

@@ -19,13 +19,13 @@ from typing import Any
 
 import structlog
 
+from robot_voice_chat.agent.harness import nav_servers
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import CONFIG_DIR
-from robot_voice_chat.testing import nav_servers
 
 RESULTS = Path(__file__).with_name("results")
 READ = {"readOnlyHint": True}

@@ -31,9 +31,9 @@ import structlog
 
 from robot_stack_testing import wait_until
 from robot_stack_testing.ports import free_tcp_port
+from robot_voice_chat.agent.harness import make_harness, task_info
 from robot_voice_chat.control.latch_store import FileLatchStore
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import make_harness, task_info
 
 RESULTS = Path(__file__).with_name("results")
 DRIVES = 3

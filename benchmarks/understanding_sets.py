@@ -11,7 +11,7 @@ import statistics
 import time
 from pathlib import Path
 
-from robot_voice_chat.testing_understanding import (
+from robot_voice_chat.services.llm.understanding.scoring import (
     OFFICE_LIST_LOCATIONS,
     grammar_reader,
     load_set,

@@ -22,9 +22,9 @@ from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_stack_testing.fake_openai import FakeOpenAIApi
 from robot_stack_testing.mission_driver import MissionDriver, RunningStack, mailroom_stack
 from robot_stack_testing.stack import free_port_overrides
+from robot_voice_chat.services.llm.fake_wire import anthropic_responder, openai_responder
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.testing_models import anthropic_responder, openai_responder
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 

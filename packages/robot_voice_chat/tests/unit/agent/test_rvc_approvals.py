@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import Harness, make_harness
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.approvals import ApprovalBroker, ApprovalRefusedError, parse_answer
 from robot_voice_chat.control.policy import POLICY_DENIED, ToolPolicy
@@ -18,7 +19,6 @@ from robot_voice_chat.operator import acting_operator
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.socket_events import ApprovalRequested, ApprovalResolved
-from robot_voice_chat.testing import Harness, make_harness
 
 PLAN = reply(
     "",

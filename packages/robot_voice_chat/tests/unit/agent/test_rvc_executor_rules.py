@@ -1,6 +1,6 @@
 """The spec §13 executor scenarios with the rules planner instead of a scripted fake: the
 same executor, registry, reactions and trace, driven by typed commands over a simulated office
-(robot_voice_chat.testing_office) that answers like the real servers."""
+(robot_voice_chat.services.tools.fake_office) that answers like the real servers."""
 
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
+from robot_voice_chat.services.tools.fake_office import Office, office
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
-from robot_voice_chat.testing import task_info
-from robot_voice_chat.testing_office import Office, office
 
 
 async def test_go_to_a_place_by_name_resolved_through_list_locations(tmp_path: Path) -> None:

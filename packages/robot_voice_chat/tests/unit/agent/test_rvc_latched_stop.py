@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import make_harness
 from robot_voice_chat.agent.run import SafetyStopLatchedError
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.latch_store import FileLatchStore
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import make_harness
 
 PLAN = reply(
     "",

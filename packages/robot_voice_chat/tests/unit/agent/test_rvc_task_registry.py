@@ -8,6 +8,7 @@ from pathlib import Path
 
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import make_harness
 from robot_voice_chat.agent.task_registry import (
     TaskHandle,
     TaskRegistry,
@@ -17,7 +18,6 @@ from robot_voice_chat.agent.task_registry import (
     running_task_ids,
 )
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.testing import make_harness
 
 
 def ev(type_: str, task_id: str = "nav-1", **payload: object) -> TaskEvent:

@@ -6,11 +6,11 @@ from pathlib import Path
 from typing import Any
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import Harness, make_harness
 from robot_voice_chat.agent.teaching import render_transcript
 from robot_voice_chat.services.llm.base import LLMError
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.socket_events import TeachingFailed, TeachingSaved, TeachingState
-from robot_voice_chat.testing import Harness, make_harness
 
 DOC = (
     "---\nid: mailroom-fetch\ntitle: Fetch\ntask_pattern: fetch\ntags: [mail]\n---\n## Steps\n1. go"

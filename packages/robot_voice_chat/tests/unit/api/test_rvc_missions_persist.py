@@ -8,12 +8,12 @@ import httpx
 import pytest
 
 from robot_voice_chat.api.app import create_app
+from robot_voice_chat.api.fake_brain import brain_life
 from robot_voice_chat.composition import Container, compose_config
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.settings import AgentConfig, data_dir
 from robot_voice_chat.socket_events import MissionEventLine
-from robot_voice_chat.testing_brain import brain_life
 
 PLAN = [
     reply(

@@ -8,10 +8,10 @@ import httpx
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
+from robot_voice_chat.api.fake_brain import brain_life, fake_servers
 from robot_voice_chat.composition import Container
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.testing_brain import brain_life, fake_servers
 
 PLAN = reply(
     "",

@@ -6,7 +6,9 @@ from __future__ import annotations
 import httpx
 import respx
 
+from robot_voice_chat.agent.harness import nav_servers
 from robot_voice_chat.api.app import create_app
+from robot_voice_chat.api.fake_brain import brain_life
 from robot_voice_chat.composition import Container
 from robot_voice_chat.services.camera.base import (
     CameraFeed,
@@ -17,8 +19,6 @@ from robot_voice_chat.services.camera.base import (
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.testing import nav_servers
-from robot_voice_chat.testing_brain import brain_life
 
 
 def container_with(camera: CameraFeed | None) -> Container:

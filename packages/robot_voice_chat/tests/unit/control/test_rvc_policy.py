@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from robot_voice_chat.agent.harness import make_harness, nav_servers
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
@@ -20,7 +21,6 @@ from robot_voice_chat.services.llm.base import ToolCall
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import CONFIG_DIR
-from robot_voice_chat.testing import make_harness, nav_servers
 
 POLICY = """
 version: 7

@@ -7,12 +7,12 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import Harness, make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.base import LLMError, Message, StreamEvent, ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.settings import ChatConfig
 from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage, MissionStarted
-from robot_voice_chat.testing import Harness, make_harness
 
 START = ("start_mission", {"instruction": "Fetch the package from the mailroom", "ack": "On it."})
 

@@ -15,11 +15,11 @@ from robot_stack_testing.fake_openai import FakeOpenAIApi
 from robot_voice_chat.composition import build_adapter, compose_config
 from robot_voice_chat.services.llm.base import LLMError, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.chain import PlannerChain
+from robot_voice_chat.services.llm.fake_wire import openai_responder
 from robot_voice_chat.services.llm.openai_compat import OpenAICompatLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.testing_models import openai_responder
-from robot_voice_chat.testing_office import office
+from robot_voice_chat.services.tools.fake_office import office
 
 TOOL = [ToolDefinition(name="navigation.navigate_to", description="drive")]
 

@@ -15,9 +15,9 @@ from robot_voice_chat.services.llm.anthropic import AnthropicLLM
 from robot_voice_chat.services.llm.base import LLMError, Message, ToolDefinition
 from robot_voice_chat.services.llm.chain import NOTICE, PlannerChain
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.llm.fake_wire import anthropic_responder
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.testing_models import anthropic_responder
-from robot_voice_chat.testing_office import office
+from robot_voice_chat.services.tools.fake_office import office
 
 SAY = [ToolDefinition(name="say")]
 

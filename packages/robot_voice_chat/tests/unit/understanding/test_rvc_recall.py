@@ -20,9 +20,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     WHAT_HAPPENED,
     read_recall,
 )
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.testing_office import office
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
+from robot_voice_chat.services.tools.fake_office import office
 
 EPISODIC = [ToolDefinition(name=n) for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT)]
 TOOLS = [*FAST_LOCAL_TOOLS, *EPISODIC]

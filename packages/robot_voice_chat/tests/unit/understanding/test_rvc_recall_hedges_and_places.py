@@ -17,9 +17,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     follow_up_recall,
     read_recall,
 )
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.testing_recall import recall_turn
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
+from robot_voice_chat.services.tools.fake_episodic import recall_turn
 
 OFFICE = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
 

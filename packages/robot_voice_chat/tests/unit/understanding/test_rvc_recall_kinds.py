@@ -21,9 +21,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     looks_like_recall,
     read_recall,
 )
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import NOT_READ_RECALL, Understanding
-from robot_voice_chat.testing_recall import SIGHTINGS_ONLY, recall_turn
-from robot_voice_chat.testing_understanding import OFFICE_LOCATIONS
+from robot_voice_chat.services.tools.fake_episodic import SIGHTINGS_ONLY, recall_turn
 
 
 @pytest.mark.parametrize(

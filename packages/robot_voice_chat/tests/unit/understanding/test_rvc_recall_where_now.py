@@ -15,9 +15,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
     read_recall,
 )
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.testing_recall import RECALL_TOOLS, recall_turn
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
+from robot_voice_chat.services.tools.fake_episodic import RECALL_TOOLS, recall_turn
 
 RED_MUG_SEEN = {
     "query": "red mug",

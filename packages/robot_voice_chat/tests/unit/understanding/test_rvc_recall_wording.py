@@ -21,9 +21,9 @@ from robot_voice_chat.services.llm.understanding.recall import (
     follow_up_recall,
     read_recall,
 )
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import NOT_READ_RECALL, Understanding
-from robot_voice_chat.testing_recall import RECALL_TOOLS, SIGHTINGS_ONLY, recall_turn
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
+from robot_voice_chat.services.tools.fake_episodic import RECALL_TOOLS, SIGHTINGS_ONLY, recall_turn
 
 
 @pytest.mark.parametrize(

@@ -8,8 +8,8 @@ import pytest
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.chat import RulesChat
+from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.testing_understanding import OFFICE_LIST_LOCATIONS
 
 TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.list_locations"),
          ToolDefinition(name="navigation.get_pose")]  # fmt: skip

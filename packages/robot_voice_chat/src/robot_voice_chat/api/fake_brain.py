@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from robot_voice_chat.agent.harness import harness_tools
 from robot_voice_chat.composition import Adapters, Container, assemble
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.services.camera.base import CameraFeed
@@ -16,7 +17,6 @@ from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOut
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import AppConfig
-from robot_voice_chat.testing import harness_tools
 
 
 def brain_life(

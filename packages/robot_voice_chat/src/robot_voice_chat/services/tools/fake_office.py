@@ -16,6 +16,7 @@ from typing import Any
 
 from robot_mcp_kit.models import TaskEvent
 from robot_voice_chat.agent.executor import MissionExecutor
+from robot_voice_chat.agent.harness import nav_servers
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.agent.teaching import Teaching
@@ -25,7 +26,6 @@ from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
-from robot_voice_chat.testing import nav_servers
 
 Deliver = Callable[[TaskEvent], Awaitable[Any]]
 PLACES: dict[str, list[str]] = {

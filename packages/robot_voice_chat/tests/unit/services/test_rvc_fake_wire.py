@@ -6,14 +6,14 @@ from collections.abc import Generator
 
 import pytest
 
-from robot_voice_chat.services.llm.rules.chat import RulesChat
-from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.testing_models import (
+from robot_voice_chat.services.llm.fake_wire import (
     anthropic_responder,
     from_openai_request,
     openai_responder,
     run_sync,
 )
+from robot_voice_chat.services.llm.rules.chat import RulesChat
+from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 
 
 def test_the_rules_chat_answers_an_openai_request_with_wire_names() -> None:

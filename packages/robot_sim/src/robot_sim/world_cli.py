@@ -3,8 +3,12 @@
     robot-sim-world kitchen "green bottle" "white plate"   # someone took the mug
     robot-sim-world kitchen                                 # the kitchen is empty
     robot-sim-world --active false                          # the navigator rejects goals
+    robot-sim-world --fail-grasps 1                         # the next grasp fails
+    robot-sim-world --out-of-reach "yellow package"         # the arm cannot reach it
+    robot-sim-world --held ""                               # the gripper is empty
 
-It sets the node's parameters (``places.<place>.objects``, ``active``) through the standard
+It sets the node's parameters (``places.<place>.objects``, ``active``, ``gripper.*``)
+through the standard
 parameter service, like ``ros2 param set /robot_sim …``. Exit 0 when the node accepted the
 change, 1 when it refused it (the reason is printed), 2 when no robot-sim answered in time.
 """
@@ -24,7 +28,7 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
 from robot_sim.node import NODE_NAME
-from robot_sim.world_params import ACTIVE, objects_parameter
+from robot_sim.world_params import ACTIVE, FAIL_GRASPS, HELD, OUT_OF_REACH, objects_parameter
 
 
 def parameters_from(args: argparse.Namespace) -> list[Parameter[Any]]:
@@ -35,6 +39,14 @@ def parameters_from(args: argparse.Namespace) -> list[Parameter[Any]]:
         )
     if args.active is not None:
         changes.append(Parameter(ACTIVE, Parameter.Type.BOOL, args.active == "true"))
+    if args.fail_grasps is not None:
+        changes.append(Parameter(FAIL_GRASPS, Parameter.Type.INTEGER, args.fail_grasps))
+    if args.out_of_reach is not None:
+        # [""] rather than []: an empty list reaches the node untyped
+        reach = args.out_of_reach or [""]
+        changes.append(Parameter(OUT_OF_REACH, Parameter.Type.STRING_ARRAY, reach))
+    if args.held is not None:
+        changes.append(Parameter(HELD, Parameter.Type.STRING, args.held))
     return changes
 
 
@@ -43,12 +55,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("place", nargs="?", help="a map location, e.g. kitchen")
     parser.add_argument("objects", nargs="*", help="catalogue labels standing there now")
     parser.add_argument("--active", choices=["true", "false"], help="accept navigation goals")
+    parser.add_argument("--fail-grasps", type=int, help="that many next grasps fail")
+    parser.add_argument(
+        "--out-of-reach", nargs="*", metavar="LABEL", help="labels the arm cannot reach"
+    )
+    parser.add_argument("--held", metavar="LABEL", help='what the gripper holds ("": nothing)')
     parser.add_argument("--node", default=NODE_NAME, help="the robot-sim node's name")
     parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for it")
     args = parser.parse_args(argv)
     changes = parameters_from(args)
     if not changes:
-        parser.error("name a place (and its objects) and/or --active")
+        parser.error("name a place (and its objects) and/or --active / --fail-grasps / …")
     context = Context()
     rclpy.init(context=context)
     node = rclpy.create_node("robot_sim_world", context=context)

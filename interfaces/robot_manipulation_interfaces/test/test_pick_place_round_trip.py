@@ -20,7 +20,6 @@ from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
 from robot_manipulation_interfaces.action import Pick, Place
 from robot_manipulation_interfaces.msg import DetectionRef, HeldObject
 
@@ -149,7 +148,8 @@ def test_pick_goal_carries_the_detection_reference_and_the_result_what_is_held(
     outcome = wait(handle.get_result_async())
     assert outcome.status == GoalStatus.STATUS_SUCCEEDED
     assert outcome.result.error_code == Pick.Result.NONE
-    assert outcome.result.held.holding and outcome.result.held.label == "package"
+    assert outcome.result.held.holding
+    assert outcome.result.held.label == "package"
     assert outcome.result.held.since.sec == 7
     sent = arm.goals[0].target
     assert sent.topic == "/vision/find_object/detections"

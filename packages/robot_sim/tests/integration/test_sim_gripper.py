@@ -48,7 +48,7 @@ class Arm:
         self.detections = sim.client.create_publisher(VisionDetectionArray, TOPIC, RESULT_QOS)
 
     def seen(self, *labels: str, age_s: float = 0.0) -> Any:
-        """Publish one detection result (like the vision node); its stamp once the gripper has it."""
+        """Publish a detection result like the vision node; its stamp once the gripper has it."""
         msg = VisionDetectionArray(skill="find_object")
         stamp = self.sim.client.get_clock().now().nanoseconds - int(age_s * 1e9)
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
@@ -108,7 +108,8 @@ def test_pick_carries_the_package_away_and_place_puts_it_where_the_robot_stands(
     before = sim.node.camera.frame("mailroom").name
     outcome = arm.do_pick(arm.seen("cardboard box", "yellow package"), label="package")
     assert outcome.status == GoalStatus.STATUS_SUCCEEDED
-    assert outcome.result.held.holding and outcome.result.held.label == "yellow package"
+    assert outcome.result.held.holding
+    assert outcome.result.held.label == "yellow package"
     assert objects(sim, "mailroom") == ["cardboard box", "cardboard box"]
     assert held(sim) == "yellow package"
     assert sim.node.camera.frame("mailroom").name != before  # the camera shows the shelf without it

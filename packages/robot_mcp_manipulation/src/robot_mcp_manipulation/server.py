@@ -1,0 +1,54 @@
+"""Process entry point: ``robot-mcp-manipulation`` (MCP_TRANSPORT stdio | sse | streamable-http)."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import sys
+from types import FrameType
+
+import structlog
+
+from robot_mcp_kit.logging import configure_logging
+from robot_mcp_kit.mcp_runtime import TransportSettings, serve_mcp
+from robot_mcp_manipulation.composition import ManipulationApp, build_app
+from robot_mcp_manipulation.config import ConfigError, load_settings
+
+logger = structlog.get_logger(__name__)
+
+
+async def serve(app: ManipulationApp) -> None:
+    """Run the MCP transport until it stops; the arm is stopped and events flushed after."""
+    settings = app.settings
+    async with app.running():
+        logger.info(
+            "mcp_server_starting",
+            transport=settings.transport,
+            host=settings.host,
+            port=settings.port,
+        )
+        await serve_mcp(
+            app.server, TransportSettings(settings.transport, settings.host, settings.port)
+        )
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+def main() -> None:
+    try:
+        settings = load_settings(os.environ)
+        configure_logging("manipulation", level=settings.log_level)
+        app = build_app(settings)
+    except ConfigError as exc:
+        configure_logging("manipulation")
+        logger.error("startup_failed", detail=str(exc))
+        sys.exit(2)
+    # SIGTERM (systemd stop) takes the same clean path as Ctrl-C: stop the arm, flush, exit.
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        asyncio.run(serve(app))
+    except KeyboardInterrupt:
+        logger.info("manipulation_interrupted")

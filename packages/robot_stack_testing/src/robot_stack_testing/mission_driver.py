@@ -53,11 +53,12 @@ def fresh_secret() -> str:
 
 def stack_env(secret: str) -> dict[str, str]:
     """The runner's environment: one fresh HMAC secret for the servers (RVC_EVENT_SECRET)
-    and the brain (per-server NAV_/PERCEPTION_EVENT_SECRET); ROS discovery on loopback."""
+    and the brain (per-server NAV_/PERCEPTION_/MANIP_EVENT_SECRET); ROS discovery on loopback."""
     return {
         "RVC_EVENT_SECRET": secret,
         "NAV_EVENT_SECRET": secret,
         "PERCEPTION_EVENT_SECRET": secret,
+        "MANIP_EVENT_SECRET": secret,
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
     }
 

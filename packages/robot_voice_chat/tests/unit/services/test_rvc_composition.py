@@ -54,7 +54,7 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
 def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readiness(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "MANIP_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     monkeypatch.delenv("RVC_EPISODIC_URL", raising=False)
     for deployment in ("dev", "robot", "test"):
@@ -73,7 +73,7 @@ def test_robot_deployment_refuses_a_configured_planner_without_its_key(
 ) -> None:
     monkeypatch.setenv("GROQ_API_KEY", "test")
     monkeypatch.setenv("OPENAI_API_KEY", "test")
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "MANIP_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     monkeypatch.setenv("ADMIN_PASSWORD_HASH", hash_password("robot operator"))
     monkeypatch.setenv("ADMIN_SECRET_KEY", "k" * 32)

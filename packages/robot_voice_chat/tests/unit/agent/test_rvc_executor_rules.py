@@ -14,7 +14,8 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.harness import task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
-from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
+from robot_voice_chat.services.llm.rules.program import MissionProgram
+from robot_voice_chat.services.llm.rules.steps import Observation, Program
 from robot_voice_chat.services.tools.fake_office import Office, office
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 

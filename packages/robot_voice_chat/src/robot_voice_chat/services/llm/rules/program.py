@@ -14,6 +14,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
+from robot_voice_chat.services.llm.rules.carry import (
+    GET_HELD,
+    NO_ARM,
+    PICK,
+    PLACE,
+    RELEASE,
+    Carrying,
+)
 from robot_voice_chat.services.llm.rules.commands import Command
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
@@ -57,7 +65,8 @@ WHAT_HAPPENED = "episodic.what_happened"
 LAST_SIGHTINGS = {"start": "-1d", "kinds": ["sightings"], "max_items": 3}
 UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
-    "fetch <thing> from <place>"
+    "fetch <thing> from <place> [and bring it to <place>], pick up <thing>, put it down "
+    "[at <place>], hand it over"
 )
 TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
@@ -77,7 +86,7 @@ class Settings:
     max_legs: int = 6
 
 
-class MissionProgram:
+class MissionProgram(Carrying):
     """One mission's program; ``resumed`` = taking over a conversation another planner began,
     ``own_drives`` = the drives that conversation started and that may still run."""
 
@@ -112,6 +121,8 @@ class MissionProgram:
         self.doing = ""  # what the robot is busy with, for those answers
         self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
         self.timeouts = 0  # "[timeout] still waiting" wakeups seen
+        self.seen: Any = None  # the last look's result (its detections carry mask_refs)
+        self.holding: str | None = None  # what the arm's server said it holds
 
     # --- plumbing --------------------------------------------------------------------------
     def run(self) -> Program:
@@ -208,30 +219,36 @@ class MissionProgram:
         yield from self._run_legs()
 
     def _run_legs(self) -> Steps:
-        """Every leg in order: drive to its place, look for its object, bring it on. All places
-        are resolved before the first drive, so a request is never cut short halfway."""
-        plan: list[tuple[Command, str | None, str | None, str | None]] = []
+        """Every leg in order: drive to its place, look for its object, pick it up, bring it
+        on, put it down and look that it is there. All places are resolved before the first
+        drive, so a request is never cut short halfway."""
+        carry = self.can_carry()
+        plan: list[tuple[Command, dict[str, str]]] = []
         for leg in self.legs:
-            drive = look = deliver = None
+            ids: dict[str, str] = {}
+            takes = leg.kind in ("fetch", "pick") and leg.obj is not None
+            if leg.kind in ("pick", "put", "release") and not carry:
+                raise Finished("failed", f"{NO_ARM}, so I can't pick things up or put them down.")
             if leg.place is not None:
                 self.needs(NAVIGATE, LIST_LOCATIONS)
-                drive = self.step_id(len(self.steps) + 1)
-                self.steps.append(PlanStep(drive, f"Drive to the {leg.place}", NAVIGATE))
-            if leg.obj is not None:
+                ids["drive"] = self.add_step(f"Drive to the {leg.place}", NAVIGATE)
+            if leg.obj is not None and leg.kind in ("find", "fetch", "pick"):
                 self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
-                n = len(self.steps)
-                look = self.step_id(n + 1)
-                self.steps += [
-                    PlanStep(look, f"Look for the {leg.obj}", INSTANTIATE),
-                    PlanStep(self.step_id(n + 2), "Read what the camera found", WAIT_RESULT),
-                    PlanStep(self.step_id(n + 3), "Stop the vision skill", STOP_SKILL),
-                ]
-            if leg.to is not None:
+                ids["look"] = self.add_look(leg.obj, f"Look for the {leg.obj}")
+            if takes and carry:
+                ids["pick"] = self.add_step(f"Pick up the {leg.obj}", PICK)
+                ids["held"] = self.add_step("Check what I hold", GET_HELD)
+            if leg.to is not None and (carry or not takes):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
-                deliver = self.step_id(len(self.steps) + 1)
-                self.steps.append(PlanStep(deliver, f"Bring it to the {leg.to}", NAVIGATE))
-            plan.append((leg, drive, look, deliver))
-        self.steps.append(PlanStep(self.step_id(len(self.steps) + 1), "Tell the user", None))
+                ids["deliver"] = self.add_step(f"Bring it to the {leg.to}", NAVIGATE)
+            if leg.kind == "release":
+                ids["release"] = self.add_step("Hand it over", RELEASE)
+            elif leg.kind == "put" or (takes and carry and leg.to is not None):
+                what = f"the {leg.obj}" if leg.obj else "it"
+                ids["put"] = self.add_step(f"Put {what} down", PLACE)
+                ids["confirm"] = self.add_look(leg.obj or "it", "Look that it is there")
+            plan.append((leg, ids))
+        self.add_step("Tell the user", None)
         names: dict[str, str] = {}
         spoken: Names = by_id
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
@@ -244,24 +261,65 @@ class MissionProgram:
             yield from self.act(self.plan_call())
         said: list[str] = []
         place: str | None = None
-        for leg, drive, look, deliver in plan:
-            if drive is not None and leg.place is not None:
+        for leg, ids in plan:
+            if "drive" in ids and leg.place is not None:
                 place = names[leg.place]
-                yield from self._drive(place, drive, prepare=leg.obj)
-            if look is not None and leg.obj is not None:
+                yield from self._drive(place, ids["drive"], prepare=leg.obj)
+            where: str = f" {located(spoken(place))}" if place else ""
+            if "look" in ids and leg.obj is not None:
                 if not self.planned:
                     yield from self.act(self.plan_call())
-                found = yield from self._look_for(leg.obj, look)
-                where = f" {located(spoken(place))}" if place and leg.place else ""
+                found = yield from self._look_for(leg.obj, ids["look"])
                 if not found:
-                    missed = f"I couldn't see the {leg.obj}{where}."
+                    missed = f"I couldn't see the {leg.obj}{where if leg.place else ''}."
                     raise Finished("failed", " ".join([*said, missed]))
-                said.append(f"I found the {leg.obj}{where}: {found}.")
-            if deliver is not None and leg.to is not None:
+                if leg.kind in ("fetch", "pick") and "pick" not in ids:
+                    said.append(
+                        f"I found the {leg.obj}{where}: {found}. But I can't carry it: "
+                        f"{NO_ARM}. It is still{where}."
+                    )
+                    raise Finished("failed", " ".join(said))
+                if "pick" not in ids:
+                    said.append(f"I found the {leg.obj}{where if leg.place else ''}: {found}.")
+            if "pick" in ids and leg.obj is not None:
+                held: str = yield from self._pick(leg.obj, where, ids["pick"], ids["held"])
+                self.holding = held
+                said.append(f"I picked up the {held}{where}.")
+            if "deliver" in ids and leg.to is not None:
                 place = names[leg.to]
-                yield from self._drive(place, deliver, prepare=None)
-                said.append(f"I brought it to {spoken(place)}.")
-            elif look is None and place is not None:
+                yield from self._drive(place, ids["deliver"], prepare=None)
+                where = f" {located(spoken(place))}"
+                if not self.holding:
+                    said.append(f"I'm {located(spoken(place))}.")
+            thing: str | None = self.holding or leg.obj
+            if ({"put", "release"} & set(ids)) and self.holding is None:
+                thing = yield from self._held_now()  # a put on its own: what is in the gripper?
+                if thing is None:
+                    raise Finished("failed", " ".join([*said, "I'm not holding anything."]))
+            phrase = f"the {thing}" if thing else "it"
+            if "release" in ids:
+                yield from self._put(phrase.removeprefix("the "), "release", ids["release"], where)
+                said.append(f"I let go of {phrase}{where}.")
+                self.holding = None
+            if "put" in ids:
+                if not self.planned:
+                    yield from self.act(self.plan_call())
+                yield from self._put(phrase.removeprefix("the "), "place", ids["put"], where)
+                self.holding = None
+                if not thing or not (yield from self._confirm(thing, ids["confirm"])):
+                    said.append(
+                        f"I put {phrase} down{where}, but the camera doesn't show it there, "
+                        "so I can't confirm it arrived."
+                    )
+                    raise Finished("failed", " ".join(said))
+                verb = "brought" if leg.kind == "fetch" else "put"
+                said.append(f"I {verb} {phrase} {'to' if verb == 'brought' else 'down'}"
+                            f"{(' ' + spoken(place)) if verb == 'brought' and place else where}: "
+                            "I can see it there.")  # fmt: skip
+            elif "pick" in ids and "deliver" not in ids and "release" not in ids:
+                said.append("I'm holding it; tell me where to bring it.")
+            bare_drive = not ({"look", "put", "release", "deliver"} & set(ids))
+            if bare_drive and place is not None:
                 said.append(f"I'm {located(spoken(place))}.")
         raise Finished("succeeded", " ".join(said))
 
@@ -444,9 +502,9 @@ class MissionProgram:
             return "continue"
         return "unclear"
 
-    def _failure(self, task_id: str, line: str) -> Steps:
-        if has_tool(self.tools, GET_TASK):
-            [result] = yield from self.act(Call(GET_TASK, {"task_id": task_id}))
+    def _failure(self, task_id: str, line: str, get_task: str = GET_TASK) -> Steps:
+        if has_tool(self.tools, get_task):
+            [result] = yield from self.act(Call(get_task, {"task_id": task_id}))
             failure = Failure.from_task_info(result.content)
             if failure is not None:
                 return failure
@@ -493,7 +551,8 @@ class MissionProgram:
             )
         if seen.is_error:
             return ""
-        return _labels(as_json(seen.content))
+        self.seen = as_json(seen.content)  # the arm takes its detection from here
+        return _labels(self.seen)
 
     def _vision_down(self) -> Steps:
         """After a wait with no result: is the vision node reachable at all? The reason if

@@ -52,8 +52,7 @@ async def test_fetch_survives_the_closed_door_by_the_suggested_detour_and_finds_
     mission = await o.run("Please fetch the package from the mailroom.")
     assert mission.state == "succeeded", mission.summary
     assert mission.summary == (
-        "I picked up the yellow package in the mailroom. I'm holding it; tell me where to "
-        "bring it."
+        "I picked up the yellow package in the mailroom. I'm holding it; tell me where to bring it."
     )
     assert o.world.arm.held == "yellow package"
     drives = [a["location"] for a in o.tools.called("navigation.navigate_to")]

@@ -6,6 +6,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from robot_stack_testing.fake_anthropic import FakeAnthropicApi
+from robot_stack_testing.fake_api_server import serve_in_thread
+from robot_voice_chat.services.llm.anthropic import AnthropicLLM
+from robot_voice_chat.services.llm.fake_wire import anthropic_responder
+from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.services.tools.fake_office import office
 
 FETCH = "fetch the package from the mailroom and bring it to reception"
@@ -114,3 +119,27 @@ async def test_a_put_the_camera_does_not_confirm_is_not_claimed(tmp_path: Path) 
         "so I can't confirm it arrived."
     )
     assert "yellow package" not in o.world.objects["kitchen"]
+
+
+async def test_the_claude_planner_runs_the_fetch_through_the_strict_fake_api(
+    tmp_path: Path,
+) -> None:
+    """The Anthropic adapter (a stand-in model behind the strict fake Messages API) gets the
+    arm's tools, passes the mask_ref through unchanged, and the package arrives."""
+    fake = FakeAnthropicApi(anthropic_responder(RulesPlanner()))
+    with serve_in_thread(fake.app()) as url:
+        o = office(tmp_path, arm=True)
+        o.world.door_closed = False
+        planner = AnthropicLLM(api_key="k", base_url=url, max_retries=0, request_timeout_s=10)
+        o.executor.planner = planner
+        mission = await o.run(FETCH, timeout_s=30.0)
+        await planner.aclose()
+    assert mission.state == "succeeded", mission.summary
+    assert not fake.rejections, fake.rejections
+    tools = {t["name"] for t in fake.requests[0]["tools"]}
+    assert {"manipulation__pick", "manipulation__place", "manipulation__get_held"} <= tools
+    assert "manipulation" in fake.requests[0]["system"][0]["text"]  # the prompt explains them
+    assert o.world.objects["reception"] == ["yellow package"]
+    assert o.world.objects["mailroom"] == []
+    [pick] = o.tools.called("manipulation.pick")
+    assert pick["mask_ref"]["topic"] == "/vision/find_object/detections"

@@ -109,10 +109,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         rclpy.try_shutdown(context=context)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
-
-
 def _show(client: AsyncParameterClient, timeout_s: float) -> int:
     """Print the world as robot-sim's parameters say it is."""
     for _attempt in range(2):  # see the note on the first request after discovery
@@ -147,3 +143,7 @@ def _show(client: AsyncParameterClient, timeout_s: float) -> int:
 def _setter(event: threading.Event) -> Callable[[object], None]:
     """A done callback that sets ``event`` (one per attempt)."""
     return lambda _future: event.set()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

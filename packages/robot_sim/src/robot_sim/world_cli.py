@@ -105,6 +105,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     finally:
         executor.shutdown(timeout_sec=2.0)
+        # the spin thread must be gone before the interpreter exits, or the C++ side aborts
+        # ("terminate called without an active exception", exit 134)
+        spinner.join(timeout=5.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
 

@@ -573,4 +573,27 @@ def test_a_typed_multi_step_request_drives_every_leg_in_order(
     pose = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()
     assert pose["moving"] is False, pose
     shoot(page, "12-both-legs-driven")
+    fetch_the_package_to_reception(page, stack)
     assert errors == [], errors
+
+
+def fetch_the_package_to_reception(page: Page, stack: RunningStack) -> None:
+    """Issue 28: the package arrives at reception. The pick and place steps show with their
+    states, the status bar's holding chip shows what the arm reports it holds while carrying,
+    and the camera shows reception with the package once it is there."""
+    chip = page.get_by_role("region", name="Status").get_by_test_id("holding")
+    expect(chip).to_have_attribute("data-holding", "", timeout=20_000)  # the gripper is empty
+    send(page, "Fetch the package from the mailroom and bring it to reception")
+    mission = page.get_by_role("region", name="Mission")
+    pick = mission.locator("li[data-kind=arm]", has_text="Pick up the package")
+    expect(pick).to_be_visible(timeout=STEP_TIMEOUT_MS)
+    expect(mission.locator("li[data-kind=arm]", has_text="Put the package down")).to_be_visible()
+    expect(pick).to_have_attribute("data-status", "succeeded", timeout=STEP_TIMEOUT_MS)
+    expect(chip).to_have_attribute("data-holding", "yellow package", timeout=20_000)
+    shoot(page, "16-carrying-the-package")
+    summary = page.get_by_role("log", name="Conversation").get_by_role("article").last
+    expect(summary).to_contain_text("I can see it there", timeout=STEP_TIMEOUT_MS)
+    expect(summary).to_contain_text("succeeded")
+    expect(chip).to_have_attribute("data-holding", "", timeout=20_000)
+    wait_until(lambda: camera_room(page, stack) == "reception", 20.0, "the camera at reception")
+    shoot(page, "17-package-at-reception")

@@ -158,12 +158,14 @@ class ManipulationServer:
 
     # -- goals --------------------------------------------------------------------------------
 
-    def _on_goal(self, _request: Any) -> GoalResponse:
+    def _on_goal(self, request: Any) -> GoalResponse:
+        kind = "pick" if hasattr(request, "target") else "place"
         with self._lock:
             if self._running is not None:
-                logger.info("manipulation_goal_rejected", reason="another goal is running")
+                logger.info("manipulation_goal_rejected", kind=kind, reason="another goal runs")
                 return GoalResponse.REJECT
             self._running = _Goal(None)  # held until the goal ends
+        logger.info("manipulation_goal_received", kind=kind)  # benchmarks read its timestamp
         return GoalResponse.ACCEPT
 
     def _on_cancel(self, _handle: Any) -> CancelResponse:

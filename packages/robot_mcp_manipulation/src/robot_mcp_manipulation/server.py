@@ -7,18 +7,19 @@ import os
 import signal
 import sys
 from types import FrameType
+from typing import BinaryIO
 
 import structlog
 
 from robot_mcp_kit.logging import configure_logging
-from robot_mcp_kit.mcp_runtime import TransportSettings, serve_mcp
+from robot_mcp_kit.mcp_runtime import TransportSettings, reserve_stdout, serve_mcp
 from robot_mcp_manipulation.composition import ManipulationApp, build_app
 from robot_mcp_manipulation.config import ConfigError, load_settings
 
 logger = structlog.get_logger(__name__)
 
 
-async def serve(app: ManipulationApp) -> None:
+async def serve(app: ManipulationApp, wire: BinaryIO | None = None) -> None:
     """Run the MCP transport until it stops; the arm is stopped and events flushed after."""
     settings = app.settings
     async with app.running():
@@ -29,7 +30,7 @@ async def serve(app: ManipulationApp) -> None:
             port=settings.port,
         )
         await serve_mcp(
-            app.server, TransportSettings(settings.transport, settings.host, settings.port)
+            app.server, TransportSettings(settings.transport, settings.host, settings.port), wire
         )
 
 
@@ -38,9 +39,12 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 
 
 def main() -> None:
+    wire: BinaryIO | None = None
     try:
         settings = load_settings(os.environ)
         configure_logging("manipulation", level=settings.log_level)
+        # stdio: fd 1 is the JSON-RPC wire alone; ROS's native start-up output goes to stderr
+        wire = reserve_stdout() if settings.transport == "stdio" else None
         app = build_app(settings)
     except ConfigError as exc:
         configure_logging("manipulation")
@@ -49,6 +53,6 @@ def main() -> None:
     # SIGTERM (systemd stop) takes the same clean path as Ctrl-C: stop the arm, flush, exit.
     signal.signal(signal.SIGTERM, _interrupt)
     try:
-        asyncio.run(serve(app))
+        asyncio.run(serve(app, wire))
     except KeyboardInterrupt:
         logger.info("manipulation_interrupted")

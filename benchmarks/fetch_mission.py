@@ -15,7 +15,6 @@ import asyncio
 import json
 import os
 import random
-import subprocess
 import sys
 import tempfile
 import time
@@ -23,14 +22,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from robot_stack_testing.mission_driver import MissionDriver, mailroom_stack
+from robot_stack_testing.mission_driver import MissionDriver, mailroom_stack, sim_world
 from robot_stack_testing.stack import free_port_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 RESULTS = Path(__file__).parent / "results" / "fetch_mission.json"
 FETCH = "fetch the package from the mailroom and bring it to reception"
-WORLD = [sys.executable, "-m", "robot_sim.world_cli"]
 
 
 class TimedEvents(list[tuple[str, Any]]):
@@ -77,12 +75,6 @@ def phases(events: TimedEvents, sent: float) -> dict[str, Any]:
     }
 
 
-def world() -> dict[str, Any]:
-    shown = subprocess.run([*WORLD, "--show"], check=True, capture_output=True, timeout=60)
-    answer: dict[str, Any] = json.loads(shown.stdout)
-    return answer
-
-
 async def one_run(brain_url: str) -> dict[str, Any]:
     async with MissionDriver(brain_url) as user:
         await user.wait_servers_connected(60.0)
@@ -113,7 +105,7 @@ def main() -> None:
         }
         with mailroom_stack(ROOT, var, overrides) as stack:
             result = asyncio.run(one_run(stack.brain_url))
-            placed = world()["places"]
+            placed = sim_world()["places"]
             result["package_at_reception"] = "yellow package" in placed["reception"]
             result["package_left_mailroom"] = "yellow package" not in placed["mailroom"]
         runs.append(result)

@@ -18,8 +18,6 @@ camera topic showing the place the robot is in).
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -34,6 +32,7 @@ from robot_stack_testing.mission_driver import (
     RunningStack,
     call_mcp,
     mailroom_stack,
+    sim_world,
 )
 from robot_stack_testing.stack import free_port_overrides
 
@@ -42,7 +41,6 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 FETCH = "fetch the package from the mailroom and bring it to reception"
-WORLD = [sys.executable, "-m", "robot_sim.world_cli"]
 
 
 @pytest.fixture
@@ -101,7 +99,7 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
     assert drives == ["mailroom", "corridor_b", "mailroom", "reception"]
     assert {f.label for f in fetch.findings()} == {"yellow package"}
     # words = world: robot-sim's own parameters say where the package is now
-    world = robot_world()
+    world = sim_world()
     assert "yellow package" in world["places"]["reception"]
     assert "yellow package" not in world["places"]["mailroom"]
     assert world["held"] is None
@@ -168,19 +166,9 @@ async def questions_about_the_past(stack: RunningStack, label: str) -> None:
         assert never["reply"] == "I have no record of seeing the giraffe."
 
 
-def robot_world(*change: str) -> dict[str, Any]:
-    """robot-sim's world as its ROS parameters say (``robot-sim-world --show``), after an
-    optional change (e.g. ``--fail-grasps 2``)."""
-    if change:
-        subprocess.run([*WORLD, *change], check=True, capture_output=True, timeout=60)
-    shown = subprocess.run([*WORLD, "--show"], check=True, capture_output=True, timeout=60)
-    world: dict[str, Any] = json.loads(shown.stdout)
-    return world
-
-
 async def a_grasp_that_fails_twice_is_reported_as_it_is(stack: RunningStack) -> None:
     """Two injected grasp failures at reception: one retry after a fresh look, then the truth."""
-    robot_world("--fail-grasps", "2")
+    sim_world("--fail-grasps", "2")
     record = await mission(stack, "pick up the package", timeout_s=90.0)
     assert record.outcome == "failed", record.of("mission_finished")
     assert len(record.tool_results("manipulation.pick")) == 2
@@ -189,7 +177,7 @@ async def a_grasp_that_fails_twice_is_reported_as_it_is(stack: RunningStack) -> 
     assert "I tried twice" in summary
     assert "GRASP_FAILED" not in summary
     assert any("try once more" in s["text"] for s in record.of("speak"))
-    world = robot_world()
+    world = sim_world()
     assert "yellow package" in world["places"]["reception"]
     assert world["held"] is None
 
@@ -215,7 +203,7 @@ async def without_an_arm_nothing_is_carried(stack: RunningStack) -> None:
         for r in record.tool_results("navigation.navigate_to")
     ]
     assert "kitchen" not in drives
-    assert "yellow package" in robot_world()["places"]["reception"]
+    assert "yellow package" in sim_world()["places"]["reception"]
 
 
 async def stop_mid_drive_then_continue(stack: RunningStack) -> None:

@@ -11,6 +11,7 @@ Screenshots of each state land in build/ui-screenshots/.
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import re
 import shutil
@@ -123,6 +124,12 @@ def camera_room(page: Page, stack: RunningStack) -> str:
     """The place whose robot-sim frame the Camera panel shows: the panel's image (fetched as
     the page fetches it; the live view draws the skills' overlays on the frame) compared with
     every frame robot-sim saved — the closest one, by a clear margin."""
+    return camera_view(page, stack)[0]
+
+
+def camera_view(page: Page, stack: RunningStack) -> tuple[str, list[str]]:
+    """(room, labels): the closest saved frame's place, by a clear margin over other places,
+    and what its annotation says stands there (views of one place differ only in contents)."""
     import cv2
     import numpy as np
 
@@ -142,13 +149,15 @@ def camera_room(page: Page, stack: RunningStack) -> str:
     shown = thumb(cv2.imdecode(np.asarray(frame, np.uint8), cv2.IMREAD_GRAYSCALE))
     index = FrameIndex.load(stack.sim_scenes_dir)
     scores = sorted(
-        ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0]) for f in index.frames),
+        ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0], f.path) for f in index.frames),
         reverse=True,
     )
-    (best, room), (second, _) = scores[0], scores[1]
+    best, room, path = scores[0]
+    second = next((score for score, other, _ in scores if other != room), 0.0)
     assert best > 0.8, scores[:3]
     assert best - second > 0.15, scores[:3]
-    return room
+    annotation = json.loads(path.with_suffix(".json").read_text())
+    return room, [str(a["label"]) for a in annotation.get("annotations", [])]
 
 
 def step(page: Page, step_id: str, scope: str = "Mission") -> Any:
@@ -590,10 +599,13 @@ def fetch_the_package_to_reception(page: Page, stack: RunningStack) -> None:
     expect(mission.locator("li[data-kind=arm]", has_text="Put the package down")).to_be_visible()
     expect(pick).to_have_attribute("data-status", "succeeded", timeout=STEP_TIMEOUT_MS)
     expect(chip).to_have_attribute("data-holding", "yellow package", timeout=20_000)
+    pick.scroll_into_view_if_needed()
     shoot(page, "16-carrying-the-package")
     summary = page.get_by_role("log", name="Conversation").get_by_role("article").last
     expect(summary).to_contain_text("I can see it there", timeout=STEP_TIMEOUT_MS)
     expect(summary).to_contain_text("succeeded")
     expect(chip).to_have_attribute("data-holding", "", timeout=20_000)
-    wait_until(lambda: camera_room(page, stack) == "reception", 20.0, "the camera at reception")
+    room, labels = camera_view(page, stack)
+    assert room == "reception", (room, labels)
+    assert "yellow package" in labels, labels
     shoot(page, "17-package-at-reception")

@@ -127,6 +127,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
         "memory",
         "episodic",
         "navigation",
+        "manipulation",
         "brain",
     ]
     assert all(s.ready.tcp or s.ready.http or s.ready.pid_file for s in services)

@@ -107,4 +107,4 @@ async def test_a_delivery_to_an_unknown_place_is_asked_about_not_driven(tmp_path
     assert not o.tools.called("navigation.navigate_to")
     assert "I don't know a place called 'moon'" in mission.summary
     # what it offers to do instead leaves the unknown delivery out
-    assert "Shall I do just that (get the red mug from the kitchen)?" in mission.summary
+    assert "Do you want me to just get the red mug from the kitchen?" in mission.summary

@@ -4,12 +4,16 @@ repeated in order, and more rounds than allowed are asked about."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 from robot_voice_chat.services.llm.understanding import saying
 from robot_voice_chat.services.llm.understanding.composites import MAX_ROUNDS
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.reading import Action, Question, Reading
+
+
+_EACH = re.compile(r"\s*(?:,|\bor\b|\band\b|\bnor\b)\s*")
 
 
 def names_a_place(places: PlaceIndex | None, phrase: str) -> bool:
@@ -21,7 +25,8 @@ def negated_places(phrases: list[str], places: PlaceIndex | None) -> set[str]:
     """The map ids the negated phrases could mean (every candidate: never guess which)."""
     if places is None:
         return set()
-    return {name for phrase in phrases for name in places.resolve(phrase).names}
+    said = [p for phrase in phrases for p in _EACH.split(phrase) if p.strip()]
+    return {name for phrase in said for name in places.resolve(phrase).names}
 
 
 def respect(reading: Reading, negated: set[str], places: PlaceIndex | None) -> Reading:

@@ -35,6 +35,9 @@ _NOT_FIRST = re.compile(
     r"^not (?P<neg>.+?)(?:,\s*|\s+but\s+|\s+(?=(?:the|a|an|to|at|in|go|drive|head)\b))"
     r"(?P<rest>.+)$"
 )
+_NOT_ALONE = re.compile(
+    r"^(?:not|never|no)\s+(?P<neg>(?:to\s+|in\s+|at\s+)?(?:the|a|an)\s+.+)(?P<rest>)$"
+)
 _NOT_LAST = re.compile(r"^(?P<rest>.+?)(?:,\s*|\s+)(?:and |but )?not (?P<neg>.+)$")
 _INSTEAD_OF = re.compile(r"^(?P<rest>.+?)\s+(?:instead of|rather than|in place of)\s+(?P<neg>.+)$")
 _INSTEAD_OF_FIRST = re.compile(r"^(?:instead of|rather than) (?P<neg>.+?),\s*(?P<rest>.+)$")
@@ -75,7 +78,7 @@ def read(text: str, is_place: Callable[[str], bool]) -> Said:
     text = _LEADING.sub("", text).strip(" ,")
     negated: list[str] = []
     text = _correct(text, is_place, negated)
-    for pattern in (_DONT, _NOT_FIRST, _INSTEAD_OF_FIRST):
+    for pattern in (_DONT, _NOT_FIRST, _INSTEAD_OF_FIRST, _NOT_ALONE):
         match = pattern.match(text)
         if match is not None:
             leg = _trim(match["neg"])
@@ -87,7 +90,7 @@ def read(text: str, is_place: Callable[[str], bool]) -> Said:
             break
     for pattern in (_INSTEAD_OF, _NOT_LAST):
         match = pattern.match(text)
-        if match is not None:
+        if match is not None and not _QUESTION.match(match["rest"]):
             negated.append(_place_of(_trim(match["neg"])))
             text = _trim(match["rest"])
             break
@@ -107,10 +110,10 @@ def _correct(text: str, is_place: Callable[[str], bool], negated: list[str]) -> 
     *kept, last = legs
     if is_place(after) and not re.match(rf"^{_VERB}\b", after):
         if is_place(last) and not _PLACE_TAIL.match(last):
-            negated.append(last)
+            negated.append(cl.strip_article(last))
             last = after
         elif (tail := _PLACE_TAIL.match(last)) is not None:
-            negated.append(tail["place"])
+            negated.append(cl.strip_article(tail["place"]))
             last = tail["head"] + after
         else:
             negated.append(_place_of(last))
@@ -182,3 +185,13 @@ def _place_of(leg: str) -> str:
     itself)."""
     match = _FIRST_PREP.match(leg)
     return cl.strip_article(match["place"]) if match is not None else cl.strip_article(leg)
+
+
+_QUESTION = re.compile(r"^(?:is|are|was|were|do|does|did|why|where|what|how|can|could|have|has)\b")
+_STILL_NEGATED = re.compile(r"\b(?:not|don't|do not|never|mustn't|shouldn't|instead of)\b")
+
+
+def still_negated(text: str) -> bool:
+    """A negation this module could not take apart is left in ``text``: nothing in it may be
+    acted on or proposed (it might be the very place the person ruled out)."""
+    return _STILL_NEGATED.search(text) is not None

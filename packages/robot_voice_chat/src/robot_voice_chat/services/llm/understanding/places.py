@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from robot_voice_chat.services.llm.understanding import fuzzy
 
@@ -118,6 +118,8 @@ class PlaceMatch:
 class PlaceIndex:
     places: list[Place] = field(default_factory=list)
     place_words: dict[str, list[str]] = field(default_factory=dict)
+    # places the person ruled out ("not Alice's"): never a candidate among others
+    excluded: frozenset[str] = frozenset()
 
     @classmethod
     def from_result(cls, text: str, place_words: dict[str, list[str]] | None = None) -> PlaceIndex:
@@ -151,9 +153,22 @@ class PlaceIndex:
     def get(self, name: str) -> Place | None:
         return next((p for p in self.places if p.name == name), None)
 
+    def excluding(self, names: set[str]) -> PlaceIndex:
+        """This index with ``names`` ruled out as candidates (a place named alone stays, so a
+        request for it is refused as negated, not read as an unknown place)."""
+        return replace(self, excluded=frozenset(names))
+
     def resolve(self, phrase: str, among: list[str] | None = None) -> PlaceMatch:
         """Exact name or alias; else a name or alias inside the phrase (longest wins); else
-        the places whose words (name, aliases, description) hold every word of the phrase."""
+        the places whose words (name, aliases, description) hold every word of the phrase.
+        Places ruled out are dropped from several candidates; one left is only a guess."""
+        match = self._resolve(phrase, among)
+        kept = [n for n in match.names if n not in self.excluded]
+        if not self.excluded or len(match.names) < 2 or kept == match.names or not kept:
+            return match
+        return PlaceMatch(phrase, kept, False, near=True)
+
+    def _resolve(self, phrase: str, among: list[str] | None = None) -> PlaceMatch:
         places = [p for p in self.places if among is None or p.name in among]
         wanted = key(phrase)
         exact = [p.name for p in places if wanted in p.spellings()]

@@ -10,11 +10,11 @@ from dataclasses import dataclass
 _PLACE = r"(?P<place>.+?)"
 _HERE = r"(?:\s+(?:from here|from you|away|from where you are|right now|now|exactly))*"
 _DISTANCE = [
-    re.compile(rf"^how (?:far|far away|close|near) (?:is|are) {_PLACE}{_HERE}$"),
     re.compile(
         rf"^how (?:far|far away|close|near) (?:are you|am i|is it|is the robot) (?:from|to) "
         rf"{_PLACE}{_HERE}$"
     ),
+    re.compile(rf"^how (?:far|far away|close|near) (?:is|are) {_PLACE}{_HERE}$"),
     re.compile(rf"^how many (?:meters|metres|steps) (?:away )?(?:is|to) {_PLACE}{_HERE}$"),
     re.compile(rf"^(?:which|what) (?:way|direction) (?:is|to|for) {_PLACE}{_HERE}$"),
     re.compile(rf"^(?:in )?which direction (?:is|do i go for) {_PLACE}{_HERE}$"),

@@ -59,7 +59,7 @@ def confirm(actions: list[Action], places: PlaceIndex | None) -> str:
 _NOT_A_THING = {
     "it", "you", "me", "i", "them", "there", "there's", "what", "tell", "see", "is", "are",
     "that", "this", "yourself", "we", "us", "he", "she", "they", "do", "does", "can", "could",
-    "would", "will", "if", "whether", "whats", "what's", "how", "why", "when", "who",
+    "would", "will", "if", "no", "not", "whether", "whats", "what's", "how", "why", "when", "who",
 }  # fmt: skip
 
 

@@ -133,6 +133,10 @@ class Understanding:
         negated = guards.negated_places(said.negated, places)
         if said.only_negative:
             return self._declined(said.refused, places)
+        if negation.still_negated(said.text):
+            return self._unclear(text)  # a "not" we could not place: nothing acted or proposed
+        if places is not None and negated:
+            places = places.excluding(negated)
         body, rounds = composites.rounds(said.text)
         parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
         parts = [p for p in parts if p]

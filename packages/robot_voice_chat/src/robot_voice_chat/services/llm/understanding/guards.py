@@ -12,7 +12,6 @@ from robot_voice_chat.services.llm.understanding.composites import MAX_ROUNDS
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.reading import Action, Question, Reading
 
-
 _EACH = re.compile(r"\s*(?:,|\bor\b|\band\b|\bnor\b)\s*")
 
 

@@ -110,7 +110,8 @@ def main() -> None:
                   f"{r['wrong_actions']} wrong actions")  # fmt: skip
     print(f"ms/command p50 {report['ms_p50']} p99 {report['ms_p99']} (goal < 20 ms) over "
           f"{report['commands_timed']} readings; load {report['load_s']} s; "
-          f"RSS +{report['rss_added_mb']} MB; load average {report['load_average']} → {RESULTS}")  # fmt: skip
+          f"RSS +{report['rss_added_mb']} MB; load average {report['load_average']}")  # fmt: skip
+    print(f"→ {RESULTS}")
 
 
 if __name__ == "__main__":

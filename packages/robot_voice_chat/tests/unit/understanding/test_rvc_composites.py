@@ -15,7 +15,8 @@ from robot_voice_chat.services.llm.understanding.understand import Understanding
     [
         ("go to the mailroom and look for scissors and a yellow package",
          ["find:scissors@mailroom", "find:yellow package@mailroom"]),
-        ("find the keys and the wallet in the kitchen", ["find:keys@kitchen", "find:wallet@kitchen"]),
+        ("find the keys and the wallet in the kitchen",
+         ["find:keys@kitchen", "find:wallet@kitchen"]),
         ("first check the mailroom for the yellow package and after that bring it to alice",
          ["fetch:yellow package@mailroom>desk_alice"]),
         ("check the kitchen for the red mug and bring it to reception",

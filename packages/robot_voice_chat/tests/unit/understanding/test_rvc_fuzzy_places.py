@@ -27,7 +27,8 @@ def test_a_place_spelled_a_little_wrong_is_the_place(
     places: PlaceIndex, said: str, name: str
 ) -> None:
     match = places.resolve(said)
-    assert match.sure and match.near
+    assert match.sure
+    assert match.near
     assert match.names == [name]
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from robot_voice_chat.services.llm.understanding import clauses as cl
 
 _LEADING = re.compile(
-    r"^(?:(?:no|nope|no no|actually|wait,|wait no|no wait|sorry|oh|i mean|i said|instead)"
+    r"^(?:(?:no|nope|no no|actually|wait,|wait no|no wait|sorry|oh|i mean|i said|instead,)"
     r"[\s,]+)+(?=\w)"
 )
 _VERB = (

@@ -63,13 +63,33 @@ _NOT_A_THING = {
 }  # fmt: skip
 
 
+_DANGLING = {
+    "from",
+    "to",
+    "in",
+    "at",
+    "of",
+    "on",
+    "the",
+    "a",
+    "an",
+    "and",
+    "or",
+    "for",
+    "with",
+    "by",
+}
+
+
 def plausible(obj: str | None) -> bool:
     """Whether ``obj`` reads as a thing to say back ("the yellow package"), not a piece of the
     sentence ("there's a package", "tell me what you see")."""
     if obj is None:
         return True
     said = obj.split()
-    return 0 < len(said) <= 5 and not _NOT_A_THING & set(said)
+    if not said or said[-1] in _DANGLING:  # "bob's desk far from"
+        return False
+    return len(said) <= 5 and not _NOT_A_THING & set(said)
 
 
 def did_you_mean(

@@ -142,7 +142,8 @@ class Understanding:
         parts = [p for p in parts if p]
         if not parts:
             return self._unclear(text)
-        for whole in dict.fromkeys([cl.tidy(body), *parts[:1]] if len(parts) == 1 else [body]):
+        wholes = [body, cl.tidy(body), *(parts[:1] if len(parts) == 1 else [])]
+        for whole in dict.fromkeys(wholes):
             asked = self._question(whole, places)  # "thanks, that's all" is one sentence
             if asked is not None:
                 return asked
@@ -437,7 +438,7 @@ class Understanding:
             if leg.status == "missing":
                 return Reading("ask", question=self._fill(actions, index, leg, places))
             if leg.status == "ok":  # understood, but not surely: say it back
-                if not all(saying.plausible(a.obj) for a in actions):
+                if not _sayable(actions, places):
                     return self._unclear(text)  # never a fragment of the words said back
                 question = Question(saying.confirm(actions, places), "confirm", actions)
                 return Reading("ask", question=question)
@@ -455,7 +456,7 @@ class Understanding:
             for _, leg in hard
         )
         sure_actions = _known_only(actions, places)
-        if not all(saying.plausible(a.obj) for a in actions):
+        if not _sayable(actions, places):
             return Reading("refuse", text=missed) if hard else self._unclear(text)
         if hard:
             if not sure_actions:
@@ -551,6 +552,15 @@ def _spells_a_place(places: PlaceIndex, phrase: str) -> bool:
     description is not ("where is the charger?" asks for a thing, not the charging dock)."""
     wanted = key(phrase)
     return any(wanted in place.spellings() for place in places.places)
+
+
+def _sayable(actions: list[Action], places: PlaceIndex | None) -> bool:
+    """Every object reads as a thing (not a piece of the sentence, not a place's name)."""
+    return all(
+        saying.plausible(a.obj)
+        and not (a.obj and places is not None and _spells_a_place(places, a.obj))
+        for a in actions
+    )
 
 
 def _brought_on(action: Action) -> bool:

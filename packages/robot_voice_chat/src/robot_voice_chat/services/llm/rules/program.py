@@ -244,9 +244,10 @@ class MissionProgram:
         """Every leg in order: drive to its place, look for its object, bring it on. All places
         are resolved before the first drive, so a request is never cut short halfway."""
         plan: list[tuple[Command, str | None, str | None, str | None]] = []
+        at: str | None = None  # where the legs before this one leave the robot
         for leg in self.legs:
             drive = look = deliver = None
-            if leg.place is not None:
+            if leg.place is not None and not _already_there(leg, at):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
                 drive = self.step_id(len(self.steps) + 1)
                 self.steps.append(_Step(drive, f"Drive to the {leg.place}", NAVIGATE))
@@ -264,6 +265,7 @@ class MissionProgram:
                 deliver = self.step_id(len(self.steps) + 1)
                 self.steps.append(_Step(deliver, f"Bring it to the {leg.to}", NAVIGATE))
             plan.append((leg, drive, look, deliver))
+            at = leg.to or leg.place or at
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
         names: dict[str, str] = {}
         spoken: Names = by_id
@@ -668,6 +670,12 @@ class MissionProgram:
         if outcome.kind == "failed":
             raise _Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
         raise _Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _already_there(leg: Command, at: str | None) -> bool:
+    """A search in the place the leg before left the robot ("look for the scissors and a yellow
+    package in the mailroom"): no second drive there (issue 32)."""
+    return leg.obj is not None and leg.to is None and leg.place == at
 
 
 def _labels(data: Any) -> str:

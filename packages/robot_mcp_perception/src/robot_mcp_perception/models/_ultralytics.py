@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from robot_mcp_perception.models import _torch_env
 from robot_mcp_perception.models.base import ModelUnavailableError
 
 INSTALL_HINT = (
@@ -17,7 +19,10 @@ INSTALL_HINT = (
 
 
 def import_ultralytics() -> Any:
-    """The ``ultralytics`` module, imported on first use; a clear error when it is absent."""
+    """The ``ultralytics`` module, imported on first use (offline, :mod:`._torch_env`); a
+    clear error when it is absent."""
+    if "ultralytics" not in sys.modules:
+        _torch_env.prepare()
     try:
         return importlib.import_module("ultralytics")
     except ImportError as exc:

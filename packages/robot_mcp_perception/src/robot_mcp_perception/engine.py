@@ -361,7 +361,9 @@ class SkillEngine:
             kind = "timeout"
         else:
             kind = "error"
-        provenance = Provenance(stale_reason=reason, checked_stamp_ns=frame.stamp_ns, cannot_see=kind)
+        provenance = Provenance(
+            stale_reason=reason, checked_stamp_ns=frame.stamp_ns, cannot_see=kind
+        )
         logger.warning("skill_cannot_see", skill=state.skill.name, reason=kind)
         self.sink.publish(state, frame, SkillResult(), provenance)
 

@@ -56,7 +56,7 @@ def to_numpy(value: Any) -> Any:
     return np.asarray(value)
 
 
-def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
+def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int, half: bool = False) -> Any:
     """The prompt predictor of a loaded ``ultralytics.SAM``, set up on its weights.
 
     The class is the one the model's ``task_map`` names (SAM, SAM 2 or SAM 3 predictor) and the
@@ -74,6 +74,7 @@ def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
             "conf": 0.25,
             "imgsz": imgsz,
             "device": device,
+            "quantize": 16 if half else None,  # ultralytics' half-precision model (CUDA)
             "save": False,
             "verbose": False,
         }

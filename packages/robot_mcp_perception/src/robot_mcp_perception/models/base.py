@@ -36,7 +36,9 @@ FailureKind = Literal[
 """Why a model call failed. The first six say the model could not be reached or refused to
 serve (a cloud outage, :data:`OUTAGES`); ``bad_answer`` is an answer that could not be used."""
 
-OUTAGES: frozenset[str] = frozenset(("network", "server_error", "quota", "timeout", "budget", "auth"))
+OUTAGES: frozenset[str] = frozenset(
+    ("network", "server_error", "quota", "timeout", "budget", "auth")
+)
 """Failures a grounder chain answers with its fallback (``models.chain``)."""
 
 
@@ -52,7 +54,6 @@ class ModelError(Exception):
 
 class ModelUnavailableError(ModelError):
     """A model cannot be used at all: missing key, missing weights, missing optional extra."""
-
 
 
 @dataclass(frozen=True)

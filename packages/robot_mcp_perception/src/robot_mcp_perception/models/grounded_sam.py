@@ -70,6 +70,6 @@ class GroundedSamGrounder(OpenVocabularyGrounder):
         boxes = results[0].boxes
         xyxy, conf, cls = to_numpy(boxes.xyxy), to_numpy(boxes.conf), to_numpy(boxes.cls)
         return [
-            ((round(float(x0)), round(float(y0)), round(float(x1)), round(float(y1))), float(s), int(c))
-            for (x0, y0, x1, y1), s, c in zip(xyxy, conf, cls, strict=True)
+            ((round(float(a)), round(float(b)), round(float(c)), round(float(d))), float(s), int(k))
+            for (a, b, c, d), s, k in zip(xyxy, conf, cls, strict=True)
         ]

@@ -15,6 +15,7 @@ from typing import Any, TypeVar
 
 import structlog
 
+from robot_mcp_perception.models.answers import Answer, note
 from robot_mcp_perception.models.base import (
     Box,
     CostClass,
@@ -26,7 +27,6 @@ from robot_mcp_perception.models.base import (
     Segmenter,
     TargetKind,
 )
-from robot_mcp_perception.models.answers import Answer, note
 from robot_mcp_perception.models.metering import charge_cloud_request
 
 log = structlog.get_logger("robot_mcp_perception.pipelines")

@@ -48,9 +48,7 @@ def chain(primary: FakeGrounder, clock: Clock | None = None) -> FallbackGrounder
     return FallbackGrounder(primary, fallback, 10.0, 40.0, clock=clock or Clock())
 
 
-@pytest.mark.parametrize(
-    "kind", ["network", "server_error", "quota", "timeout", "auth", "budget"]
-)
+@pytest.mark.parametrize("kind", ["network", "server_error", "quota", "timeout", "auth", "budget"])
 async def test_each_named_outage_of_the_primary_is_answered_by_the_fallback_and_marked(
     kind: str,
 ) -> None:

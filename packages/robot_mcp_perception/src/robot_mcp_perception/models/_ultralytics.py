@@ -49,6 +49,8 @@ def to_numpy(value: Any) -> Any:
     """A torch tensor (or anything array-like) as a numpy array."""
     if hasattr(value, "detach"):
         value = value.detach()
+    if getattr(value, "is_floating_point", lambda: False)():
+        value = value.float()  # bf16 / fp16 results (numpy has no bfloat16)
     if hasattr(value, "cpu"):
         value = value.cpu()
     if hasattr(value, "numpy"):

@@ -85,10 +85,14 @@ def owlv2_folder(directory: Path, image_size: int = 64, seed: int = 0) -> Path:
         projection_dim=32,
     )
     torch.manual_seed(seed)
-    transformers.Owlv2ForObjectDetection(config).eval().save_pretrained(folder)
+    model = transformers.Owlv2ForObjectDetection(config).eval()
+    with torch.no_grad():  # boxes near each patch's prior box, not saturated to zero width
+        model.box_head.dense2.weight.mul_(0.01)
+        model.box_head.dense2.bias.zero_()
+    model.save_pretrained(folder)
     image_processor = pil_processor(size={"height": image_size, "width": image_size})
-    transformers.Owlv2Processor(image_processor=image_processor, tokenizer=tokenizer).save_pretrained(
-        folder
-    )
+    transformers.Owlv2Processor(
+        image_processor=image_processor, tokenizer=tokenizer
+    ).save_pretrained(folder)
     (folder / "random_weights.json").write_text(json.dumps({"note": "random weights, tests only"}))
     return folder

@@ -214,7 +214,7 @@ def _masks_by_prompt(results: Any, count: int, shape: tuple[int, int]) -> list[M
     data = getattr(getattr(result, "masks", None), "data", None)
     if data is None:
         return masks
-    arr = to_numpy(data.float() if hasattr(data, "float") else data)
+    arr = to_numpy(data)
     numbers = getattr(getattr(result, "boxes", None), "cls", None)
     order = [int(n) for n in to_numpy(numbers)] if numbers is not None else range(len(arr))
     for k, m in zip(order, arr, strict=False):

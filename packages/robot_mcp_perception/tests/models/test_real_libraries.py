@@ -142,7 +142,8 @@ async def test_owlv2_loads_every_part_from_its_folder_and_detects_offline(
         generic = await grounder.point(FRAME, "every object")
     finally:
         grounder.close()
-    assert found.targets and all(t.label == "the red mug" for t in found.targets)
+    assert found.targets
+    assert all(t.label == "the red mug" for t in found.targets)
     assert all(0 <= t.box[0] < t.box[2] <= 160 for t in found.targets if t.box)
     assert {t.label for t in generic} <= {"mug", "box"}
     assert len(found.targets) <= 20
@@ -185,7 +186,8 @@ def test_the_network_guard_itself_refuses_a_connection(no_network: list[str]) ->
 def _fast_test_module(name: str) -> Any:
     path = Path(__file__).parents[1] / "unit" / name
     spec = importlib.util.spec_from_file_location(f"fast_{path.stem}", path)
-    assert spec is not None and spec.loader is not None
+    assert spec is not None
+    assert spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

@@ -137,6 +137,7 @@ def test_the_chain_reports_ready_through_its_fallback_and_sums_the_worst_case() 
     grounders = chain(FakeGrounder(CLOUD))
     assert grounders.readiness() is None
     assert grounders.worst_case_s is None
-    assert grounders.cost_class == "cloud" and grounders.name == "gemini_er"
+    assert grounders.cost_class == "cloud"
+    assert grounders.name == "gemini_er"
     with pytest.raises(ValueError, match="retry_after_s"):
         FallbackGrounder(grounders.primary, grounders.fallback, 0.0)

@@ -136,7 +136,10 @@ class SamSegmenter(Segmenter):
             return contextlib.nullcontext()
         torch = importlib.import_module("torch")
         device_type = "cuda" if str(self.device).startswith("cuda") else "cpu"
-        return torch.autocast(device_type=device_type, dtype=torch.bfloat16)
+        autocast: contextlib.AbstractContextManager[Any] = torch.autocast(
+            device_type=device_type, dtype=torch.bfloat16
+        )
+        return autocast
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)

@@ -205,3 +205,24 @@ def _count_encodes(sam: SamSegmenter) -> Any:
     predictor.set_image = counted
     sam._encoded = None
     return lambda: len(calls)
+
+
+def test_the_gpu_benchmark_runs_on_the_cpu_in_smoke_mode(tmp_path: Path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    script = Path(__file__).parents[4] / "benchmarks" / "perception_gpu.py"
+    out = tmp_path / "perception_gpu.json"
+    done = subprocess.run(
+        [sys.executable, str(script), "--smoke", "--device", "cpu", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(out.read_text())
+    sam = report["models"]["sam2.1_t.pt"]
+    assert sam["5_prompts"]["masks"] == [5, [120, 160]]
+    assert report["owlv2"]["fps"] > 0

@@ -78,8 +78,11 @@ def bench_sam(name: str, args: argparse.Namespace, work: Path) -> dict[str, Any]
     }
     for n in args.prompts:
         prompts = boxes(n, args.height, args.width)
-        new = [timed(lambda f=f: sam.segment_many(f, prompts)) for f in shots[1 : args.repeats + 1]]
-        same = [timed(lambda: sam.segment_many(shots[args.repeats], prompts)) for _ in new]
+        new = [
+            timed(lambda f=f, p=prompts: sam.segment_many(f, p))
+            for f in shots[1 : args.repeats + 1]
+        ]
+        same = [timed(lambda p=prompts: sam.segment_many(shots[args.repeats], p)) for _ in new]
         masks = sam.segment_many(shots[-1], prompts)
         report[f"{n}_prompts"] = {
             "new_frame": summary(new),
@@ -146,7 +149,7 @@ def main() -> None:
     args.prompts = [1, 5] if args.smoke else [1, 5, 20]
     args.repeats = 2 if args.smoke else args.repeats
     models = ["sam2.1_t.pt"] if args.smoke else ["sam2.1_t.pt", "sam2.1_b.pt", "sam3.pt"]
-    args.imgsz = {name: 256 for name in models} if args.smoke else {}
+    args.imgsz = dict.fromkeys(models, 256) if args.smoke else {}
     args.owl_size = 64 if args.smoke else 960
     report: dict[str, Any] = {
         "device": args.device,

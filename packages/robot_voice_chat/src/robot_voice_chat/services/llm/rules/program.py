@@ -528,7 +528,14 @@ class MissionProgram:
             )
         if seen.is_error:
             return ""
-        return _labels(as_json(seen.content))
+        looked = as_json(seen.content)
+        if isinstance(looked, dict) and looked.get("cannot_see"):  # never "it isn't there"
+            raise _Finished(
+                "failed",
+                f"I can't see right now ({_cannot_see(looked.get('cannot_see_reason'))}), "
+                f"so I don't know whether the {obj} is there.",
+            )
+        return _labels(looked)
 
     def _vision_down(self) -> Steps:
         """After a wait with no result: is the vision node reachable at all? The reason if
@@ -676,6 +683,20 @@ def _already_there(leg: Command, at: str | None) -> bool:
     """A search in the place the leg before left the robot ("look for the scissors and a yellow
     package in the mailroom"): no second drive there (issue 32)."""
     return leg.obj is not None and leg.to is None and leg.place == at
+
+
+_CANNOT_SEE = {
+    "network": "the cloud vision service is unreachable",
+    "server_error": "the cloud vision service is failing",
+    "quota": "the cloud vision quota is used up",
+    "timeout": "the vision model did not answer in time",
+    "budget": "my cloud vision budget is spent for now",
+    "auth": "the cloud vision service refused my key",
+}
+
+
+def _cannot_see(reason: Any) -> str:
+    return _CANNOT_SEE.get(str(reason), "the vision model failed")
 
 
 def _labels(data: Any) -> str:

@@ -224,12 +224,13 @@ class MissionProgram(Carrying):
         drive, so a request is never cut short halfway."""
         carry = self.can_carry()
         plan: list[tuple[Command, dict[str, str]]] = []
+        at: str | None = None  # where the legs before this one leave the robot
         for leg in self.legs:
             ids: dict[str, str] = {}
             takes = leg.kind in ("fetch", "pick") and leg.obj is not None
             if leg.kind in ("pick", "put", "release") and not carry:
                 raise Finished("failed", f"{NO_ARM}, so I can't pick things up or put them down.")
-            if leg.place is not None:
+            if leg.place is not None and not _already_there(leg, at):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
                 ids["drive"] = self.add_step(f"Drive to the {leg.place}", NAVIGATE)
             if leg.obj is not None and leg.kind in ("find", "fetch", "pick"):
@@ -248,6 +249,7 @@ class MissionProgram(Carrying):
                 ids["put"] = self.add_step(f"Put {what} down", PLACE)
                 ids["confirm"] = self.add_look(leg.obj or "it", "Look that it is there")
             plan.append((leg, ids))
+            at = leg.to or leg.place or at
         self.add_step("Tell the user", None)
         names: dict[str, str] = {}
         spoken: Names = by_id
@@ -551,8 +553,15 @@ class MissionProgram(Carrying):
             )
         if seen.is_error:
             return ""
-        self.seen = as_json(seen.content)  # the arm takes its detection from here
-        return _labels(self.seen)
+        looked = as_json(seen.content)
+        if isinstance(looked, dict) and looked.get("cannot_see"):  # never "it isn't there"
+            raise Finished(
+                "failed",
+                f"I can't see right now ({_cannot_see(looked.get('cannot_see_reason'))}), "
+                f"so I don't know whether the {obj} is there.",
+            )
+        self.seen = looked  # the arm takes its detection from here
+        return _labels(looked)
 
     def _vision_down(self) -> Steps:
         """After a wait with no result: is the vision node reachable at all? The reason if
@@ -694,6 +703,26 @@ class MissionProgram(Carrying):
         if outcome.kind == "failed":
             raise Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
         raise Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _already_there(leg: Command, at: str | None) -> bool:
+    """A search in the place the leg before left the robot ("look for the scissors and a yellow
+    package in the mailroom"): no second drive there (issue 32)."""
+    return leg.obj is not None and leg.to is None and leg.place == at
+
+
+_CANNOT_SEE = {
+    "network": "the cloud vision service is unreachable",
+    "server_error": "the cloud vision service is failing",
+    "quota": "the cloud vision quota is used up",
+    "timeout": "the vision model did not answer in time",
+    "budget": "my cloud vision budget is spent for now",
+    "auth": "the cloud vision service refused my key",
+}
+
+
+def _cannot_see(reason: Any) -> str:
+    return _CANNOT_SEE.get(str(reason), "the vision model failed")
 
 
 def _labels(data: Any) -> str:

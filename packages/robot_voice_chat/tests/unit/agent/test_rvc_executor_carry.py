@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from robot_stack_testing import async_wait_until
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_voice_chat.services.llm.anthropic import AnthropicLLM
@@ -143,3 +144,21 @@ async def test_the_claude_planner_runs_the_fetch_through_the_strict_fake_api(
     assert o.world.objects["mailroom"] == []
     [pick] = o.tools.called("manipulation.pick")
     assert pick["mask_ref"]["topic"] == "/vision/find_object/detections"
+
+
+async def test_a_stop_mid_pick_cancels_the_arm_and_abort_claims_nothing(tmp_path: Path) -> None:
+    o = office(tmp_path, arm=True)
+    o.world.door_closed = False
+    o.world.arm.act_s = 30.0  # a slow grasp: the stop lands while the arm works
+    mission = await o.executor.start(FETCH)
+    await async_wait_until(lambda: o.tools.called("manipulation.pick"), 10, "the pick running")
+    await o.executor.on_user_turn("stop")
+    assert mission.state == "paused"
+    assert o.tools.called("manipulation.stop_manipulation") == [{}]  # the arm's stop tool
+    assert o.world.tasks["manip-1"]["state"] == "cancelled"
+    await o.executor.on_user_turn("abort")
+    await o.executor.wait_idle(10)
+    assert mission.state == "failed"
+    assert "brought" not in mission.summary
+    assert o.world.objects["mailroom"] == ["yellow package"]
+    assert o.world.arm.held is None

@@ -62,6 +62,11 @@ def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readines
         assert servers["episodic"].optional, deployment
         assert servers["episodic"].url == "http://127.0.0.1:9203/sse"
         assert not servers["navigation"].optional
+        arm = servers["manipulation"]  # issue 28: a motion server the stop and barge-in reach
+        assert arm.motion, deployment
+        assert arm.safety_stop_tool == "stop_manipulation"
+        assert arm.optional  # a robot without an arm still boots ready
+        assert arm.url == "http://127.0.0.1:9102/sse"
     states = {"navigation": "connected", "episodic": "disconnected"}
     assert servers_ready(states, {"episodic"})
     assert not servers_ready(states, set())

@@ -114,9 +114,10 @@ class OfficeArm:
         if self.running is None or self.running.done():
             return None
         self.running.cancel()
-        task = next(t for t in self.world.tasks.values() if t["state"] == "running"
-                    and t["task_id"].startswith("manip-"))  # fmt: skip
-        task["state"] = "cancelled"
+        task = next((t for t in self.world.tasks.values() if t["state"] == "running"
+                     and t["task_id"].startswith("manip-")), None)  # fmt: skip
+        if task is not None:  # a cancel_task just before may have ended it
+            task["state"] = "cancelled"
         return task
 
     def stop(self, args: dict[str, Any]) -> dict[str, Any]:

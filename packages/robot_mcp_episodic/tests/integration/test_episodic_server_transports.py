@@ -103,7 +103,8 @@ async def test_over_http_only_the_brain_with_an_approval_makes_forget_delete(
         status = await tool_answer(brain, "memory_status", {})
     assert done["deleted"]["notes"] == 1
     assert status["forget_audit"][0]["request"]["approved_by"] == "alice"
-    assert BRAIN not in process.log() and OPERATOR not in process.log()
+    assert BRAIN not in process.log()
+    assert OPERATOR not in process.log()
 
 
 async def test_the_stdio_transport_serves_the_tools(tmp_path: Path) -> None:

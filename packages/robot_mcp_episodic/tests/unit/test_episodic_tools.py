@@ -211,9 +211,7 @@ async def test_forget_removes_the_label_from_index_and_recordings(tmp_path: Path
                                   serialize_message(msg), int(stamp * 1e9))  # fmt: skip
         preview = await call(app, "forget", start="-5m", end="now", label="toothbrush")
         assert preview["would_delete"]["recorded_messages"] == 3
-        done = await forget_approved(
-            app, start="-5m", end="now", label="toothbrush", dry_run=False
-        )
+        done = await forget_approved(app, start="-5m", end="now", label="toothbrush", dry_run=False)
         assert done["deleted"]["recorded_messages"] == 3
         status = await call(app, "memory_status")
         assert status["recordings"]["messages"] == 3

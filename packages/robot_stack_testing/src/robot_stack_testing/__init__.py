@@ -1,7 +1,12 @@
 """Pytest plugin shared by every package: loopback-only ROS discovery, a per-run domain id,
 process fixtures and deadline-bound waits."""
 
-from robot_stack_testing.mcp_auth import bearer, fresh_token, mcp_transport
+from robot_stack_testing.mcp_auth import (
+    assert_refuses_strangers,
+    bearer,
+    fresh_token,
+    mcp_transport,
+)
 from robot_stack_testing.ports import free_tcp_port, wait_for_tcp_port
 from robot_stack_testing.postgres import PostgresServer
 from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher, start_refusal
@@ -19,6 +24,7 @@ __all__ = [
     "PostgresServer",
     "ProcessLauncher",
     "StdioTranscript",
+    "assert_refuses_strangers",
     "async_wait_until",
     "bearer",
     "free_tcp_port",

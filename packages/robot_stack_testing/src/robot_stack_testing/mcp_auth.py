@@ -12,6 +12,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+import httpx
 from mcp.client.sse import sse_client
 from mcp.client.streamable_http import streamable_http_client
 from mcp.shared._httpx_utils import create_mcp_http_client  # the SDK's own client defaults
@@ -41,3 +42,22 @@ async def mcp_transport(url: str, token: str | None) -> AsyncIterator[Any]:
         streamable_http_client(url, http_client=http) as streams,
     ):
         yield streams
+
+
+def assert_refuses_strangers(url: str, realm: str) -> None:
+    """A running MCP server at ``url`` (``…/sse`` or ``…/mcp``) answers a request without a
+    credential and one with a wrong credential with 401 and ``WWW-Authenticate: Bearer
+    realm="<realm>"`` — for the GET stream and for a POSTed message alike."""
+    message = {"jsonrpc": "2.0", "id": 1, "method": "tools/list"}
+    post_url = url.replace("/sse", "/messages/?session_id=00000000000000000000000000000000")
+    accept = {"accept": "application/json, text/event-stream"}
+    with httpx.Client(timeout=5.0) as http:
+        for token in (None, fresh_token()):
+            for answer in (
+                http.get(url, headers={**bearer(token), **accept}),
+                http.post(post_url, headers={**bearer(token), **accept}, json=message),
+            ):
+                where = f"{answer.request.method} {url} ({'wrong' if token else 'no'} credential)"
+                assert answer.status_code == 401, f"{where}: {answer.status_code} {answer.text}"
+                challenge = answer.headers.get("www-authenticate", "")
+                assert challenge.startswith(f'Bearer realm="{realm}"'), f"{where}: {challenge}"

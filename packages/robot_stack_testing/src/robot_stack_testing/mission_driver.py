@@ -109,6 +109,16 @@ class RunningStack:
         """This run's MCP credential of each server (``deploy/local-stack.yaml``)."""
         return self.services.credentials
 
+    def write_operator_credentials(self, path: Path) -> Path:
+        """The operators' credentials as install.sh writes ``operator.env`` (for smoke.sh)."""
+        lines = [
+            f"{name.upper()}_MCP_OPERATOR_TOKEN={token}\n"
+            for name, token in self.services.operator_credentials.items()
+        ]
+        path.write_text("".join(lines))
+        path.chmod(0o600)
+        return path
+
     async def call(self, service: str, tool: str, arguments: Mapping[str, Any]) -> Any:
         """One tool call to an MCP server of the stack over SSE, with its credential."""
         return await call_mcp(

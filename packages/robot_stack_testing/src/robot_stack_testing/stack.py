@@ -5,9 +5,11 @@ each one's readiness check (a TCP port, an HTTP 200, or a PID file naming the pr
 a ROS node with no port) must pass before the next starts, so
 a broken service fails fast with its log tail instead of a hang further down.
 
-MCP credentials: for every name under the file's ``credentials:`` the runner draws a fresh
-token per run and expands ``{mcp_token_<name>}`` with it (the server's ``MCP_AUTH_TOKEN``, the
-brain's ``<NAME>_MCP_TOKEN``); :attr:`LocalStack.credentials` hands them to the test.
+MCP credentials: for every name under the file's ``credentials:`` the runner draws two fresh
+tokens per run and expands ``{mcp_token_<name>}`` (the brain's: the server's
+``MCP_AUTH_TOKEN`` and the brain's ``<NAME>_MCP_TOKEN``) and ``{mcp_operator_token_<name>}``
+(an operator's tool's: the server's ``MCP_OPERATOR_TOKEN``); :attr:`LocalStack.credentials`
+and :attr:`LocalStack.operator_credentials` hand them to the test.
 """
 
 from __future__ import annotations
@@ -77,9 +79,15 @@ def stack_credentials(path: Path) -> list[str]:
     return [str(name) for name in document.get("credentials") or []]
 
 
-def credential_placeholders(credentials: Mapping[str, str]) -> dict[str, str]:
-    """``{mcp_token_<name>}`` for each credential."""
-    return {f"mcp_token_{name}": token for name, token in credentials.items()}
+def credential_placeholders(
+    credentials: Mapping[str, str], operator_credentials: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """``{mcp_token_<name>}`` for each credential, ``{mcp_operator_token_<name>}`` for each
+    operator's one."""
+    return {
+        **{f"mcp_token_{name}": token for name, token in credentials.items()},
+        **{f"mcp_operator_token_{n}": t for n, t in (operator_credentials or {}).items()},
+    }
 
 
 def port_placeholders(path: Path) -> list[str]:
@@ -214,13 +222,15 @@ def local_stack(
     restart one of them (same argv and environment)."""
     var_dir.mkdir(parents=True, exist_ok=True)
     path = stack_file or root / "deploy" / "local-stack.yaml"
+    names = stack_credentials(path)
     if credentials is None:
-        credentials = {name: fresh_token() for name in stack_credentials(path)}
+        credentials = {name: fresh_token() for name in names}
+    operators = {name: fresh_token() for name in names}
     substitutions = {
         "python": sys.executable,
         "root": str(root),
         "var": str(var_dir),
-        **credential_placeholders(credentials),
+        **credential_placeholders(credentials, operators),
     }
     services = [
         service
@@ -230,7 +240,7 @@ def local_stack(
     busy = busy_ports(services)
     if busy:
         raise PortsBusyError(busy)
-    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env), dict(credentials))
+    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env), dict(credentials), operators)
     try:
         for service in services:
             stack.start(service)
@@ -248,13 +258,16 @@ class LocalStack(dict[str, LaunchedProcess]):
         root: Path,
         env: dict[str, str],
         credentials: dict[str, str] | None = None,
+        operator_credentials: dict[str, str] | None = None,
     ) -> None:
         super().__init__()
         self.launcher = launcher
         self.root = root
         self.env = env
         self.credentials = credentials or {}
-        """This run's MCP credential of each server (what its clients present)."""
+        """This run's MCP credential of each server for the brain."""
+        self.operator_credentials = operator_credentials or {}
+        """This run's MCP credential of each server for an operator's tool."""
         self.specs: dict[str, ServiceSpec] = {}
 
     def start(self, service: ServiceSpec) -> LaunchedProcess:

@@ -121,7 +121,8 @@ def test_the_repository_stack_file_names_every_server() -> None:
     path = root / "deploy" / "local-stack.yaml"
     with pytest.raises(StackError, match="no value for the placeholder"):
         load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v"})
-    tokens = credential_placeholders(dict.fromkeys(stack_credentials(path), "t"))
+    names = stack_credentials(path)
+    tokens = credential_placeholders(dict.fromkeys(names, "t"), dict.fromkeys(names, "o"))
     services = load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v", **tokens})
     assert [s.name for s in services] == [
         "robot_sim",
@@ -264,6 +265,7 @@ def test_each_listed_server_gets_a_fresh_credential_per_run_on_both_sides(tmp_pa
     with local_stack(tmp_path, tmp_path / "a", {}, stack_file=stack) as first:
         token = first.credentials["web"]
         assert first.specs["web"].env == {"MCP_AUTH_TOKEN": token, "BRAIN_SIDE": token}
+        assert first.operator_credentials["web"] not in (token, "")
     with local_stack(tmp_path, tmp_path / "b", {}, stack_file=stack) as second:
         assert second.credentials["web"] != token
     assert len(token) >= 32
@@ -274,10 +276,14 @@ def test_the_shipped_stack_gives_every_mcp_server_and_the_brain_the_same_credent
     path = root / "deploy" / "local-stack.yaml"
     names = stack_credentials(path)
     tokens = {name: f"token-of-{name}" for name in names}
-    substitutions = {"python": "py", "root": "r", "var": "v", **credential_placeholders(tokens)}
+    operators = {name: f"operator-token-of-{name}" for name in names}
+    placeholders = credential_placeholders(tokens, operators)
+    substitutions = {"python": "py", "root": "r", "var": "v", **placeholders}
     services = {s.name: s for s in load_stack(path, substitutions)}
     for name in names:
         assert services[name].env["MCP_AUTH_TOKEN"] == tokens[name], name
+        assert services[name].env["MCP_OPERATOR_TOKEN"] == operators[name], name
         assert services["brain"].env[f"{name.upper()}_MCP_TOKEN"] == tokens[name], name
+    assert not set(operators.values()) & set(services["brain"].env.values())
     http_servers = {s for s, spec in services.items() if spec.env.get("MCP_TRANSPORT") == "sse"}
     assert http_servers == set(names)  # no MCP server of the stack runs open

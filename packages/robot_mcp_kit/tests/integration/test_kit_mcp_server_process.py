@@ -158,10 +158,10 @@ def test_the_mcp_inspector_passes_the_operators_credential_as_a_header(
     assert "401" in said or "needs its credential: Authorization: Bearer" in said
 
 
+# one real process per refusal path (the other unusable settings: test_kit_service_auth.py)
 REFUSALS = [
     ({}, "MCP_AUTH_TOKEN is not set"),
-    ({"MCP_AUTH_TOKEN": "short"}, "MCP_AUTH_TOKEN is 5 bytes; at least 32"),
-    ({"MCP_AUTH": "off", "MCP_AUTH_TOKEN": BRAIN_TOKEN}, "MCP_AUTH=off but a token is set"),
+    ({"MCP_AUTH_TOKEN": "short-" + BRAIN_TOKEN[:8]}, "MCP_AUTH_TOKEN is 14 bytes; at least 32"),
 ]
 
 
@@ -181,4 +181,4 @@ def test_an_http_server_without_a_usable_credential_refuses_to_start(
         output = proc.log().strip()
         assert output.splitlines() == [output]  # one line, no traceback
         assert message in output
-        assert BRAIN_TOKEN not in output
+        assert BRAIN_TOKEN[:8] not in output

@@ -94,6 +94,12 @@ async def end_to_end(transport: str, calls: int, work: Path) -> dict[str, Any]:
         result["added_p99_ms"] = round(
             result["with_check"]["p99_ms"] - result["without_check"]["p99_ms"], 4
         )
+        # calls alternate, so each round's pair saw the same moment of machine load: the
+        # median of the per-round differences is the steadiest figure on a busy machine
+        pairs = [
+            a - b for a, b in zip(samples["with_check"], samples["without_check"], strict=True)
+        ]
+        result["paired_median_diff_ms"] = round(statistics.median(pairs), 4)
         return result
     finally:
         launcher.stop_all()
@@ -162,7 +168,8 @@ def main() -> None:
         print(
             f"{transport}: tool call p50 {on['p50_ms']} ms with the check vs "
             f"{off['p50_ms']} ms without (+{figures['added_p50_ms']} ms), p99 {on['p99_ms']} "
-            f"vs {off['p99_ms']} ms (+{figures['added_p99_ms']} ms), {on['n']} calls each"
+            f"vs {off['p99_ms']} ms (+{figures['added_p99_ms']} ms), paired median difference "
+            f"{figures['paired_median_diff_ms']} ms, {on['n']} calls each"
         )
     alone = result["check_alone"]
     print(

@@ -1,9 +1,10 @@
 """What the service plane's credential check costs (issue 27 item 3).
 
-(1) End to end: one MCP tool call (``echo``) over loopback against the same tiny server run
-twice through ``robot_mcp_kit.mcp_runtime.run_server`` — once with ``MCP_AUTH_TOKEN`` (every
-request checked), once with ``MCP_AUTH=off`` — for sse and streamable-http. Calls alternate
-between the two servers (order flipped every round) so machine load hits both alike.
+(1) End to end: one MCP tool call (``echo``) over loopback to one tiny server process that
+serves the same MCP server object on two ports through ``robot_mcp_kit.mcp_runtime.http_app``:
+one behind the credential check (``MCP_AUTH_TOKEN``), one without (``_mcp_echo_server.py``),
+for sse and streamable-http. Calls alternate between the two ports (order flipped every round)
+so machine load hits both alike; the paired median difference is the steadiest figure.
 (2) The check alone: ``BearerAuthMiddleware`` in front of an ASGI app that answers at once,
 against that app bare, called in process (no sockets).
 
@@ -63,14 +64,17 @@ async def timed_call(client: Client, text: str) -> float:
 async def end_to_end(transport: str, calls: int, work: Path) -> dict[str, Any]:
     launcher = ProcessLauncher(work)
     ports = {"with_check": free_tcp_port(), "without_check": free_tcp_port()}
-    envs = {"with_check": {"MCP_AUTH_TOKEN": TOKEN}, "without_check": {"MCP_AUTH": "off"}}
     try:
-        for mode, port in ports.items():
-            launcher.start(
-                f"echo-{transport}-{mode}",
-                [sys.executable, str(SERVER)],
-                env={"MCP_TRANSPORT": transport, "MCP_PORT": str(port), **envs[mode]},
-            )
+        launcher.start(
+            f"echo-{transport}",
+            [sys.executable, str(SERVER)],
+            env={
+                "MCP_TRANSPORT": transport,
+                "MCP_AUTH_TOKEN": TOKEN,
+                "BENCH_PORT_CHECKED": str(ports["with_check"]),
+                "BENCH_PORT_OPEN": str(ports["without_check"]),
+            },
+        )
         for port in ports.values():
             await asyncio.to_thread(wait_for_tcp_port, port, 30.0)
         urls = {m: f"http://127.0.0.1:{p}{PATHS[transport]}" for m, p in ports.items()}

@@ -4,12 +4,12 @@ with an operator's approval (issue 27 item 3)."""
 
 from __future__ import annotations
 
+import asyncio
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
@@ -19,6 +19,7 @@ from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
+    assert_refuses_strangers,
     free_tcp_port,
     fresh_token,
     mcp_transport,
@@ -51,12 +52,16 @@ async def note_then_find(client: Client, text: str) -> dict[str, Any]:
     return found
 
 
-async def test_notes_survive_a_restart_over_sse_on_postgres(
+async def test_notes_survive_a_restart_on_postgres_and_only_the_approved_brain_forgets(
     launcher: ProcessLauncher, tmp_path: Path, postgres_dsn: str
 ) -> None:
+    """Written over sse, read back after a restart over streamable-http; there (issue 27)
+    ``forget`` deletes only for the brain's credential with an operator's approval of that
+    exact call: the operator's credential, or no approval, deletes nothing; no credential, 401."""
     env = {
         "MCP_TRANSPORT": "sse", "EPISODIC_DIR": str(tmp_path), "EPISODIC_STORE": "postgres",
         "EPISODIC_POSTGRES_DSN": postgres_dsn, "ROBOT_ID": "robot-7",
+        "MCP_OPERATOR_TOKEN": OPERATOR,
     }  # fmt: skip
     process, port = start(launcher, env)
     async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", BRAIN)) as client:
@@ -64,37 +69,22 @@ async def test_notes_survive_a_restart_over_sse_on_postgres(
     assert [r["text"] for r in found["results"]] == ["The kettle in the kitchen is broken"]
     assert launcher.stop(process) == 0
 
-    process, port = start(launcher, env)
-    async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", BRAIN)) as client:
-        found = await tool_answer(client, "search_memory", {"query": "kettle"})
-        status = await tool_answer(client, "memory_status", {})
-    assert found["found"] is True
-    assert status["robot_id"] == "robot-7"
-    assert launcher.stop(process) == 0
-
-
-async def test_over_http_only_the_brain_with_an_approval_makes_forget_delete(
-    launcher: ProcessLauncher, tmp_path: Path
-) -> None:
-    env = {
-        "MCP_TRANSPORT": "streamable-http", "EPISODIC_DIR": str(tmp_path),
-        "MCP_OPERATOR_TOKEN": OPERATOR,
-    }  # fmt: skip
-    process, port = start(launcher, env)
+    process, port = start(launcher, {**env, "MCP_TRANSPORT": "streamable-http"})
     url = f"http://127.0.0.1:{port}/mcp"
+    await asyncio.to_thread(assert_refuses_strangers, url, "episodic")
     everything = {"start": "-36500d", "end": "now", "dry_run": False}
     async with Client(mcp_transport(url, BRAIN)) as brain:
-        await note_then_find(brain, "The kettle in the kitchen is broken")
+        found = await tool_answer(brain, "search_memory", {"query": "kettle"})
+        status = await tool_answer(brain, "memory_status", {})
         unapproved = await tool_answer(brain, "forget", everything)
     async with Client(mcp_transport(url, OPERATOR)) as operator:  # the Inspector, say
         approved_anyway = approval_meta("forget", everything, "ap-123456789abc", "mallory")
         not_brain = await tool_answer(operator, "forget", everything, approved_anyway)
         kept = await tool_answer(operator, "search_memory", {"query": "kettle"})
-    async with httpx.AsyncClient(timeout=5.0) as http:
-        nobody = await http.post(url, json={"jsonrpc": "2.0", "id": 1, "method": "tools/list"})
+    assert found["found"] is True
+    assert status["robot_id"] == "robot-7"
     assert unapproved["_error"]["error"] == "approval_required"
     assert not_brain["_error"]["error"] == "not_permitted"
-    assert nobody.status_code == 401
     assert kept["found"] is True  # nothing was deleted
 
     async with Client(mcp_transport(url, BRAIN)) as brain:
@@ -105,6 +95,7 @@ async def test_over_http_only_the_brain_with_an_approval_makes_forget_delete(
     assert status["forget_audit"][0]["request"]["approved_by"] == "alice"
     assert BRAIN not in process.log()
     assert OPERATOR not in process.log()
+    assert launcher.stop(process) == 0
 
 
 async def test_the_stdio_transport_serves_the_tools(tmp_path: Path) -> None:

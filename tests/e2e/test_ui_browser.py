@@ -496,7 +496,7 @@ def voice_brain(tmp_path: Path) -> Iterator[tuple[str, FakeTranscriptionServer]]
             "RVC_CAMERA_URL": dead,
             **{
                 f"RVC_{s}_URL": f"{dead}/sse"
-                for s in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
+                for s in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
             },
         }
         argv = [

@@ -65,3 +65,8 @@ def test_the_readme_error_table_is_the_code_table() -> None:
             f"{failure.what} | {'; '.join(failure.suggestions)} |"
         )
         assert row in readme, row
+
+
+def test_over_http_the_server_refuses_to_run_open(tmp_path: Path) -> None:
+    line = start_refusal("robot_mcp_manipulation", tmp_path, {"MCP_TRANSPORT": "sse"})
+    assert "MCP_AUTH_TOKEN" in line

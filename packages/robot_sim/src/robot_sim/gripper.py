@@ -47,6 +47,8 @@ class Refusal:
 
     code: str
     message: str
+    not_yet: bool = False
+    """The result may still be on its way (the goal and the data plane are separate channels)."""
 
 
 @dataclass
@@ -94,7 +96,9 @@ class Gripper:
         """The label of the referenced detection, or why there is none to pick."""
         if results is None:
             return "", Refusal(
-                "DETECTION_NOT_FOUND", f"no detection result was received on {ref.topic}"
+                "DETECTION_NOT_FOUND",
+                f"no detection result was received on {ref.topic}",
+                not_yet=True,
             )
         match = next(
             (s for s in results if abs(s.stamp_ns - ref.stamp_ns) <= STAMP_TOLERANCE_NS), None
@@ -103,6 +107,7 @@ class Gripper:
             return "", Refusal(
                 "DETECTION_NOT_FOUND",
                 f"no detection result with that stamp on {ref.topic} (it may be too old)",
+                not_yet=True,
             )
         if ref.index >= 0:
             if ref.index >= len(match.labels):

@@ -46,6 +46,8 @@ RESULT_QOS = QoSProfile(
 )
 """The vision node's per-skill topics (latched): a late subscriber still gets the last result."""
 HELD_QOS = RESULT_QOS
+DETECTION_WAIT_S = 1.0
+"""How long a pick waits for its detection result to arrive (goal and data plane race)."""
 PICK_PHASES = ("locating", "approaching", "grasping", "lifting")
 PLACE_PHASES = ("approaching", "placing", "releasing", "retracting")
 
@@ -199,10 +201,15 @@ class ManipulationServer:
         place, driving = self._where()
         label = ""
         refusal = self._gripper.arm_ready(driving)
-        if refusal is None:
+        deadline = self._clock() + DETECTION_WAIT_S
+        while refusal is None or (refusal.not_yet and self._clock() < deadline and not goal.cancel):
+            if refusal is not None:  # the result may still be on its way: look again shortly
+                goal.wake.wait(0.02)
             now_ns = self._node.get_clock().now().nanoseconds
             sightings = self.sightings.of(ref.topic)
             label, refusal = self._gripper.resolve(ref, sightings, now_ns, float(request.max_age_s))
+            if refusal is None:
+                break
         if refusal is None:
             refusal = self._gripper.check_pick(place, label)
         logger.info("pick_accepted", topic=ref.topic, label=label or ref.label, place=place)

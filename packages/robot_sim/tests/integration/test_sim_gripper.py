@@ -211,3 +211,17 @@ def test_a_cancelled_pick_changes_nothing(sim: Sim) -> None:
     assert phases[0] == "locating"
     assert objects(sim, "mailroom")[0] == "yellow package"
     assert held(sim) == ""
+
+
+def test_a_pick_waits_briefly_for_its_detection_to_arrive(sim: Sim) -> None:
+    """The goal and the data plane are separate channels: a goal may overtake its result."""
+    arm = Arm(sim)
+    sim.go_to("mailroom")
+    arm.seen("cardboard box")  # the gripper already follows the topic
+    msg = VisionDetectionArray(skill="find_object")
+    msg.header.stamp = sim.client.get_clock().now().to_msg()
+    msg.detections = [VisionDetection(label="yellow package", score=0.9, kind="object")]
+    handle = arm.send(arm.pick, arm.pick_goal(msg.header.stamp))  # before the result is out
+    arm.detections.publish(msg)
+    assert arm.result(handle).status == GoalStatus.STATUS_SUCCEEDED
+    assert held(sim) == "yellow package"

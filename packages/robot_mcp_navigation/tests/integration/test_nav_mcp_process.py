@@ -35,6 +35,10 @@ def receiver(tcp_port: int) -> Iterator[EventReceiver]:
         yield recv
 
 
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
+"""The office places with a scripted closed mailroom door (the in-process simulated base)."""
+
+
 def start_navigation(
     launcher: ProcessLauncher,
     receiver: EventReceiver,
@@ -43,6 +47,7 @@ def start_navigation(
     transport: str,
     **extra_env: str,
 ) -> LaunchedProcess:
+
     env = {
         "MCP_TRANSPORT": transport,
         "MCP_PORT": str(port),
@@ -115,7 +120,7 @@ async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
-    start_navigation(launcher, receiver, port, tmp_path, "sse")
+    start_navigation(launcher, receiver, port, tmp_path, "sse", NAV_MAP=str(CLOSED_DOOR_MAP))
 
     async with Client(sse_client(f"http://127.0.0.1:{port}/sse")) as client:
         first = payload(await client.call_tool("navigate_to", {"location": "mailroom"}))

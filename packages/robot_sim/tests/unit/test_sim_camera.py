@@ -78,7 +78,8 @@ def test_from_the_kitchen_the_camera_sees_the_mug_and_from_the_mailroom_it_does_
     )
     assert "red mug" not in mailroom.labels
     assert sorted(mailroom.labels) == ["cardboard box", "cardboard box", "yellow package"]
-    assert kitchen.name.startswith("kitchen-") and mailroom.name.startswith("mailroom-")
+    assert kitchen.name.startswith("kitchen-")
+    assert mailroom.name.startswith("mailroom-")
 
 
 def test_a_moved_object_shows_from_the_next_frame(
@@ -92,7 +93,8 @@ def test_a_moved_object_shows_from_the_next_frame(
         after = camera.shot(at(world, "kitchen"))
     finally:
         world.set_objects("kitchen", ["red mug", "green bottle", "white plate"])
-    assert after.rendered and after.frame.name != before.frame.name
+    assert after.rendered
+    assert after.frame.name != before.frame.name
     assert "red mug" not in after.frame.labels
 
 
@@ -128,7 +130,8 @@ def test_depth_and_the_camera_matrix_describe_the_same_pinhole(
     world: World, renderer: MujocoRenderer
 ) -> None:
     view = renderer.render(at(world, "kitchen"), depth=True)
-    assert view.depth is not None and view.depth.shape == (HEIGHT, WIDTH)
+    assert view.depth is not None
+    assert view.depth.shape == (HEIGHT, WIDTH)
     fx, fy, cx, cy = camera_matrix()
     assert (fx, cx, cy) == (fy, 320.0, 240.0)
     centre = float(view.depth[240, 320])

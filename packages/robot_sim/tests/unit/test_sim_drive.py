@@ -105,15 +105,18 @@ def test_in_the_office_the_robot_follows_the_planned_path_around_the_walls(world
     kitchen = world.map.locations["kitchen"].pose()
     states = drive_until_stopped(drive, kitchen)
     first = states[0]
-    assert first.plan[0] == (0.0, 0.0) and first.plan[-1] == (kitchen.x, kitchen.y)
+    assert first.plan[0] == (0.0, 0.0)
+    assert first.plan[-1] == (kitchen.x, kitchen.y)
     assert first.distance_remaining_m > Pose(0, 0).distance_to(kitchen)  # not the straight line
-    assert states[-1].status == "arrived" and states[-1].pose == kitchen
+    assert states[-1].status == "arrived"
+    assert states[-1].pose == kitchen
     occupied = world.floor.grid.occupied
     for state in states:  # never inside a wall, a door frame or the counter
         row, col = world.floor.grid.cell_of(state.pose.x, state.pose.y)
         assert not occupied[row, col], state.pose
     through_door = [s.pose for s in states if abs(s.pose.y + 1.0) < 0.1]
-    assert through_door and all(8.4 < p.x < 9.6 for p in through_door)  # the kitchen door
+    assert through_door
+    assert all(8.4 < p.x < 9.6 for p in through_door)
 
 
 def test_the_closed_west_door_is_seen_on_the_way_and_the_robot_goes_round(world: World) -> None:
@@ -121,7 +124,8 @@ def test_the_closed_west_door_is_seen_on_the_way_and_the_robot_goes_round(world:
     mailroom = world.map.locations["mailroom"].pose()
     states = drive_until_stopped(drive, mailroom)
     assert states[0].distance_remaining_m < 20.0  # planned through the hall and the west door
-    assert states[-1].status == "arrived" and states[-1].pose == mailroom
+    assert states[-1].status == "arrived"
+    assert states[-1].pose == mailroom
     assert states[-1].replans == 1
     assert drive.robot_map is not None
     assert drive.robot_map.known_closed == {"mailroom_west_door"}
@@ -154,7 +158,9 @@ def test_a_door_opened_later_is_believed_closed_until_the_robot_sees_it(world: W
     world.set_door("mailroom_west_door", False)
     assert drive.robot_map.known_closed == {"mailroom_west_door"}
     far = drive_until_stopped(drive, mailroom, start=200.0)
-    assert far[-1].status == "arrived" and max(s.pose.x for s in far) > 19.5  # the long way
+    assert far[-1].status == "arrived"
+    assert max(s.pose.x for s in far) > 19.5
     assert drive.robot_map.known_closed == frozenset()  # seen open from inside the mailroom
     back = drive_until_stopped(drive, dock, start=300.0)
-    assert back[-1].status == "arrived" and back[0].distance_remaining_m < 20.0  # the west door
+    assert back[-1].status == "arrived"
+    assert back[0].distance_remaining_m < 20.0

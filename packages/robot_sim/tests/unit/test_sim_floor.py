@@ -35,7 +35,8 @@ def test_the_map_is_map_servers_format_a_trinary_image_with_its_yaml() -> None:
     assert len(meta["origin"]) == 3
     assert 0 < meta["free_thresh"] < meta["occupied_thresh"] < 1
     pixels = cv2.imread(str(MAP_YAML.parent / meta["image"]), cv2.IMREAD_UNCHANGED)
-    assert pixels.ndim == 2 and pixels.dtype == np.uint8
+    assert pixels.ndim == 2
+    assert pixels.dtype == np.uint8
     assert set(np.unique(pixels).tolist()) == {draw.FREE, draw.OCCUPIED, draw.UNKNOWN}
     assert (MAP_YAML.parent / meta["image"]).stat().st_size < 20_000  # small, reviewable
 
@@ -49,7 +50,8 @@ def test_the_grid_reads_the_image_bottom_row_first_as_occupancy_values() -> None
     pixels = cv2.imread(str(PLAN.parent / "office.png"), cv2.IMREAD_GRAYSCALE)
     assert grid.cells.shape == pixels.shape
     assert set(np.unique(grid.cells).tolist()) == {FREE, OCCUPIED, UNKNOWN}
-    assert (grid.cells[0] == UNKNOWN).all() and (pixels[-1] == draw.UNKNOWN).all()
+    assert (grid.cells[0] == UNKNOWN).all()
+    assert (pixels[-1] == draw.UNKNOWN).all()
     row, col = grid.cell_of(0.0, 0.0)  # the dock, in the hall
     assert grid.cells[row, col] == FREE
     assert np.array_equal(grid.cells[::-1] == OCCUPIED, pixels == draw.OCCUPIED)
@@ -73,7 +75,8 @@ def test_a_planned_path_never_crosses_a_wall_cell() -> None:
     places = load_map(default_map_path()).locations
     for a, b in itertools.combinations(places.values(), 2):
         points = planner.plan(costmap, (a.x, a.y), (b.x, b.y))
-        assert points[0] == (a.x, a.y) and points[-1] == (b.x, b.y)
+        assert points[0] == (a.x, a.y)
+        assert points[-1] == (b.x, b.y)
         assert path_length(points) >= math.dist((a.x, a.y), (b.x, b.y)) - 1e-6
         for (x0, y0), (x1, y1) in itertools.pairwise(points):
             rows, cols = line(*grid.cell_of(x0, y0), *grid.cell_of(x1, y1))
@@ -100,7 +103,10 @@ def test_closing_a_door_fills_its_cells_and_both_mailroom_doors_leave_no_path() 
     [
         ("rooms: {}\n", "rooms"),
         ("doors: {d: {label: d, segment: [0, 0, 1, 1]}}\n", "horizontal or vertical"),
-        ("furniture: {t: {label: t, box: [1, 1, 0, 0], height: 1, colour: [1, 2, 3]}}\n", "x0 < x1"),
+        (
+            "furniture: {t: {label: t, box: [1, 1, 0, 0], height: 1, colour: [1, 2, 3]}}\n",
+            "x0 < x1",
+        ),
     ],
 )
 def test_a_bad_plan_names_the_problem(tmp_path: Path, text: str, message: str) -> None:

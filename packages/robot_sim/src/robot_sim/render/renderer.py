@@ -4,14 +4,17 @@ depth, from the robot camera's pose.
 
 The camera stands on the robot at ``CAMERA_HEIGHT_M``, looks the way the robot faces, pitched
 down ``CAMERA_PITCH_DEG`` so a table top a metre ahead is in the middle of the frame. The model
-is rebuilt when the world changed (objects moved, a door opened or closed).
+is rebuilt when the world's objects changed; doors are moved in or out of their frames.
+
+An OpenGL context belongs to one thread (OSMesa crashes when another thread makes it current),
+so every render runs on the renderer's own thread; callers on any thread wait for it.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,12 +75,12 @@ def camera_quaternion(yaw: float, pitch_deg: float = CAMERA_PITCH_DEG) -> npt.ND
 
 
 class MujocoRenderer:
-    """Renders ``world`` from robot poses; thread-safe (one GL context, one lock)."""
+    """Renders ``world`` from robot poses; thread-safe (one GL context on its own thread)."""
 
     def __init__(self, world: World, width: int = WIDTH, height: int = HEIGHT) -> None:
         self.world = world
         self.width, self.height = width, height
-        self._lock = threading.Lock()
+        self._thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mujoco-render")
         self._built_for: int | None = None
         self._spec: SceneSpec | None = None
         self._model: Any = None
@@ -87,40 +90,49 @@ class MujocoRenderer:
         self._doors_shown: frozenset[str] | None = None
 
     def close(self) -> None:
-        with self._lock:
-            if self._renderer is not None:
-                self._renderer.close()
-                self._renderer = None
+        """Release the GL context (idempotent)."""
+        try:
+            self._thread.submit(self._release).result()
+        except RuntimeError:  # closed already
+            return
+        self._thread.shutdown()
+
+    def _release(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
     def render(self, pose: Pose, depth: bool = False) -> RenderedView:
-        with self._lock:
-            self._rebuild_if_changed()
-            assert self._spec is not None
-            self._place_camera(pose)
-            self._show_doors(self.world.closed_doors())
-            mujoco.mj_kinematics(self._model, self._data)
-            mujoco.mj_camlight(self._model, self._data)
-            renderer = self._renderer
+        return self._thread.submit(self._render, pose, depth).result()
+
+    def _render(self, pose: Pose, depth: bool) -> RenderedView:
+        self._rebuild_if_changed()
+        assert self._spec is not None
+        self._place_camera(pose)
+        self._show_doors(self.world.closed_doors())
+        mujoco.mj_kinematics(self._model, self._data)
+        mujoco.mj_camlight(self._model, self._data)
+        renderer = self._renderer
+        renderer.update_scene(self._data, camera="robot")
+        rgb = np.array(renderer.render(), np.uint8)
+        renderer.enable_segmentation_rendering()
+        try:
             renderer.update_scene(self._data, camera="robot")
-            rgb = np.array(renderer.render(), np.uint8)
-            renderer.enable_segmentation_rendering()
+            seg = renderer.render()
+        finally:
+            renderer.disable_segmentation_rendering()
+        ids, types = seg[..., 0], seg[..., 1]
+        geoms = np.where((types == _GEOM) & (ids >= 0), ids, -1)
+        instances = np.where(geoms >= 0, self._geom_object[np.maximum(geoms, 0)], 0)
+        metres = None
+        if depth:
+            renderer.enable_depth_rendering()
             try:
                 renderer.update_scene(self._data, camera="robot")
-                seg = renderer.render()
+                metres = np.array(renderer.render(), np.float32)
             finally:
-                renderer.disable_segmentation_rendering()
-            ids, types = seg[..., 0], seg[..., 1]
-            geoms = np.where((types == _GEOM) & (ids >= 0), ids, -1)
-            instances = np.where(geoms >= 0, self._geom_object[np.maximum(geoms, 0)], 0)
-            metres = None
-            if depth:
-                renderer.enable_depth_rendering()
-                try:
-                    renderer.update_scene(self._data, camera="robot")
-                    metres = np.array(renderer.render(), np.float32)
-                finally:
-                    renderer.disable_depth_rendering()
-            return RenderedView(rgb, instances.astype(np.int32), list(self._spec.objects), metres)
+                renderer.disable_depth_rendering()
+        return RenderedView(rgb, instances.astype(np.int32), list(self._spec.objects), metres)
 
     def _rebuild_if_changed(self) -> None:
         version = self.world.version

@@ -281,6 +281,46 @@ async def test_pose_and_locations_come_from_navigation(
     assert [name for name, _ in tools.calls] == ["navigation.get_pose", "navigation.list_locations"]
 
 
+async def test_places_carry_the_names_people_use_never_their_map_ids(
+    tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
+) -> None:
+    c, tools = tools_client
+    listed = [
+        {
+            "name": "desk_alice",
+            "description": "Alice's desk in the open-plan office.",
+            "x": 6,
+            "y": 8,
+        },
+        {
+            "name": "corridor_b",
+            "description": "East corridor; leads to the mailroom.",
+            "x": 1,
+            "y": 2,
+        },
+        {"name": "meeting_room", "description": 'Meeting room "Harbour".', "x": 3, "y": 4},
+        {"name": "lab_3", "description": "", "x": 0, "y": 0},
+    ]
+    tools.add("navigation.list_locations", lambda a: {"map": "office", "locations": listed})
+    body = (await c.get("/api/map/locations")).json()
+    labels = [loc["label"] for loc in body["locations"]]
+    assert labels == ["Alice's desk", "East corridor", "Meeting room Harbour", "Lab 3"]
+    assert body["locations"][0]["name"] == "desk_alice"  # ids stay for requests
+
+
+async def test_the_floor_plan_and_the_plan_come_from_navigations_map_tools(
+    tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
+) -> None:
+    c, tools = tools_client
+    floor = {"available": True, "walls_png": "iVBOR", "blocked": [], "bounds": {"x0": 0}}
+    tools.add("navigation.get_map", lambda a: floor)
+    tools.add("navigation.get_plan", lambda a: {"frame": "map", "points": [[0, 0], [1, 2]]})
+    assert (await c.get("/api/map/floor")).json() == floor
+    assert (await c.get("/api/map/plan")).json()["points"] == [[0, 0], [1, 2]]
+    tools.add("navigation.get_map", lambda a: ToolOutcome(text="down", is_error=True))
+    assert (await c.get("/api/map/floor")).status_code == 503
+
+
 @pytest.mark.parametrize(
     "answer",
     [ToolOutcome(text="boom", is_error=True), "not json", "[1, 2]"],

@@ -6,6 +6,7 @@ const DETECTIONS = {
   ts: 1,
   mode: 'warm',
   scene: 'The kitchen counter. In view: a red mug and a green bottle.',
+  scene_age_s: 6.4,
   detections: [{ label: 'red mug', score: 0.93, skill: 'find_object', age_s: 0.4, stale: false }],
 };
 
@@ -25,7 +26,7 @@ describe('camera panel', () => {
     render(<CameraView />);
     const panel = screen.getByRole('region', { name: 'Camera view' });
     const scene = await within(panel).findByLabelText('Scene description');
-    expect(scene).toHaveTextContent('The kitchen counter. In view: a red mug and a green bottle.');
+    expect(scene).toHaveTextContent('The kitchen counter. In view: a red mug and a green bottle. · 6 s ago');
     expect(await within(panel).findByRole('img', { name: 'Camera' })).toHaveAttribute('src', 'blob:frame');
     expect(within(panel).getByText('red mug')).toBeInTheDocument();
   });

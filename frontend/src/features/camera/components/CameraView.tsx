@@ -65,6 +65,9 @@ export function CameraView() {
           <p className="mb-2 text-sm" aria-label="Scene description">
             <span className="text-xs font-semibold text-muted">Scene </span>
             {detections.scene}
+            {detections.scene_age_s != null && detections.scene_age_s >= 2 && (
+              <span className="text-xs text-muted"> · {Math.round(detections.scene_age_s)} s ago</span>
+            )}
           </p>
         )}
         <h3 className="text-xs font-semibold text-muted">Detections</h3>

@@ -22,7 +22,7 @@ const PLAN_PERIOD_MS = 1000; // Nav2 replans once a second
 const FLOOR_PERIOD_MS = 3000; // the map changes rarely; the costmap when a door is seen
 const WIDTH = MAP_WIDTH;
 const PAD = 34;
-const FLOOR_PAD = 6; // a floor plan fills the panel: names fit inside the building
+const FLOOR_PAD = 10; // a floor plan fills the panel; markers at its edge stay whole
 
 type Point = { x: number; y: number };
 
@@ -122,6 +122,8 @@ export function MapView() {
     return placed;
   }, [list, view, pastPose, pastText]);
   const destination = pose?.destination ?? null;
+  // On a floor plan the markers are smaller: corridors are a dozen pixels wide.
+  const markerScale = floor?.available ? 0.7 : 1;
   const destinationName = list?.locations.find((l) => l.name === destination);
 
   return (
@@ -129,7 +131,7 @@ export function MapView() {
       {!list || !project ? (
         <p className="p-3 text-sm text-muted">{error ? `Navigation unavailable: ${error}` : 'Loading the map…'}</p>
       ) : (
-        <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor lg:max-h-[42vh]" role="group" aria-label="Floor map">
+        <svg viewBox={`0 0 ${WIDTH} ${view?.height ?? WIDTH}`} className="block w-full bg-map-floor lg:max-h-[38vh]" role="group" aria-label="Floor map">
           {floor?.available && <FloorPlan floor={floor} project={project} />}
           {floor?.available && floor.blocked.map((box) => <Blocked key={`${box.x0},${box.y0}`} box={box} project={project} />)}
           <PlanLine points={planPoints} project={project} />
@@ -170,7 +172,7 @@ export function MapView() {
                 <circle
                   cx={cx}
                   cy={cy}
-                  r={isDestination ? 9 : 6}
+                  r={(isDestination ? 9 : 6) * markerScale}
                   className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
                   strokeWidth={2}
                 />
@@ -194,8 +196,10 @@ export function MapView() {
                   role="img"
                   transform={`translate(${x} ${y}) rotate(${deg})`}
                 >
-                  <circle r={8} className="fill-robot" />
-                  <path d="M 4 -4 L 12 0 L 4 4 Z" className="fill-robot" />
+                  <g transform={`scale(${markerScale})`}>
+                    <circle r={8} className="fill-robot" />
+                    <path d="M 4 -4 L 12 0 L 4 4 Z" className="fill-robot" />
+                  </g>
                 </g>
               );
             })()}

@@ -26,7 +26,11 @@ from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage, Mi
 JPEG = b"\xff\xd8\xff\xe0fake-jpeg"
 SCENE = {
     "mode": "warm",
-    "scene_description": {"skill": "describe", "value": "a shelf with a yellow package"},
+    "scene_description": {
+        "skill": "describe",
+        "value": "a shelf with a yellow package",
+        "age_s": 3.5,
+    },
     "skills": [
         {
             "skill": "find_object",
@@ -250,6 +254,7 @@ async def test_detections_flatten_the_perception_buffer(
     tools.add("perception.what_do_you_see", lambda a: SCENE)
     body = (await c.get("/api/camera/detections")).json()
     assert body["scene"] == "a shelf with a yellow package"
+    assert body["scene_age_s"] == 3.5
     assert body["detections"] == [
         {
             "label": "yellow package",

@@ -14,6 +14,9 @@ mission (the e2e load).
 4. **stack**: the whole local stack (deploy/local-stack.yaml, every service a process) running
    the mailroom mission through the brain, while this process counts camera frames and
    robot-sim's CPU over the mission.
+"published" counts ``/camera/camera_info`` (small, sent with every image), "received" the
+images (921 KB each, BEST_EFFORT: under load the transport drops some), "rendered" the new
+views robot-sim rendered (its DEBUG log).
 JSON in benchmarks/results/sim_world.json. Bounded: about 3 minutes with the defaults.
 """
 
@@ -31,6 +34,7 @@ import sys
 import tempfile
 import threading
 import time
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +46,7 @@ from nav2_msgs.action import NavigateToPose
 from rclpy.action.client import ActionClient
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CameraInfo, Image
 
 from robot_mcp_navigation.motion.base import Pose
 from robot_sim.camera import Camera
@@ -127,7 +131,12 @@ class CameraCounter:
         self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
         self.executor.add_node(self.node)
         self.frames: list[float] = []
+        self.infos: list[float] = []
         self.node.create_subscription(Image, "/camera/image_raw", self._on_image, CAMERA_QOS)
+        # CameraInfo goes with every image and is small: its rate is the rate published
+        self.node.create_subscription(
+            CameraInfo, "/camera/camera_info", lambda m: self.infos.append(time.monotonic()), 10
+        )
         self.navigate = ActionClient(self.node, NavigateToPose, "/navigate_to_pose")
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
@@ -138,6 +147,9 @@ class CameraCounter:
 
     def fps(self, t0: float, t1: float) -> float:
         return sum(1 for t in self.frames if t0 <= t <= t1) / (t1 - t0)
+
+    def published_fps(self, t0: float, t1: float) -> float:
+        return sum(1 for t in self.infos if t0 <= t <= t1) / (t1 - t0)
 
     def keep_driving(self, world: Any, until: float) -> None:
         """Goals between far places until ``until`` (the robot is always moving)."""
@@ -166,17 +178,33 @@ class CameraCounter:
         rclpy.try_shutdown(context=self.context)
 
 
+def rendered_frames(log: Path, start: float, end: float) -> list[float]:
+    """Durations of the frames robot-sim rendered (its ``camera_rendered`` log) in a window
+    of wall-clock time."""
+    durations = []
+    for line in log.read_text(errors="replace").splitlines():
+        if '"camera_rendered"' not in line:
+            continue
+        record = json.loads(line)
+        stamp = datetime.fromisoformat(record["timestamp"]).timestamp()
+        if start <= stamp <= end:
+            durations.append(float(record["duration_ms"]))
+    return durations
+
+
 def alone(seconds: float) -> dict[str, Any]:
     work = Path(tempfile.mkdtemp(prefix="sim_world_alone_"))
     ready = work / "sim.pid"
+    log = work / "robot_sim.log"
     sim = start(
         [sys.executable, "-m", "robot_sim"],
         {
             "SIM_SCENES_DIR": str(work / "scenes"),
             "SIM_READY_FILE": str(ready),
             "SIM_TIME_SCALE": "1",
+            "LOG_LEVEL": "DEBUG",  # camera_rendered: every new frame, with its duration
         },
-        work / "robot_sim.log",
+        log,
     )
     counter = CameraCounter()
     try:
@@ -192,11 +220,16 @@ def alone(seconds: float) -> dict[str, Any]:
         t1 = time.monotonic()
         cpu = (cpu_s(sim.pid) - cpu0) / (t1 - t0) * 100
         fps = counter.fps(t0, t1)
+        wall0, wall1 = time.time() - (time.monotonic() - t0), time.time() - (time.monotonic() - t1)
         driver.join(timeout=15)
     finally:
         counter.close()
         stop(sim)
+    rendered = rendered_frames(log, wall0, wall1)
     return {
+        "camera_fps_published": round(counter.published_fps(t0, t1), 2),
+        "camera_fps_rendered": round(len(rendered) / (t1 - t0), 2),
+        "frame_ms_in_robot_sim": stats(rendered) if rendered else None,
         "camera_fps_received": round(fps, 2),
         "robot_sim_cpu_percent": round(cpu, 1),
         "seconds": round(t1 - t0, 1),
@@ -233,9 +266,11 @@ def under_stack() -> dict[str, Any]:
             record, cpu0, t0, t1 = asyncio.run(mission())
             cpu = (cpu_s(sim_pid) - cpu0) / (t1 - t0) * 100
             fps = counter.fps(t0, t1)
+            published = counter.published_fps(t0, t1)
     finally:
         counter.close()
     return {
+        "camera_fps_published": round(published, 2),
         "camera_fps_received": round(fps, 2),
         "robot_sim_cpu_percent": round(cpu, 1),
         "mission_seconds": round(t1 - t0, 1),

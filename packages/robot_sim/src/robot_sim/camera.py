@@ -38,11 +38,14 @@ class Camera:
         store: SceneStore,
         renderer: MujocoRenderer,
         place_radius_m: float = 0.5,
+        moving_scale: float = 1.0,
     ) -> None:
         self.world = world
         self.store = store
         self.renderer = renderer
         self.place_radius_m = place_radius_m
+        self.moving_scale = moving_scale
+        """Internal render scale while the robot moves (a standing robot's frame is full)."""
         self._lock = threading.Lock()
         self._last: tuple[Any, Shot] | None = None
 
@@ -53,11 +56,12 @@ class Camera:
         )
         return name if location.pose().distance_to(pose) <= self.place_radius_m else None
 
-    def shot(self, pose: Pose, depth: bool = False) -> Shot:
+    def shot(self, pose: Pose, depth: bool = False, moving: bool = False) -> Shot:
         """The frame from ``pose`` as the world is now (saved before it is returned)."""
+        scale = self.moving_scale if moving else 1.0
         key = (
             round(pose.x, 3), round(pose.y, 3), round(pose.theta, 3),
-            self.world.version, self.world.closed_doors(),
+            self.world.version, self.world.closed_doors(), scale,
         )  # fmt: skip
         with self._lock:
             if self._last is not None and self._last[0] == key:
@@ -66,7 +70,7 @@ class Camera:
                     self.store.touch(shot.frame.name)
                     return Shot(shot.frame, shot.depth, rendered=False)
             started = time.perf_counter()
-            view = self.renderer.render(pose, depth=depth)
+            view = self.renderer.render(pose, depth=depth, scale=scale)
             place = self.place_at(pose)
             found = annotate_view(view)
             doc = {

@@ -38,6 +38,7 @@ class SimSettings(BaseModel):
     camera_info_topic: str = Field(default="/camera/camera_info", alias="SIM_CAMERA_INFO_TOPIC")
     depth_topic: str = Field(default="/camera/depth/image_raw", alias="SIM_DEPTH_TOPIC")
     scenes_keep: int = Field(default=64, ge=4, le=10_000, alias="SIM_SCENES_KEEP")
+    moving_render_scale: float = Field(default=0.5, ge=0.1, le=1.0, alias="SIM_RENDER_SCALE_MOVING")
     camera_frame_id: str = Field(default="camera_optical_frame", alias="SIM_CAMERA_FRAME")
     camera_fps: float = Field(default=5.0, gt=0.0, le=30.0, alias="SIM_CAMERA_FPS")
     pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")

@@ -31,7 +31,7 @@ def build(settings: SimSettings) -> tuple[DriveSim, Camera]:
     drive = DriveSim(world.map, settings.time_scale, settings.failures_enabled, robot_map)
     store = SceneStore(settings.scenes_dir, settings.scenes_keep)
     removed = store.clear_stale()
-    camera = Camera(world, store, MujocoRenderer(world))
+    camera = Camera(world, store, MujocoRenderer(world), moving_scale=settings.moving_render_scale)
     camera.shot(drive.state(0.0).pose)
     logger.info("scenes_ready", removed_stale=removed, directory=str(settings.scenes_dir))
     return drive, camera

@@ -140,7 +140,7 @@ class SimNode(Node):
         with self._image_lock:
             state = self.drive.state(self._wall())
             depth = self._depth.get_subscription_count() > 0
-            shot = self.camera.shot(state.pose, depth=depth)
+            shot = self.camera.shot(state.pose, depth=depth, moving=state.driving)
             frame = shot.frame
             if frame.name != self._last_view:
                 place = self.camera.place_at(state.pose)

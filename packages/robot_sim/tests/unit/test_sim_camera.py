@@ -141,3 +141,24 @@ def test_depth_and_the_camera_matrix_describe_the_same_pinhole(
 def test_descriptions_count_and_list_what_is_in_view() -> None:
     assert describe("The shelf.", []) == "The shelf. No objects in view."
     assert describe("The shelf.", ["box", "box", "mug"]) == "The shelf. In view: 2 boxes and a mug."
+
+
+def test_a_moving_robots_frames_render_at_half_resolution_and_stay_annotated(
+    world: World, renderer: MujocoRenderer, tmp_path: Path
+) -> None:
+    camera = Camera(world, SceneStore(tmp_path), renderer, moving_scale=0.5)
+    pose = at(world, "kitchen")
+    moving = camera.shot(pose, moving=True)
+    standing = camera.shot(pose)
+    assert moving.rendered and standing.rendered  # the standing frame is rendered in full
+    assert moving.frame.name != standing.frame.name
+    assert (moving.frame.width, moving.frame.height) == (WIDTH, HEIGHT)
+    assert set(moving.frame.labels) == set(standing.frame.labels)
+    doc = json.loads((tmp_path / f"{moving.frame.name}.json").read_text())
+    view = renderer.render(pose, scale=0.5)
+    for annotation in doc["annotations"]:
+        truth = view.instances == annotation["id"]
+        drawn = polygon_mask(annotation)
+        assert (truth & drawn).sum() / (truth | drawn).sum() > 0.9
+    with pytest.raises(ValueError, match="scale"):
+        renderer.render(pose, scale=0.0)

@@ -36,6 +36,9 @@ fi
 # as foreign distributions and uninstall (std_msgs, rcl_interfaces, ...).
 uv sync --all-packages --inexact --frozen --quiet
 bash scripts/build-interfaces.sh
+# The model libraries (ultralytics, timm, transformers, torch on the CPU) for the real-library
+# tests of the vision node's adapters (issue 30); skips with a note where no local torch index is.
+bash scripts/install-model-libs.sh
 
 if uv run --frozen python -c "import robot_mcp_perception.sample_scenes" 2>/dev/null \
    && [[ ! -f data/scenes/.complete ]]; then

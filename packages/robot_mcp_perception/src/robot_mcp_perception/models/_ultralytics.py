@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from robot_mcp_perception.models import _torch_env
 from robot_mcp_perception.models.base import ModelUnavailableError
 
 INSTALL_HINT = (
@@ -17,7 +19,10 @@ INSTALL_HINT = (
 
 
 def import_ultralytics() -> Any:
-    """The ``ultralytics`` module, imported on first use; a clear error when it is absent."""
+    """The ``ultralytics`` module, imported on first use (offline, :mod:`._torch_env`); a
+    clear error when it is absent."""
+    if "ultralytics" not in sys.modules:
+        _torch_env.prepare()
     try:
         return importlib.import_module("ultralytics")
     except ImportError as exc:
@@ -44,6 +49,8 @@ def to_numpy(value: Any) -> Any:
     """A torch tensor (or anything array-like) as a numpy array."""
     if hasattr(value, "detach"):
         value = value.detach()
+    if getattr(value, "is_floating_point", lambda: False)():
+        value = value.float()  # bf16 / fp16 results (numpy has no bfloat16)
     if hasattr(value, "cpu"):
         value = value.cpu()
     if hasattr(value, "numpy"):
@@ -51,7 +58,7 @@ def to_numpy(value: Any) -> Any:
     return np.asarray(value)
 
 
-def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
+def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int, half: bool = False) -> Any:
     """The prompt predictor of a loaded ``ultralytics.SAM``, set up on its weights.
 
     The class is the one the model's ``task_map`` names (SAM, SAM 2 or SAM 3 predictor) and the
@@ -69,6 +76,7 @@ def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
             "conf": 0.25,
             "imgsz": imgsz,
             "device": device,
+            "quantize": 16 if half else None,  # ultralytics' half-precision model (CUDA)
             "save": False,
             "verbose": False,
         }

@@ -17,12 +17,27 @@ the box → points fallback of ground_and_segment) decodes without encoding agai
 ultralytics drops masks scoring below ``conf`` and numbers the rest by prompt (``boxes.cls``);
 masks are matched to prompts by that number, and a prompt whose mask was dropped gets an
 empty mask (never a neighbour's).
+
+Speed settings (issue 30), chosen in config:
+
+- ``imgsz``: the encoder's input size; ``null`` picks the model's native size (SAM 3: 1008,
+  SAM / SAM 2.x: 1024). A size that is not a multiple of the model's patch stride (SAM 3: 14,
+  others: 16) is refused at start-up — ultralytics would round it and warn on every call.
+- ``precision``: ``fp32``; ``bf16`` (``torch.autocast`` around encoder and decoder: CUDA or
+  CPU); ``fp16`` (ultralytics' own half-precision model, CUDA only); ``auto`` (default): bf16 on
+  CUDA, fp32 on the CPU. Masks keep their shape and count whatever the precision.
+- ``tf32`` (default true): TensorFloat-32 matmuls/convolutions for the fp32 parts on CUDA
+  (process-wide torch setting; no effect on the CPU).
+- All boxes of a frame go to the decoder in one batch (above).
 """
 
 from __future__ import annotations
 
+import contextlib
+import importlib
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from pathlib import Path
+from typing import Any, Literal
 
 import cv2
 import numpy as np
@@ -46,28 +61,85 @@ from robot_mcp_perception.models.base import (
     SegmentPrompt,
 )
 
+Precision = Literal["auto", "fp32", "bf16", "fp16"]
+NATIVE_IMGSZ = {"sam3": 1008, "sam": 1024}
+"""The encoder input size each model family was trained at (SAM 3: 72 × 14-px patches)."""
+PATCH_STRIDE = {"sam3": 14, "sam": 16}
+
+
+def model_family(checkpoint: str) -> str:
+    """``sam3`` for SAM 3 checkpoints (ultralytics tells them by the file name), else ``sam``."""
+    return "sam3" if "sam3" in Path(checkpoint).stem else "sam"
+
+
+def checked_imgsz(imgsz: int | None, checkpoint: str) -> int:
+    """The encoder input size: the model's native one by default; a size that is not a
+    multiple of the model's stride is refused (ultralytics would round it and warn per call)."""
+    family = model_family(checkpoint)
+    if imgsz is None:
+        return NATIVE_IMGSZ[family]
+    stride = PATCH_STRIDE[family]
+    if imgsz <= 0 or imgsz % stride:
+        native = NATIVE_IMGSZ[family]
+        raise ValueError(
+            f"segmenter.imgsz {imgsz} is not a positive multiple of {stride} (the patch stride "
+            f"of {Path(checkpoint).name}); use {native} (native) or another multiple of {stride}"
+        )
+    return imgsz
+
 
 class SamSegmenter(Segmenter):
     cost_class: CostClass = "local"
 
-    def __init__(self, checkpoint: str, device: str = "cuda", imgsz: int = 1024) -> None:
+    def __init__(
+        self,
+        checkpoint: str,
+        device: str = "cuda",
+        imgsz: int | None = None,
+        precision: Precision = "auto",
+        tf32: bool = True,
+    ) -> None:
         weights = checked_weights(checkpoint, "segmenter.checkpoint", "SAM_CHECKPOINT")
+        self.imgsz = checked_imgsz(imgsz, str(weights))
+        if precision not in ("auto", "fp32", "bf16", "fp16"):
+            raise ValueError(f"segmenter.precision must be auto, fp32, bf16 or fp16: {precision!r}")
+        cuda = str(device).startswith("cuda")
+        if precision == "fp16" and not cuda:
+            raise ValueError("segmenter.precision fp16 needs a CUDA device (use bf16 or fp32)")
+        auto: Precision = "bf16" if cuda and _cuda_available() else "fp32"
+        self.precision: Precision = auto if precision == "auto" else precision
         ultralytics = import_ultralytics()
+        self.tf32 = tf32 and cuda
+        if self.tf32:
+            torch = importlib.import_module("torch")
+            torch.backends.cuda.matmul.allow_tf32 = True
+            torch.backends.cudnn.allow_tf32 = True
         self.checkpoint = str(weights)
         self.device = device
-        self.imgsz = imgsz
         self._encoded: bytes | None = None  # frame_key of the embedding the predictor holds
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sam")
+        half = self.precision == "fp16"
 
         def load() -> Any:
             model = ultralytics.SAM(self.checkpoint)
-            return sam_predictor(model, self.checkpoint, device, imgsz)
+            return sam_predictor(model, self.checkpoint, device, self.imgsz, half=half)
 
         try:
             self._predictor = self._pool.submit(load).result()
         except Exception as exc:  # the library boundary: any load failure is "unavailable"
             self._pool.shutdown(wait=False)
             raise ModelError(f"could not load SAM checkpoint {weights}: {exc}") from exc
+
+    def _autocast(self) -> contextlib.AbstractContextManager[Any]:
+        """bf16 autocast around the model (fp16 is the model's own half precision)."""
+        if self.precision != "bf16":
+            return contextlib.nullcontext()
+        torch = importlib.import_module("torch")
+        device_type = "cuda" if str(self.device).startswith("cuda") else "cpu"
+        autocast: contextlib.AbstractContextManager[Any] = torch.autocast(
+            device_type=device_type, dtype=torch.bfloat16
+        )
+        return autocast
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)
@@ -102,13 +174,14 @@ class SamSegmenter(Segmenter):
         ]
 
         def run() -> list[Mask]:
-            self._encode(image)
             masks: dict[int, Mask] = {}
-            for indices, prompt in decodes:
-                if indices:  # the prompt decoder only: the embedding is the frame's
-                    answer = self._predictor(**prompt)
-                    found = _masks_by_prompt(answer, len(indices), (height, width))
-                    masks.update(zip(indices, found, strict=True))
+            with self._autocast():
+                self._encode(image)
+                for indices, prompt in decodes:
+                    if indices:  # the prompt decoder only: the embedding is the frame's
+                        answer = self._predictor(**prompt)
+                        found = _masks_by_prompt(answer, len(indices), (height, width))
+                        masks.update(zip(indices, found, strict=True))
             return [masks[i] for i in range(len(prompts))]
 
         try:
@@ -127,6 +200,14 @@ class SamSegmenter(Segmenter):
         self._encoded = None  # a failed encode leaves no embedding to trust
         self._predictor.set_image(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))  # ultralytics: BGR
         self._encoded = key
+
+
+def _cuda_available() -> bool:
+    try:
+        torch = importlib.import_module("torch")
+    except ImportError:
+        return False
+    return bool(torch.cuda.is_available())
 
 
 def _masks_by_prompt(results: Any, count: int, shape: tuple[int, int]) -> list[Mask]:

@@ -138,6 +138,7 @@ async def test_stop_mid_drive_pauses_and_continue_drives_again(tmp_path: Path) -
     assert mission.state == "paused"
     assert o.tools.called("navigation.stop_navigation") == [{}]
     o.world.drive_s = 0.05
+    await o.executor.latch.clear("operator", "checked")  # an operator clears the stop first
     await o.executor.on_user_turn("continue")
     await o.executor.wait_idle(10)
     assert mission.state == "succeeded", mission.summary

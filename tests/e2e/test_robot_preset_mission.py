@@ -3,9 +3,10 @@ Messages API (planner) and the OpenAI-compatible API (Groq fast path): every req
 brain sends must pass the checks the real APIs make. A stand-in model (the rules planner and
 rules chat behind the wire) answers as a model would.
 
-    mailroom mission through PlannerChain → AnthropicLLM → fake API (the robot goes round the
-    closed door by itself, found; no rejected request; cost from the price table) → then the fake API goes down mid
-    mission → the mission finishes on the rules planner, readyz reports degraded
+    mailroom mission through PlannerChain → AnthropicLLM → fake API (the robot goes round
+    the closed door by itself, found; no rejected request; cost from the price table) → then
+    the fake API goes down mid mission → the mission finishes on the rules planner, readyz
+    reports degraded
 """
 
 from __future__ import annotations

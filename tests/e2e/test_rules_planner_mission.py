@@ -5,9 +5,10 @@ camera topic showing the place the robot is in).
 
     hello → go to the kitchen → find the mug (the red mug on the counter) → fetch the package
     from the mailroom (robot-sim sees the west door closed and goes round by the east
-    entrance: one drive, a longer one → found) → find the mug (none in the mailroom) → what do you see → what did you see a minute ago / when did you last see the
-    yellow package / a giraffe (the episodic memory) → stop mid-drive → continue → Teach +
-    mission → save_process
+    entrance: one drive, a longer one → found) → find the mug (none in the mailroom) → what
+    do you see → what did you see a minute ago / when did you last see the yellow package /
+    a giraffe (the episodic memory) → stop mid-drive → continue → Teach + mission →
+    save_process
     → the same instruction again → the process is retrieved (trace + processes_retrieved log)
 """
 

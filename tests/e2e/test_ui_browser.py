@@ -2,8 +2,9 @@
 
 One local stack (deploy/local-stack.yaml on free ports) per scenario, because a replay
 recording and robot-sim's world (what the robot has seen of its doors) belong to one process
-life: the mailroom scenario runs on recorded planner replies, the stop/continue scenario on the dev preset as shipped (the offline
-rules planner, which replans from where the robot stopped). The test is the operator: it
+life: the mailroom scenario runs on recorded planner replies, the stop/continue scenario on
+the dev preset as shipped (the offline rules planner, which replans from where the robot
+stopped). The test is the operator: it
 clicks and types by role and name (the UI's test contract) and reads what the page shows.
 Screenshots of each state land in build/ui-screenshots/.
 """

@@ -173,8 +173,8 @@ export function MapView() {
                   cx={cx}
                   cy={cy}
                   r={(isDestination ? 9 : 6) * markerScale}
-                  className={isDestination ? 'fill-accent stroke-accent' : 'fill-surface stroke-muted'}
-                  strokeWidth={2}
+                  className={isDestination ? 'fill-surface stroke-accent' : 'fill-surface stroke-muted'}
+                  strokeWidth={isDestination ? 3 : 2}
                 />
                 <MapLabel x={lx} y={ly} anchor={anchor} className="fill-fg">
                   {name}

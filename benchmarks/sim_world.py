@@ -135,7 +135,10 @@ class CameraCounter:
         self.node.create_subscription(Image, "/camera/image_raw", self._on_image, CAMERA_QOS)
         # CameraInfo goes with every image and is small: its rate is the rate published
         self.node.create_subscription(
-            CameraInfo, "/camera/camera_info", lambda m: self.infos.append(time.monotonic()), 10
+            CameraInfo,
+            "/camera/camera_info",
+            lambda m: self.infos.append(time.monotonic()),
+            CAMERA_QOS,  # best effort, as the sim publishes it
         )
         self.navigate = ActionClient(self.node, NavigateToPose, "/navigate_to_pose")
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)

@@ -29,7 +29,6 @@ from robot_stack_testing.mission_driver import (
     PACKAGE_LABEL,
     MissionDriver,
     RunningStack,
-    call_mcp,
     mailroom_stack,
     seed_memory,
 )
@@ -137,7 +136,5 @@ async def test_the_robot_goes_round_the_closed_mailroom_door_and_finds_the_packa
     assert '"goal_aborted"' not in sim_log
 
     # Memory: the seeded process was retrieved and its outcome recorded.
-    process = await call_mcp(
-        stack.url("memory", "/sse"), "get_process", {"id": MAILROOM_PROCESS_ID}
-    )
+    process = await stack.call("memory", "get_process", {"id": MAILROOM_PROCESS_ID})
     assert (process["successes"], process["failures"]) == (1, 0), process

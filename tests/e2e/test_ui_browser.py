@@ -421,9 +421,15 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
 def approval_stack(tmp_path: Path) -> Iterator[RunningStack]:
     """The dev preset with a site policy that wants an operator's yes for every drive."""
     policy = tmp_path / "policy.yaml"
+    # navigation's reads listed as allowed: a motion server's unlisted tool asks (issue 27);
+    # the map panel reads the pose, places, map and plan, the brain its tasks, all the time
+    reads = "".join(
+        f"  navigation.{tool}: allow\n"
+        for tool in ("get_pose", "list_locations", "get_map", "get_plan", "get_task", "list_tasks")
+    )
     policy.write_text(
         "version: 1\ntools:\n  navigation.navigate_to:\n    decision: confirm\n"
-        "    reason: every drive needs a yes at this site\n"
+        "    reason: every drive needs a yes at this site\n" + reads
     )
     overrides = {
         **free_port_overrides(STACK_FILE),

@@ -185,6 +185,25 @@ def test_yolo_world_offline_fails_at_start_naming_the_offline_choice(
         GroundedSamGrounder(str(path), classes=["mug"])
 
 
+def test_a_corrupt_frame_is_still_skipped_after_ultralytics_is_imported(
+    tmp_path: Path, no_network: list[str]
+) -> None:
+    """ultralytics patches Pillow's Image.open to install pi-heif from the network on an
+    unreadable file; the adapter's import puts Pillow's own back, so the folder source skips
+    the file instead of losing its thread to ModuleNotFoundError."""
+    from robot_mcp_perception.frames import FolderFrameSource
+    from robot_mcp_perception.models._ultralytics import import_ultralytics
+
+    import_ultralytics()
+    corrupt = tmp_path / "b.png"
+    corrupt.write_bytes(b"\x89PNG\r\n\x1a\n not really a png")
+    source = FolderFrameSource(str(tmp_path))
+
+    assert source.read(corrupt) is None
+    assert source.skipped == [corrupt]
+    assert no_network == []
+
+
 def test_the_network_guard_itself_refuses_a_connection(no_network: list[str]) -> None:
     """The guard the tests above rely on fails a non-loopback connect (and records it)."""
     with socket.socket() as s, pytest.raises(OSError, match="network disabled"):

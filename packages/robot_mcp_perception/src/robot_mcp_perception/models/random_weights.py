@@ -26,6 +26,7 @@ from typing import Any
 from unittest import mock
 
 from robot_mcp_perception.models import _torch_env
+from robot_mcp_perception.models._ultralytics import restore_pillow
 
 SAM_BUILDERS = {
     "sam2.1_t.pt": ("ultralytics.models.sam.build", "build_sam2_t"),
@@ -45,6 +46,7 @@ def sam_checkpoint(directory: Path, name: str = "sam2.1_t.pt", seed: int = 0) ->
     torch = importlib.import_module("torch")
     module_name, builder_name = SAM_BUILDERS[name]
     module = importlib.import_module(module_name)
+    restore_pillow()  # importing the builder imported ultralytics
     path = Path(directory) / name
 
     def no_weights(model: Any, *args: Any, **kwargs: Any) -> Any:

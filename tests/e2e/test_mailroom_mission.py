@@ -27,7 +27,6 @@ from robot_stack_testing.mission_driver import (
     PACKAGE_LABEL,
     MissionDriver,
     RunningStack,
-    call_mcp,
     mailroom_stack,
     seed_memory,
 )
@@ -131,7 +130,5 @@ async def test_the_mailroom_mission_survives_a_closed_door_and_finds_the_package
     assert '"view": "mailroom"' in sim_log
 
     # Memory: the seeded process was retrieved and its outcome recorded.
-    process = await call_mcp(
-        stack.url("memory", "/sse"), "get_process", {"id": MAILROOM_PROCESS_ID}
-    )
+    process = await stack.call("memory", "get_process", {"id": MAILROOM_PROCESS_ID})
     assert (process["successes"], process["failures"]) == (1, 0), process

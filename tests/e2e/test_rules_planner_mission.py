@@ -126,6 +126,7 @@ async def questions_about_the_past(stack: RunningStack, label: str) -> None:
         answer = await call_mcp(
             episodic, "what_happened",
             {"start": "-90s", "end": "-30s", "kinds": ["sightings"], "max_items": 100},
+            token=stack.credentials["episodic"],
         )  # fmt: skip
         items = answer.get("items", []) if isinstance(answer, dict) else []
         return [i for i in items if i.get("kind") == "sighting" and i.get("place")]
@@ -193,7 +194,7 @@ async def teaching_round_trip(stack: RunningStack, tmp_path: Path) -> None:
         process_id = user.record.of("teaching_saved")[0]["process_id"]
     # the rules chat hands the planner its reading in the grammar's words ("go to reception")
     assert process_id == "go-to-reception"
-    saved: Any = await call_mcp(stack.url("memory", "/sse"), "get_process", {"id": process_id})
+    saved: Any = await stack.call("memory", "get_process", {"id": process_id})
     assert "navigation.navigate_to" in json.dumps(saved)
 
     again = await mission(stack, instruction)

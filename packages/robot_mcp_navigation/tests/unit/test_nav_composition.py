@@ -76,3 +76,20 @@ def test_the_process_refuses_to_start_on_a_bad_setting(monkeypatch: pytest.Monke
         server.main()
 
     assert exited.value.code == 2
+
+
+def test_over_http_the_process_refuses_to_start_without_its_credential(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """No navigation server runs open (issue 27): sse without MCP_AUTH_TOKEN is exit 2, before
+    anything drives."""
+    monkeypatch.setenv("MCP_TRANSPORT", "sse")
+    monkeypatch.delenv("MCP_AUTH_TOKEN", raising=False)
+    monkeypatch.delenv("MCP_AUTH", raising=False)
+    monkeypatch.setenv("NAV_OUTBOX", str(tmp_path / "outbox.sqlite3"))
+
+    with pytest.raises(SystemExit) as exited:
+        server.main()
+
+    assert exited.value.code == 2
+    assert not (tmp_path / "outbox.sqlite3").exists()  # refused before the app was built

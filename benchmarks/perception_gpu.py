@@ -1,12 +1,16 @@
-"""SAM and the on-board detector at speed (issue 30 item 5): one prepared script for a lent GPU.
+"""SAM and the on-board detector at speed (issue 30 items 5, 6): one prepared script for a lent GPU.
 
-Builds random-weight checkpoints itself (the libraries' own builders: quality needs real
-weights, speed does not), then per model times load, first call, a new frame and the same
-frame (decoder only) for 1, 5 and 20 box prompts (p50 / p90 over --repeats), and the OWLv2
-detector's frames per second; writes JSON to benchmarks/results/perception_gpu.json.
+Builds random-weight checkpoints itself (the libraries' own builders and configs: quality
+needs real weights, speed does not), then per model times load, first call, a new frame and
+the same frame (decoder only) for 1, 5 and 20 box prompts (p50 / p90 over --repeats), and the
+OWLv2 detector's frames per second; writes JSON to benchmarks/results/perception_gpu.json.
+Models: ultralytics' SAM 2.1 tiny / base+ and SAM 3 (AGPL-3.0, ``segmenter=sam``) and the same
+models through transformers (Apache-2.0, ``segmenter=hf_sam``): ``hf:sam2`` (SAM 2.1
+Hiera-tiny) and ``hf:sam3_tracker`` (SAM 3).
 
     uv run python benchmarks/perception_gpu.py                      # GPU: native sizes, all models
     uv run python benchmarks/perception_gpu.py --smoke              # CPU smoke (make test runs it)
+    uv run python benchmarks/perception_gpu.py --device cpu --models sam2.1_t.pt hf:sam2 --repeats 3
 
 Needs the model libraries (scripts/install-model-libs.sh or the [sam]/[hf] extras).
 """
@@ -15,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import statistics
 import tempfile
 import time
@@ -58,22 +63,32 @@ def summary(samples: list[float]) -> dict[str, float]:
 
 
 def bench_sam(name: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
+    """One model: ``sam2.1_t.pt`` … through ultralytics, ``hf:<family>`` through transformers."""
+    from robot_mcp_perception.models.hf_sam import HfSamSegmenter
     from robot_mcp_perception.models.sam import SamSegmenter
 
-    path = random_weights.sam_checkpoint(work, name)
-    load_ms = []
+    if name.startswith("hf:"):
+        family = name.removeprefix("hf:")
+        path = random_weights.hf_sam_folder(work / family, family, small=args.smoke)
+        segmenter: Any = HfSamSegmenter
+        library = "transformers (Apache-2.0)"
+    else:
+        path = random_weights.sam_checkpoint(work, name)
+        segmenter = SamSegmenter
+        library = "ultralytics (AGPL-3.0)"
     started = time.perf_counter()
-    sam = SamSegmenter(
+    sam = segmenter(
         str(path), device=args.device, imgsz=args.imgsz.get(name), precision=args.precision
     )
-    load_ms.append(1000 * (time.perf_counter() - started))
+    load_ms = 1000 * (time.perf_counter() - started)
     shots = frames(args.repeats + 2, args.height, args.width)
     first = timed(lambda: sam.segment_many(shots[0], boxes(1, args.height, args.width)))
     report: dict[str, Any] = {
+        "library": library,
         "imgsz": sam.imgsz,
         "precision": sam.precision,
         "tf32": sam.tf32,
-        "load_ms": round(load_ms[0], 1),
+        "load_ms": round(load_ms, 1),
         "first_call_ms": round(first, 1),
     }
     for n in args.prompts:
@@ -90,7 +105,10 @@ def bench_sam(name: str, args: argparse.Namespace, work: Path) -> dict[str, Any]
             "masks": [len(masks), list(masks[0].shape)],
         }
     sam.close()
-    path.unlink()
+    if path.is_dir():
+        shutil.rmtree(path)
+    else:
+        path.unlink()
     report["peak_gpu_mb"] = peak_gpu_mb()
     return report
 
@@ -134,22 +152,28 @@ def peak_gpu_mb() -> float | None:
     return round(torch.cuda.max_memory_allocated() / 2**20, 1)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+ALL_MODELS = ["sam2.1_t.pt", "sam2.1_b.pt", "sam3.pt", "hf:sam2", "hf:sam3_tracker"]
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--smoke", action="store_true", help="CPU, small sizes, SAM 2.1 tiny")
     parser.add_argument("--device", default=None)
     parser.add_argument("--precision", default="auto")
     parser.add_argument("--repeats", type=int, default=10)
+    parser.add_argument("--models", nargs="+", choices=ALL_MODELS, default=None)
+    parser.add_argument("--no-owlv2", action="store_true", help="skip the detector")
     parser.add_argument("--out", type=Path, default=RESULTS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     import torch
 
     args.device = args.device or ("cuda" if torch.cuda.is_available() else "cpu")
     args.height, args.width = (120, 160) if args.smoke else (480, 640)
     args.prompts = [1, 5] if args.smoke else [1, 5, 20]
     args.repeats = 2 if args.smoke else args.repeats
-    models = ["sam2.1_t.pt"] if args.smoke else ["sam2.1_t.pt", "sam2.1_b.pt", "sam3.pt"]
-    args.imgsz = dict.fromkeys(models, 256) if args.smoke else {}
+    smoke_models = ["sam2.1_t.pt", "hf:sam2"]  # hf:sam2 smoke: a small config at 64 px
+    models = args.models or (smoke_models if args.smoke else ALL_MODELS)
+    args.imgsz = {"sam2.1_t.pt": 256} if args.smoke else {}
     args.owl_size = 64 if args.smoke else 960
     report: dict[str, Any] = {
         "device": args.device,
@@ -163,11 +187,13 @@ def main() -> None:
         for name in models:
             report["models"][name] = bench_sam(name, args, Path(tmp))
             print(name, json.dumps(report["models"][name]))
-        report["owlv2"] = bench_owlv2(args, Path(tmp))
-        print("owlv2", json.dumps(report["owlv2"]))
+        if not args.no_owlv2:
+            report["owlv2"] = bench_owlv2(args, Path(tmp))
+            print("owlv2", json.dumps(report["owlv2"]))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=2))
     print(f"wrote {args.out}")
+    return report
 
 
 if __name__ == "__main__":

@@ -37,6 +37,29 @@ uv pip install --quiet --python "$venv" --no-deps -r "$requirements"
 # shellcheck disable=SC2086  # the pins are words
 uv pip install --quiet --python "$venv" --index "$index" \
   --index-strategy unsafe-best-match $torch_pin
+# Compile the modules the model adapters and their tests import, once: `uv pip` installs
+# without bytecode and PYTHONDONTWRITEBYTECODE may be set, so every test process would
+# otherwise compile torch, ultralytics and transformers from source again (~20 s each).
+env -u PYTHONDONTWRITEBYTECODE "$venv/bin/python" - <<'PY'
+import importlib
+
+for name in (
+    "torch", "torchvision", "timm", "scipy.optimize",
+    "ultralytics", "ultralytics.models.sam.build", "ultralytics.models.sam.build_sam3",
+    "ultralytics.models.sam.predict", "ultralytics.models.yolo.world",
+    "transformers", "transformers.models.owlv2.image_processing_pil_owlv2",
+    "transformers.models.owlv2.image_processing_owlv2", "transformers.models.clip.modeling_clip",
+    "transformers.models.sam3.modeling_sam3",
+):
+    importlib.import_module(name)
+transformers = importlib.import_module("transformers")
+for name in (
+    "AutoConfig", "CLIPTokenizer", "Owlv2Config", "Owlv2ForObjectDetection", "Owlv2Processor",
+    "Sam2Config", "Sam2Model", "Sam2Processor", "Sam2ImageProcessor",
+    "Sam3TrackerConfig", "Sam3TrackerModel", "Sam3TrackerProcessor", "Sam3ImageProcessor",
+):
+    getattr(transformers, name)
+PY
 rm -f "$venv"/.model-libs-*
 touch "$stamp"
 echo "install-model-libs: done in $((SECONDS - started)) s"

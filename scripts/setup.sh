@@ -14,6 +14,8 @@ command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
 command -v curl >/dev/null 2>&1 || need_apt+=(curl)
 command -v jq >/dev/null 2>&1 || need_apt+=(jq)
 command -v caddy >/dev/null 2>&1 || need_apt+=(caddy)  # deploy/Caddyfile, tests/deploy
+# robot-sim's camera renders with MuJoCo off-screen on the CPU through OSMesa (MUJOCO_GL=osmesa)
+compgen -G '/usr/lib/*/libOSMesa.so*' >/dev/null || need_apt+=(libosmesa6)
 # the memory tests start a throwaway PostgreSQL server (robot_stack_testing.postgres)
 compgen -G '/usr/lib/postgresql/*/bin/pg_ctl' >/dev/null || need_apt+=(postgresql)
 if ((${#need_apt[@]})); then

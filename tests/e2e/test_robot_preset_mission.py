@@ -4,8 +4,9 @@ brain sends must pass the checks the real APIs make. A stand-in model (the rules
 rules chat behind the wire) answers as a model would.
 
     fetch the package from the mailroom and bring it to reception through PlannerChain →
-    AnthropicLLM → fake API (door failure, detour, found, picked, carried, placed, seen at
-    reception — read from robot-sim; no rejected request; cost from the price table) → then
+    AnthropicLLM → fake API (the robot goes round the closed door by itself, found, picked,
+    carried, placed, seen at reception — read from robot-sim; no rejected request; cost from
+    the price table) → then
     the fake API goes down mid mission → the mission finishes on the rules planner, readyz
     reports degraded
 """
@@ -92,12 +93,11 @@ async def test_the_robot_preset_runs_the_mailroom_mission_through_strict_fake_ap
     assert not anthropic.rejections, anthropic.rejections
     assert not openai.rejections, openai.rejections
     assert len(openai.requests) >= 1  # the fast path handed off through the fake Groq
-    assert len(anthropic.requests) >= 8  # every planner step went through the fake API
+    assert len(anthropic.requests) >= 4  # every planner step went through the fake API
     tools = {t["name"] for t in anthropic.requests[0]["tools"]}
     assert {"navigation__navigate_to", "manipulation__pick", "manipulation__place"} <= tools
     statuses = {s["id"]: s["status"] for s in record.snapshot["steps"]}
-    assert statuses.pop("s1") == "failed"  # the closed door; then the detour
-    assert set(statuses.values()) == {"succeeded"}, statuses
+    assert set(statuses.values()) == {"succeeded"}, statuses  # robot-sim went round the door
     assert {f.label for f in record.findings()} == {"yellow package"}
     # the package is where robot-sim says it is, not where the summary says
     world = sim_world()

@@ -4,14 +4,14 @@ user at the brain's REST + Socket.IO. The robot is robot-sim over ROS (Nav2's ac
 camera topic showing the place the robot is in).
 
     hello → go to the kitchen → find the mug (the red mug on the counter) → fetch the package
-    from the mailroom and bring it to reception (Nav2 NO_VALID_PATH at the closed door →
-    NO_PATH from the real navigation server → detour via corridor_b → found → picked by
-    robot-sim's gripper → carried → placed → seen at reception; robot-sim's parameters say it
-    is there) → find the mug (none at reception) → what do you see → two injected grasp
-    failures (one retry, then the truth) → the arm's server stops (found, "can't carry it")
-    → what did you see a minute ago / when did you last see the yellow package / where is the
-    package now / a giraffe (the episodic memory) → stop mid-drive → continue → Teach +
-    mission → save_process
+    from the mailroom and bring it to reception (robot-sim sees the west door closed and goes
+    round by the east entrance: one drive, a longer one → found → picked by robot-sim's
+    gripper → carried → placed → seen at reception; robot-sim's parameters say it is there)
+    → find the mug (none at reception) → what do you see → two injected grasp failures (one
+    retry, then the truth) → the arm's server stops (found, "can't carry it") → what did you
+    see a minute ago / when did you last see the yellow package / where is the package now /
+    a giraffe (the episodic memory) → stop mid-drive → continue → Teach + mission →
+    save_process
     → the same instruction again → the process is retrieved (trace + processes_retrieved log)
 """
 
@@ -84,19 +84,13 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
 
     fetch = await mission(stack, FETCH, timeout_s=120.0)
     assert fetch.outcome == "succeeded", fetch.of("mission_finished")
-    assert statuses(fetch) == {
-        "s1": "failed",
-        **dict.fromkeys(("s1b", "s1c", *(f"s{n}" for n in range(2, 13))), "succeeded"),
-    }
-    steps = {s["id"]: s for s in fetch.snapshot["steps"]}
-    assert steps["s1"]["detail"].startswith("NO_PATH")  # Nav2's NO_VALID_PATH at the door
-    assert any("failed NO_PATH (recoverable)" in line for line in fetch.event_lines())
-    assert any("east entrance" in s["text"] for s in fetch.of("speak"))
+    assert set(statuses(fetch).values()) == {"succeeded"}
     drives = [
         json.loads(r["result"]).get("destination")
         for r in fetch.tool_results("navigation.navigate_to")
     ]
-    assert drives == ["mailroom", "corridor_b", "mailroom", "reception"]
+    assert drives == ["mailroom", "reception"]  # the detour is the robot's own
+    assert '"replans": 1' in stack.services["robot_sim"].log()
     assert {f.label for f in fetch.findings()} == {"yellow package"}
     # words = world: robot-sim's own parameters say where the package is now
     world = sim_world()

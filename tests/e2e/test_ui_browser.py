@@ -1,9 +1,10 @@
 """The operator UI in a real browser (Debian's chromium, launched by path) against real processes.
 
 One local stack (deploy/local-stack.yaml on free ports) per scenario, because a replay
-recording and the map's once-failure belong to one process life: the mailroom scenario runs on
-recorded planner replies, the stop/continue scenario on the dev preset as shipped (the offline
-rules planner, which replans from where the robot stopped). The test is the operator: it
+recording and robot-sim's world (what the robot has seen of its doors) belong to one process
+life: the mailroom scenario runs on recorded planner replies, the stop/continue scenario on
+the dev preset as shipped (the offline rules planner, which replans from where the robot
+stopped). The test is the operator: it
 clicks and types by role and name (the UI's test contract) and reads what the page shows.
 Screenshots of each state land in build/ui-screenshots/.
 """
@@ -123,13 +124,13 @@ def wait_servers_connected(stack: RunningStack, timeout_s: float = 60.0) -> None
 def camera_room(page: Page, stack: RunningStack) -> str:
     """The place whose robot-sim frame the Camera panel shows: the panel's image (fetched as
     the page fetches it; the live view draws the skills' overlays on the frame) compared with
-    every frame robot-sim saved — the closest one, by a clear margin."""
+    the frames robot-sim keeps — the closest one, by a clear margin over other places'."""
     return camera_view(page, stack)[0]
 
 
 def camera_view(page: Page, stack: RunningStack) -> tuple[str, list[str]]:
-    """(room, labels): the closest saved frame's place, by a clear margin over other places,
-    and what its annotation says stands there (views of one place differ only in contents)."""
+    """(room, labels): the closest kept frame's place, by a clear margin over other places',
+    and what its annotation says is in view (views of one place differ in their contents)."""
     import cv2
     import numpy as np
 
@@ -153,9 +154,9 @@ def camera_view(page: Page, stack: RunningStack) -> tuple[str, list[str]]:
         reverse=True,
     )
     best, room, path = scores[0]
-    second = next((score for score, other, _ in scores if other != room), 0.0)
+    elsewhere = max((score for score, name, _ in scores if name != room), default=0.0)
     assert best > 0.8, scores[:3]
-    assert best - second > 0.15, scores[:3]
+    assert best - elsewhere > 0.15, scores[:3]  # frames on the way in look alike; rooms do not
     annotation = json.loads(path.with_suffix(".json").read_text())
     return room, [str(a["label"]) for a in annotation.get("annotations", [])]
 
@@ -203,7 +204,7 @@ def stack(tmp_path: Path) -> Iterator[RunningStack]:
         yield running
 
 
-def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
+def test_the_operator_watches_the_robot_go_round_the_closed_door_and_finish(
     browser: Browser, stack: RunningStack
 ) -> None:
     page, errors = open_ui(browser, stack.brain_url)
@@ -217,7 +218,12 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
         20.0,
         "a camera frame",
     )
-    expect(page.get_by_role("region", name="Map").locator("[data-testid=robot]")).to_be_attached()
+    map_region = page.get_by_role("region", name="Map")
+    expect(map_region.locator("[data-testid=robot]")).to_be_attached()
+    expect(map_region.get_by_test_id("floor-plan")).to_be_attached(timeout=20_000)  # /map
+    expect(map_region).not_to_contain_text("desk_alice")  # places by the names people use
+    expect(map_region.get_by_role("button", name="Go to Alice's desk")).to_be_attached()
+    expect(map_region.get_by_test_id("blocked")).to_have_count(0)  # no door seen closed yet
     for p in (page, tablet):
         shoot(p, "01-idle")
 
@@ -230,8 +236,8 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     expect(page.get_by_text("Teaching next mission")).to_be_hidden()
 
     # Clicking a place fills the message box, without sending.
-    page.get_by_role("button", name="Go to kitchen").click()
-    expect(page.get_by_role("textbox", name="Message")).to_have_value("Go to kitchen")
+    page.get_by_role("button", name="Go to Kitchen").click()
+    expect(page.get_by_role("textbox", name="Message")).to_have_value("Go to Kitchen")
 
     start = robot_xy(page)
     send(page, MAILROOM_REQUEST)
@@ -239,39 +245,34 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     expect(step(page, "s1")).to_be_visible(timeout=STEP_TIMEOUT_MS)
     expect(page.get_by_role("region", name="Mission")).to_contain_text("Fetch the package")
     wait_until(lambda: robot_xy(page) != start, 30.0, "the robot marker to move")
+    plan = map_region.get_by_test_id("plan")  # /plan, drawn while the robot drives
+    expect(plan).to_be_attached(timeout=20_000)
     shoot(page, "03-driving")
     shoot(tablet, "03-driving")
 
-    expect(step(page, "s1")).to_have_attribute("data-status", "failed", timeout=STEP_TIMEOUT_MS)
-    expect(step(page, "s1")).to_contain_text("NO_PATH")  # Nav2's NO_VALID_PATH at the door
-    expect(step(page, "s1b")).to_be_visible(timeout=STEP_TIMEOUT_MS)
-    expect(step(page, "s1c")).to_be_visible()
-    shoot(page, "04-replanned")
+    # The robot sees the mailroom's west door closed (its costmap): the map marks the way
+    # blocked and the plan swings round by the east corridor.
+    expect(map_region.get_by_test_id("blocked")).to_have_count(1, timeout=STEP_TIMEOUT_MS)
+    wait_until(lambda: robot_xy(page)[0] > 17.5, 60.0, "the robot in the east corridor")
+    shoot(page, "04-detour")
+    shoot(tablet, "04-detour")
 
     # A reload mid-mission rehydrates from REST (the instruction is not in any snapshot).
     tablet.reload()
     expect(tablet.get_by_role("region", name="Mission")).to_contain_text("Fetch the package")
-    expect(step(tablet, "s1")).to_have_attribute("data-status", "failed")
-    expect(tablet.get_by_role("region", name="Activity")).to_contain_text("task")
+    expect(step(tablet, "s1")).to_be_visible()
     shoot(tablet, "05-rehydrated")
 
     summary = page.get_by_role("article", name="Mission summary")
     expect(summary.first).to_be_visible(timeout=STEP_TIMEOUT_MS)
     expect(summary.first).to_contain_text("succeeded")
-    page.get_by_text("7 steps").click()
+    page.get_by_text("5 steps").click()
     final = {
         li.get_attribute("data-step-id"): li.get_attribute("data-status")
         for li in summary.first.get_by_role("listitem").all()
     }
-    assert final == {
-        "s1": "failed",
-        "s1b": "succeeded",
-        "s1c": "succeeded",
-        "s2": "succeeded",
-        "s3": "succeeded",
-        "s4": "succeeded",
-        "s5": "succeeded",
-    }
+    assert final == {f"s{i}": "succeeded" for i in range(1, 6)}
+    expect(plan).to_have_count(0)  # standing: no plan drawn
     expect(page.get_by_role("region", name="Mission")).to_contain_text("No mission running")
     # The camera panel shows robot-sim's view of the room the robot stands in.
     assert camera_room(page, stack) == "mailroom"
@@ -428,9 +429,15 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
 def approval_stack(tmp_path: Path) -> Iterator[RunningStack]:
     """The dev preset with a site policy that wants an operator's yes for every drive."""
     policy = tmp_path / "policy.yaml"
+    # navigation's reads listed as allowed: a motion server's unlisted tool asks (issue 27);
+    # the map panel reads the pose, places, map and plan, the brain its tasks, all the time
+    reads = "".join(
+        f"  navigation.{tool}: allow\n"
+        for tool in ("get_pose", "list_locations", "get_map", "get_plan", "get_task", "list_tasks")
+    )
     policy.write_text(
         "version: 1\ntools:\n  navigation.navigate_to:\n    decision: confirm\n"
-        "    reason: every drive needs a yes at this site\n"
+        "    reason: every drive needs a yes at this site\n" + reads
     )
     overrides = {
         **free_port_overrides(STACK_FILE),

@@ -39,6 +39,10 @@ def receiver(tcp_port: int) -> Iterator[EventReceiver]:
         yield recv
 
 
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
+"""The office places with a scripted closed mailroom door (the in-process simulated base)."""
+
+
 def start_navigation(
     launcher: ProcessLauncher,
     receiver: EventReceiver,
@@ -47,6 +51,7 @@ def start_navigation(
     transport: str,
     **extra_env: str,
 ) -> LaunchedProcess:
+
     env = {
         "MCP_TRANSPORT": transport,
         "MCP_AUTH_TOKEN": TOKEN,
@@ -122,7 +127,7 @@ async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
-    start_navigation(launcher, receiver, port, tmp_path, "sse")
+    start_navigation(launcher, receiver, port, tmp_path, "sse", NAV_MAP=str(CLOSED_DOOR_MAP))
 
     async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", TOKEN)) as client:
         first = payload(await client.call_tool("navigate_to", {"location": "mailroom"}))

@@ -32,6 +32,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SECRET = "nav2-integration-secret"
 DOOR = "17,3,208,The mailroom door is closed."  # the office map's mailroom
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
 
 
 @pytest.fixture
@@ -120,7 +121,8 @@ async def test_abort_is_task_failed_with_the_mapped_code_and_the_maps_detour(
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     start_nav2(launcher, "--speed", "6", "--abort", DOOR)
-    port = start_navigation(launcher, receiver, tmp_path)
+    # a map whose failures: entry names the detour (the shipped office map has none)
+    port = start_navigation(launcher, receiver, tmp_path, NAV_MAP=str(CLOSED_DOOR_MAP))
     async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = answer(await client.call_tool("navigate_to", {"location": "mailroom"}))
         await async_wait_until(lambda: receiver.terminal(info["task_id"]), 60, "task_failed")

@@ -18,7 +18,7 @@ from typing import Any
 
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
-from hydra.errors import HydraException
+from hydra.errors import HydraException, InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
@@ -26,7 +26,7 @@ from pydantic import ValidationError
 
 from robot_mcp_perception.frames import FolderFrameSource, FrameSource, FrameSourceError
 from robot_mcp_perception.logging_setup import configure_logging
-from robot_mcp_perception.models.base import Grounder, Segmenter
+from robot_mcp_perception.models.base import Grounder, ModelUnavailableError, Segmenter
 from robot_mcp_perception.models.chain import FallbackGrounder
 from robot_mcp_perception.pipelines.common import PipelineSettings
 from robot_mcp_perception.runtime import Runtime
@@ -129,7 +129,12 @@ def instantiate_adapter(block: DictConfig, port: Any, group: str = "") -> Any:
         adapter = instantiate(params, _convert_="all")
     except Exception as error:  # start-up boundary: any adapter constructor failure
         where = f"{group}: " if group else ""
-        raise ConfigError(f"{where}cannot build {params.get('_target_')!s}: {error}") from error
+        cause = error.__cause__ if isinstance(error, InstantiationException) else None
+        if isinstance(cause, ModelUnavailableError):  # already says what to set
+            raise ConfigError(f"{where}{cause}") from error
+        raise ConfigError(
+            f"{where}cannot build {params.get('_target_')!s}: {cause or error}"
+        ) from error
     if not isinstance(adapter, port):
         raise ConfigError(f"{params.get('_target_')!s} is not a {port.__name__}")
     if isinstance(adapter, Grounder | Segmenter):

@@ -26,7 +26,12 @@ ROS_PARAMETERS = (
 
 
 class StartupError(RuntimeError):
-    """The node cannot start as configured; the message names the problem (exit code 2)."""
+    """The node cannot start as configured; the message names the problem (exit code 2).
+
+    The message is one line: causes that span lines (Hydra's errors do) are joined."""
+
+    def __init__(self, message: object = "") -> None:
+        super().__init__(" ".join(str(message).split()))
 
 
 class _Strict(BaseModel):

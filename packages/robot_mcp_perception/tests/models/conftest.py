@@ -8,6 +8,7 @@ Nothing may leave the machine: :func:`no_network` fails any non-loopback connect
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import ipaddress
 import os
@@ -42,8 +43,8 @@ def _loopback(host: Any) -> bool:
         return False
 
 
-@pytest.fixture
-def no_network(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
+@contextlib.contextmanager
+def network_disabled() -> Iterator[list[str]]:
     """Any attempt to reach beyond loopback (connect or name lookup) fails and is recorded."""
     attempts: list[str] = []
     real_connect = socket.socket.connect
@@ -62,9 +63,16 @@ def no_network(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
             raise socket.gaierror(f"network disabled in this test: lookup of {host!r}")
         return real_getaddrinfo(host, *args, **kwargs)
 
-    monkeypatch.setattr(socket.socket, "connect", connect)
-    monkeypatch.setattr(socket, "getaddrinfo", getaddrinfo)
-    return attempts
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(socket.socket, "connect", connect)
+        patch.setattr(socket, "getaddrinfo", getaddrinfo)
+        yield attempts
+
+
+@pytest.fixture
+def no_network() -> Iterator[list[str]]:
+    with network_disabled() as attempts:
+        yield attempts
 
 
 @pytest.fixture(scope="session")

@@ -37,9 +37,13 @@ def test_the_model_libraries_are_installed_where_ci_runs() -> None:
 
 
 @pytest.fixture(scope="module")
-def sam21(checkpoints: Path) -> SamSegmenter:
-    path = random_weights.sam_checkpoint(checkpoints, "sam2.1_t.pt")
-    return SamSegmenter(str(path), device="cpu", imgsz=256)
+def sam21_path(checkpoints: Path) -> Path:
+    return random_weights.sam_checkpoint(checkpoints, "sam2.1_t.pt")
+
+
+@pytest.fixture(scope="module")
+def sam21(sam21_path: Path) -> SamSegmenter:
+    return SamSegmenter(str(sam21_path), device="cpu", imgsz=256)
 
 
 def test_sam21_through_ultralytics_gives_one_full_frame_mask_per_prompt(
@@ -69,12 +73,11 @@ def test_sam21_masks_keep_shape_and_count_in_bf16(sam21: SamSegmenter) -> None:
 
 
 def test_sam_sizes_default_to_each_models_native_size_and_refuse_off_stride_sizes(
-    checkpoints: Path,
+    checkpoints: Path, sam21_path: Path
 ) -> None:
-    path = random_weights.sam_checkpoint(checkpoints, "sam2.1_t.pt")
-    assert SamSegmenter(str(path), device="cpu").imgsz == 1024
+    assert SamSegmenter(str(sam21_path), device="cpu").imgsz == 1024
     with pytest.raises(ValueError, match=r"segmenter\.imgsz 1000 .* multiple of 16"):
-        SamSegmenter(str(path), device="cpu", imgsz=1000)
+        SamSegmenter(str(sam21_path), device="cpu", imgsz=1000)
     sam3 = checkpoints / "off" / "sam3.pt"
     sam3.parent.mkdir(exist_ok=True)
     sam3.write_bytes(b"not read: the size is checked first")
@@ -100,6 +103,13 @@ def test_sam3_through_ultralytics_segments_box_prompts_at_a_small_size(
     assert no_network == []
 
 
+@pytest.fixture(scope="module")
+def ultralytics_sam21(sam21_path: Path) -> Any:
+    from robot_mcp_perception.models._ultralytics import import_ultralytics
+
+    return import_ultralytics().SAM(str(sam21_path))
+
+
 @pytest.mark.parametrize(
     ("prompt", "error"),
     [
@@ -110,15 +120,14 @@ def test_sam3_through_ultralytics_segments_box_prompts_at_a_small_size(
     ids=["no-image", "ragged-points", "labels-mismatch"],
 )
 def test_the_fake_sam_predictor_rejects_what_the_real_one_rejects(
-    checkpoints: Path, prompt: dict[str, Any], error: type[Exception]
+    sam21_path: Path, ultralytics_sam21: Any, prompt: dict[str, Any], error: type[Exception]
 ) -> None:
-    from robot_mcp_perception.models._ultralytics import import_ultralytics, sam_predictor
+    from robot_mcp_perception.models._ultralytics import sam_predictor
 
     fakes = _fast_test_module("test_models_sam.py")  # the fake the fast unit tests use
 
-    ultralytics = import_ultralytics()
-    path = str(random_weights.sam_checkpoint(checkpoints, "sam2.1_t.pt"))
-    real = sam_predictor(ultralytics.SAM(path), path, "cpu", 256)
+    path = str(sam21_path)
+    real = sam_predictor(ultralytics_sam21, path, "cpu", 256)  # a fresh predictor: no image
     fake = fakes.FakeSamPredictor()
     fake.setup_model(fakes.FakeSAM(path).model)
     for predictor in (real, fake):
@@ -176,6 +185,25 @@ def test_yolo_world_offline_fails_at_start_naming_the_offline_choice(
         GroundedSamGrounder(str(path), classes=["mug"])
 
 
+def test_a_corrupt_frame_is_still_skipped_after_ultralytics_is_imported(
+    tmp_path: Path, no_network: list[str]
+) -> None:
+    """ultralytics patches Pillow's Image.open to install pi-heif from the network on an
+    unreadable file; the adapter's import puts Pillow's own back, so the folder source skips
+    the file instead of losing its thread to ModuleNotFoundError."""
+    from robot_mcp_perception.frames import FolderFrameSource
+    from robot_mcp_perception.models._ultralytics import import_ultralytics
+
+    import_ultralytics()
+    corrupt = tmp_path / "b.png"
+    corrupt.write_bytes(b"\x89PNG\r\n\x1a\n not really a png")
+    source = FolderFrameSource(str(tmp_path))
+
+    assert source.read(corrupt) is None
+    assert source.skipped == [corrupt]
+    assert no_network == []
+
+
 def test_the_network_guard_itself_refuses_a_connection(no_network: list[str]) -> None:
     """The guard the tests above rely on fails a non-loopback connect (and records it)."""
     with socket.socket() as s, pytest.raises(OSError, match="network disabled"):
@@ -208,21 +236,23 @@ def _count_encodes(sam: SamSegmenter) -> Any:
 
 
 def test_the_gpu_benchmark_runs_on_the_cpu_in_smoke_mode(tmp_path: Path) -> None:
+    """The script's own entry point, in this process (the libraries are imported already)."""
     import json
-    import subprocess
-    import sys
 
     script = Path(__file__).parents[4] / "benchmarks" / "perception_gpu.py"
+    spec = importlib.util.spec_from_file_location("perception_gpu", script)
+    assert spec is not None
+    assert spec.loader is not None
+    benchmark = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(benchmark)
     out = tmp_path / "perception_gpu.json"
-    done = subprocess.run(
-        [sys.executable, str(script), "--smoke", "--device", "cpu", "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
+
+    benchmark.main(["--smoke", "--device", "cpu", "--out", str(out)])
+
     report = json.loads(out.read_text())
-    sam = report["models"]["sam2.1_t.pt"]
-    assert sam["5_prompts"]["masks"] == [5, [120, 160]]
+    assert set(report["models"]) == {"sam2.1_t.pt", "hf:sam2"}
+    for model in report["models"].values():
+        assert model["5_prompts"]["masks"] == [5, [120, 160]]
+        assert model["5_prompts"]["same_frame"]["p50_ms"] > 0
+    assert report["models"]["hf:sam2"]["library"] == "transformers (Apache-2.0)"
     assert report["owlv2"]["fps"] > 0

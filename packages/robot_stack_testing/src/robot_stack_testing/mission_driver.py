@@ -45,7 +45,8 @@ tags: [mailroom, package, fetch]
 2. instantiate_skill(find_object, query = the package), then perception.wait_for_result
 3. stop_skill when done, tell the user
 ## Pitfalls & fixes
-- The mailroom door may be closed (DOOR_CLOSED): use the east entrance via corridor_b.
+- The mailroom's west door may be closed: the robot goes round by the east entrance itself;
+  if both are closed (NO_PATH), ask someone to open a door.
 ## Operator notes
 - none
 """

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import PIL.Image
 
 from robot_mcp_perception.models import _torch_env
 from robot_mcp_perception.models.base import ModelUnavailableError
@@ -24,9 +25,25 @@ def import_ultralytics() -> Any:
     if "ultralytics" not in sys.modules:
         _torch_env.prepare()
     try:
-        return importlib.import_module("ultralytics")
+        module = importlib.import_module("ultralytics")
     except ImportError as exc:
         raise ModelUnavailableError(f"ultralytics is not installed; {INSTALL_HINT}") from exc
+    restore_pillow()
+    return module
+
+
+def restore_pillow() -> None:
+    """Put Pillow's own ``Image.open`` back after importing ultralytics.
+
+    ultralytics replaces ``PIL.Image.open`` process-wide (``ultralytics.utils.patches``) with
+    a wrapper that, on the first file Pillow cannot identify, installs ``pi-heif`` from the
+    network and imports it. The node reads its frames with Pillow: one corrupt frame would
+    then try a download at run time and, offline, end the frame thread with
+    ``ModuleNotFoundError`` instead of skipping the file."""
+    patches = sys.modules.get("ultralytics.utils.patches")
+    original = getattr(patches, "_image_open", None)
+    if original is not None and PIL.Image.open is not original:
+        PIL.Image.open = original
 
 
 def checked_weights(path: str, config_key: str, env_var: str) -> Path:

@@ -13,19 +13,17 @@ start-up error naming the file and the setting.
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robot_mcp_perception.models import _torch_env
+from robot_mcp_perception.models import _hf
 from robot_mcp_perception.models._checks import check_image
-from robot_mcp_perception.models.base import Image, ModelError, ModelUnavailableError
+from robot_mcp_perception.models.base import Image, ModelError
 from robot_mcp_perception.models.open_vocabulary import Detection, OpenVocabularyGrounder
 
-HF_HINT = "install the [hf] extra: `uv sync --extra hf` (pip install 'robot-mcp-perception[hf]')"
-SETTING = "the grounder's `weights` (GROUNDER_WEIGHTS)"
+SETTING = "GROUNDER_WEIGHTS (the detector's `weights` setting)"
 REQUIRED = {
     "model config": ("config.json",),
     "model weights": ("model.safetensors", "pytorch_model.bin"),
@@ -35,31 +33,8 @@ REQUIRED = {
 
 
 def checked_model_dir(path: str, setting: str = SETTING) -> Path:
-    """The local model folder; a clear error naming the setting and any missing file."""
-    if not path or not str(path).strip():
-        raise ModelUnavailableError(
-            f"no detector folder configured: set {setting} to a local folder holding the "
-            "model, its tokenizer and processor (save_pretrained output)"
-        )
-    folder = Path(path).expanduser()
-    if not folder.is_dir():
-        raise ModelUnavailableError(f"detector folder {folder} does not exist (set by {setting})")
-    for part, names in REQUIRED.items():
-        if not any((folder / name).is_file() for name in names):
-            raise ModelUnavailableError(
-                f"detector folder {folder} (set by {setting}) has no {part}: expected "
-                + " or ".join(names)
-            )
-    return folder
-
-
-def import_transformers() -> Any:
-    """``transformers``, imported on first use (offline); a clear error when it is absent."""
-    _torch_env.prepare()
-    try:
-        return importlib.import_module("transformers")
-    except ImportError as exc:
-        raise ModelUnavailableError(f"transformers is not installed; {HF_HINT}") from exc
+    """The local detector folder; a clear error naming the setting and any missing file."""
+    return _hf.checked_model_dir(path, setting, REQUIRED, "detector folder")
 
 
 class Owlv2Grounder(OpenVocabularyGrounder):
@@ -72,7 +47,7 @@ class Owlv2Grounder(OpenVocabularyGrounder):
         max_targets: int = 20,
     ) -> None:
         folder = checked_model_dir(weights)
-        transformers = import_transformers()
+        transformers = _hf.import_transformers()
         import torch
 
         super().__init__(classes, "owlv2")

@@ -18,31 +18,31 @@ ultralytics drops masks scoring below ``conf`` and numbers the rest by prompt (`
 masks are matched to prompts by that number, and a prompt whose mask was dropped gets an
 empty mask (never a neighbour's).
 
-Speed settings (issue 30), chosen in config:
+Speed settings (issue 30), chosen in config (:mod:`._sam_settings`, shared with the
+transformers segmenter :mod:`.hf_sam`):
 
 - ``imgsz``: the encoder's input size; ``null`` picks the model's native size (SAM 3: 1008,
   SAM / SAM 2.x: 1024). A size that is not a multiple of the model's patch stride (SAM 3: 14,
   others: 16) is refused at start-up — ultralytics would round it and warn on every call.
-- ``precision``: ``fp32``; ``bf16`` (``torch.autocast`` around encoder and decoder: CUDA or
-  CPU); ``fp16`` (ultralytics' own half-precision model, CUDA only); ``auto`` (default): bf16 on
-  CUDA, fp32 on the CPU. Masks keep their shape and count whatever the precision.
-- ``tf32`` (default true): TensorFloat-32 matmuls/convolutions for the fp32 parts on CUDA
-  (process-wide torch setting; no effect on the CPU).
+- ``precision``: ``fp32``; ``bf16`` (autocast); ``fp16`` (ultralytics' own half-precision
+  model, CUDA only); ``auto`` (default): bf16 on CUDA, fp32 on the CPU. Masks keep their
+  shape and count whatever the precision.
+- ``tf32`` (default true): TensorFloat-32 for the fp32 parts on CUDA.
 - All boxes of a frame go to the decoder in one batch (above).
 """
 
 from __future__ import annotations
 
-import contextlib
-import importlib
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import cv2
 import numpy as np
 
+from robot_mcp_perception.models import _sam_settings
 from robot_mcp_perception.models._checks import check_image, check_points, clip_box
+from robot_mcp_perception.models._sam_settings import Precision
 from robot_mcp_perception.models._ultralytics import (
     checked_weights,
     frame_key,
@@ -61,7 +61,6 @@ from robot_mcp_perception.models.base import (
     SegmentPrompt,
 )
 
-Precision = Literal["auto", "fp32", "bf16", "fp16"]
 NATIVE_IMGSZ = {"sam3": 1008, "sam": 1024}
 """The encoder input size each model family was trained at (SAM 3: 72 × 14-px patches)."""
 PATCH_STRIDE = {"sam3": 14, "sam": 16}
@@ -76,16 +75,9 @@ def checked_imgsz(imgsz: int | None, checkpoint: str) -> int:
     """The encoder input size: the model's native one by default; a size that is not a
     multiple of the model's stride is refused (ultralytics would round it and warn per call)."""
     family = model_family(checkpoint)
-    if imgsz is None:
-        return NATIVE_IMGSZ[family]
-    stride = PATCH_STRIDE[family]
-    if imgsz <= 0 or imgsz % stride:
-        native = NATIVE_IMGSZ[family]
-        raise ValueError(
-            f"segmenter.imgsz {imgsz} is not a positive multiple of {stride} (the patch stride "
-            f"of {Path(checkpoint).name}); use {native} (native) or another multiple of {stride}"
-        )
-    return imgsz
+    return _sam_settings.checked_imgsz(
+        imgsz, NATIVE_IMGSZ[family], PATCH_STRIDE[family], Path(checkpoint).name
+    )
 
 
 class SamSegmenter(Segmenter):
@@ -101,24 +93,14 @@ class SamSegmenter(Segmenter):
     ) -> None:
         weights = checked_weights(checkpoint, "segmenter.checkpoint", "SAM_CHECKPOINT")
         self.imgsz = checked_imgsz(imgsz, str(weights))
-        if precision not in ("auto", "fp32", "bf16", "fp16"):
-            raise ValueError(f"segmenter.precision must be auto, fp32, bf16 or fp16: {precision!r}")
-        cuda = str(device).startswith("cuda")
-        if precision == "fp16" and not cuda:
-            raise ValueError("segmenter.precision fp16 needs a CUDA device (use bf16 or fp32)")
-        auto: Precision = "bf16" if cuda and _cuda_available() else "fp32"
-        self.precision: Precision = auto if precision == "auto" else precision
+        self.precision: Precision = _sam_settings.resolved_precision(precision, device)
         ultralytics = import_ultralytics()
-        self.tf32 = tf32 and cuda
-        if self.tf32:
-            torch = importlib.import_module("torch")
-            torch.backends.cuda.matmul.allow_tf32 = True
-            torch.backends.cudnn.allow_tf32 = True
+        self.tf32 = _sam_settings.enable_tf32(tf32, device)
         self.checkpoint = str(weights)
         self.device = device
         self._encoded: bytes | None = None  # frame_key of the embedding the predictor holds
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sam")
-        half = self.precision == "fp16"
+        half = self.precision == "fp16"  # ultralytics' own half model, not autocast
 
         def load() -> Any:
             model = ultralytics.SAM(self.checkpoint)
@@ -129,17 +111,6 @@ class SamSegmenter(Segmenter):
         except Exception as exc:  # the library boundary: any load failure is "unavailable"
             self._pool.shutdown(wait=False)
             raise ModelError(f"could not load SAM checkpoint {weights}: {exc}") from exc
-
-    def _autocast(self) -> contextlib.AbstractContextManager[Any]:
-        """bf16 autocast around the model (fp16 is the model's own half precision)."""
-        if self.precision != "bf16":
-            return contextlib.nullcontext()
-        torch = importlib.import_module("torch")
-        device_type = "cuda" if str(self.device).startswith("cuda") else "cpu"
-        autocast: contextlib.AbstractContextManager[Any] = torch.autocast(
-            device_type=device_type, dtype=torch.bfloat16
-        )
-        return autocast
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)
@@ -158,24 +129,20 @@ class SamSegmenter(Segmenter):
         height, width = check_image(image)
         if not prompts:
             return []
-        boxed = [i for i, p in enumerate(prompts) if p.box is not None]
-        pointed = [i for i, p in enumerate(prompts) if p.box is None]
-        boxes = [list(clip_box(prompts[i].box, width, height)) for i in boxed]  # type: ignore[arg-type]
-        lists = [
-            [list(pt) for pt in check_points(prompts[i].points, width, height)] for i in pointed
-        ]
-        most = max((len(pts) for pts in lists), default=0)
-        points = [pts + [pts[0]] * (most - len(pts)) for pts in lists]
-        labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in lists]
+        batches = _sam_settings.prompt_batches(prompts, width, height)
+        most = max((len(pts) for pts in batches.points), default=0)
+        points = [pts + [pts[0]] * (most - len(pts)) for pts in batches.points]
+        labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in batches.points]
 
         decodes: list[tuple[list[int], dict[str, Any]]] = [
-            (boxed, {"bboxes": boxes}),
-            (pointed, {"points": points, "labels": labels}),
+            (batches.boxed, {"bboxes": [list(box) for box in batches.boxes]}),
+            (batches.pointed, {"points": points, "labels": labels}),
         ]
 
         def run() -> list[Mask]:
             masks: dict[int, Mask] = {}
-            with self._autocast():
+            bf16: Precision = "bf16" if self.precision == "bf16" else "fp32"  # fp16: half model
+            with _sam_settings.autocast(bf16, self.device):
                 self._encode(image)
                 for indices, prompt in decodes:
                     if indices:  # the prompt decoder only: the embedding is the frame's
@@ -200,14 +167,6 @@ class SamSegmenter(Segmenter):
         self._encoded = None  # a failed encode leaves no embedding to trust
         self._predictor.set_image(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))  # ultralytics: BGR
         self._encoded = key
-
-
-def _cuda_available() -> bool:
-    try:
-        torch = importlib.import_module("torch")
-    except ImportError:
-        return False
-    return bool(torch.cuda.is_available())
 
 
 def _masks_by_prompt(results: Any, count: int, shape: tuple[int, int]) -> list[Mask]:

@@ -137,4 +137,4 @@ def test_the_shipped_navigation_entry_lists_its_reads_for_the_latch() -> None:
 
     navigation = next(s for s in compose_config("dev").tools.servers if s.name == "navigation")
     assert navigation.motion is True
-    assert set(navigation.read_tools) == {"get_pose", "list_locations"}
+    assert set(navigation.read_tools) == {"get_pose", "list_locations", "get_map", "get_plan"}

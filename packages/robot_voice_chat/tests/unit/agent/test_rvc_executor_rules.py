@@ -391,3 +391,19 @@ async def test_a_running_vision_node_that_saw_nothing_still_says_so(tmp_path: Pa
     o.tools.add("skill_control.list_running_skills", lambda a: {"skills": []})
     mission = await o.run("find the scissors in the kitchen")
     assert mission.summary == "I couldn't see the scissors in the kitchen."
+
+
+async def test_a_sentence_that_failed_while_navigation_was_down_works_once_it_is_back(
+    tmp_path: Path,
+) -> None:
+    """Issue 31: the same words after the cause is gone are planned afresh, not replayed."""
+    o = office(tmp_path)
+    o.tools.states["navigation"] = "disconnected"  # killed: its tools are gone
+    failed = await o.run("go to the kitchen")
+    assert failed.state == "failed"
+    assert "navigation" in failed.summary
+    await o.tools.reconnected("navigation")
+    mission = await o.run("go to the kitchen")
+    assert mission.state == "succeeded", mission.summary
+    assert o.world.at == "kitchen"
+    assert o.tools.called("navigation.navigate_to") == [{"location": "kitchen"}]

@@ -143,6 +143,7 @@ class MissionProgram:
         self.own_drives: set[str] = set(own_drives or ())
         self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
         self.doing = ""  # what the robot is busy with, for those answers
+        self.told_busy: str | None = None  # the activity the busy answer was said for
         self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
         self.timeouts = 0  # "[timeout] still waiting" wakeups seen
 
@@ -162,15 +163,23 @@ class MissionProgram:
     def act(self, *calls: Call, text: str = "") -> Steps:
         """One planner step; a person who spoke since the last one is answered with it (a
         brief ``say``, spec §5.1), and the callers see the results of their own calls only."""
-        answer = [Call("say", {"text": self.busy_answer()})] if self.user_turns else []
+        answer = []
+        if self.user_turns and self.told_busy != self.activity():
+            # said once per activity: every turn already got its own answer on screen, and
+            # twenty messages must not make the robot say the same thing twenty times
+            answer = [Call("say", {"text": self.busy_answer()})]
+            self.told_busy = self.activity()
         self.user_turns.clear()
         observation: Observation = yield Act([*answer, *calls], text)
         self.absorb(observation)
         return observation.results[len(answer) :]
 
+    def activity(self) -> str:
+        return self.doing or f"working on: {self.command.text.strip()}"
+
     def busy_answer(self) -> str:
         heard = self.user_turns[-1]
-        doing = self.doing or f"working on: {self.command.text.strip()}"
+        doing = self.activity()
         return (
             f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
             "mission: say stop to halt me, then give me the new task."

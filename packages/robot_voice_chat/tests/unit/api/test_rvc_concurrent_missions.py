@@ -159,3 +159,17 @@ async def test_twenty_turns_during_one_drive_are_each_answered_but_said_aloud_on
     busy = [s for s in brain.speech.spoken if "busy" in s]
     assert len(busy) == 1, busy
     assert executor.active is not None and executor.active.state == "running"
+
+
+async def test_with_navigation_down_a_rest_caller_is_told_the_refusal_not_an_ok(
+    brain: Brain,
+) -> None:
+    """Issue 31: "OK, I'll go to the kitchen." answered, the refusal 0.05 s later."""
+    brain.world.tools.states["navigation"] = "disconnected"
+    answer = await brain.chat("go to the kitchen")
+    assert answer["route"] != "mission_started", answer
+    assert "OK" not in answer["reply"] and "navigation" in answer["reply"], answer
+    assert "not connected" in answer["reply"], answer
+    assert brain.missions_started() == []
+    shown = [e.text for e in brain.emitter.events if isinstance(e, ChatMessage)]
+    assert not any(text.startswith("OK, I'll") for text in shown), shown

@@ -12,7 +12,8 @@ from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCA
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.list_locations"),
-         ToolDefinition(name="navigation.get_pose")]  # fmt: skip
+         ToolDefinition(name="navigation.get_pose"),
+         ToolDefinition(name="skill_control.instantiate_skill")]  # fmt: skip
 
 
 async def _turn(chat: RulesChat, history: list[Message], text: str) -> LLMResponse:

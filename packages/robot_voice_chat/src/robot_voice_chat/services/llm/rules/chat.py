@@ -164,6 +164,9 @@ class RulesChat(LLMProvider):
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
             said = spoken_of(reading.actions)
+            missing = _missing_service(reading.actions, names)
+            if missing is not None:  # refused now, not after an "OK" the mission takes back
+                return LLMResponse(text=f"I can't {said} right now: my {missing} is not connected.")
             arguments = {"instruction": instruction_of(reading.actions), "ack": f"OK, I'll {said}."}
             return self._call("start_mission", arguments, "mission")
         if reading.kind == "ask" and reading.question is not None:
@@ -254,6 +257,24 @@ class RulesChat(LLMProvider):
         for word in words:
             yield StreamEvent(delta=word)
         yield StreamEvent(response=response)
+
+
+# the services a request needs, by the tool-name prefix of the servers the missions call
+_DRIVES, _LOOKS = ("navigation.", "navigation"), ("skill_control.", "camera")
+
+
+def _missing_service(actions: list[Action], names: set[str]) -> str | None:
+    """The service a request needs that lists no tools now (its server is down), if any."""
+    needed = []
+    for action in actions:
+        if action.place is not None or action.to is not None or action.kind == "goto":
+            needed.append(_DRIVES)
+        if action.kind in ("find", "fetch", "watch"):
+            needed.append(_LOOKS)
+    for prefix, service in needed:
+        if not any(name.startswith(prefix) for name in names):
+            return service
+    return None
 
 
 def _asked(question: Question, messages: list[Message]) -> bool:

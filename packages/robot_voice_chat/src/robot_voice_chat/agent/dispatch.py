@@ -15,6 +15,7 @@ from robot_mcp_kit.models import TaskEvent
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
+from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.task_registry import (
@@ -412,3 +413,9 @@ class TaskDispatcher:
                     interrupted=task_id in self.interrupted,
                 )
                 await self.cancel_task(server, task_id)
+                if task_id in self.interrupted and self._is_motion(server):
+                    await self.output.speech.say(stopped_after_restart(server))
+
+    def _is_motion(self, server: str) -> bool:
+        cfg = self.tools.servers().get(server)
+        return cfg is not None and cfg.motion

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
 from pathlib import Path
 
@@ -125,7 +126,10 @@ class MissionExecutor:
 
     @property
     def active(self) -> Mission | None:
-        return self.run.mission if self.run is not None else None
+        """The mission turns are routed into: none once it has finished, also while its end
+        is still being told (a turn then is a new request, never news for a failed mission)."""
+        run = self.run
+        return run.mission if run is not None and run.finished is None else None
 
     # --- entry points -------------------------------------------------------------------
     async def start(self, instruction: str) -> Mission:
@@ -134,6 +138,7 @@ class MissionExecutor:
         # One mission at a time (§4) also under concurrent starts: the check and the
         # ``self.run = run`` below are one critical section, awaits in between included.
         async with self._starting:
+            await self._wait_released()
             if self.run is not None:
                 raise MissionBusyError(self.run.mission)
             self._refuse_if_latched(instruction)
@@ -160,17 +165,28 @@ class MissionExecutor:
             run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
         return mission
 
+    async def _wait_released(self) -> None:
+        """A mission that has finished but is still being told (its summary spoken) ends
+        first; the new one starts after it (bounded: a stuck finalization stays busy)."""
+        run = self.run
+        if run is None or run.finished is None:
+            return
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(self.config.tool_timeout_s):
+                await run.released.wait()
+
     def _refuse_if_latched(self, instruction: str) -> None:
         if self.latch.latched:
             logger.warning("mission_refused", code="SAFETY_STOP_LATCHED", instruction=instruction)
             raise SafetyStopLatchedError(latched_sentence(self.latch.state))
 
-    async def on_user_turn(self, text: str) -> str:
+    async def on_user_turn(self, text: str) -> str | None:
         """Route a turn into the mission (§5.1); returns the immediate answer for the
-        person (the planner may add its own with ``say``)."""
+        person (the planner may add its own with ``say``), or None when the mission ended
+        before the turn reached it (the caller treats it as a new request)."""
         run = self.run
-        if run is None:
-            raise RuntimeError("no active mission")
+        if run is None or run.finished is not None:
+            return None
         mission = run.mission
         if self.is_stop(text):
             await self.safety_stop(reason=f"user said {text!r}")
@@ -182,6 +198,8 @@ class MissionExecutor:
                 await self.output.say(run, answer)  # spoken: the person may be talking
                 return answer
         await self.output.log_line(run, "user_turn", text)
+        if run.finished is not None:  # it ended while the line was written
+            return None
         self.trace.record(mission.id, "user_turn", text=text)
         run.awaiting_user = False
         if mission.state == "paused":
@@ -365,8 +383,34 @@ class MissionExecutor:
 
     # --- finalization (§5.6) ----------------------------------------------------------------
     async def _finalize(self, run: MissionRun) -> None:
+        try:
+            await self._close(run)
+        finally:
+            if self.run is run:
+                self.run = None
+            run.released.set()
         mission = run.mission
-        outcome, summary = run.finished or ("failed", "The mission ended unexpectedly.")
+        outcome, summary = mission.state, mission.summary
+        for process_id in mission.used_process_ids:
+            await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
+        self.trace.record(
+            mission.id,
+            "final",
+            outcome=outcome,
+            summary=summary,
+            llm_steps=run.llm_steps,
+            usage=mission.usage.model_dump(),
+        )
+        await self.trace.flush()
+        if mission.teaching and self.planner is not None:
+            records = await self.trace.read(mission.id)
+            await self.teaching.distill_and_save(self.planner, run.prompt, records)
+
+    async def _close(self, run: MissionRun) -> None:
+        """End the mission's tasks, resolve its steps and tell its end (UI, speech)."""
+        mission = run.mission
+        run.finished = run.finished or ("failed", "The mission ended unexpectedly.")
+        outcome, summary = run.finished
         for handle in self.registry.live(mission.id):
             await self.dispatcher.end_task(handle)
         for step in mission.steps:
@@ -392,22 +436,6 @@ class MissionExecutor:
         logger.info("mission_finished", outcome=outcome, summary=summary, steps=run.llm_steps)
         if summary:
             await self.speech.say(summary)
-        for process_id in mission.used_process_ids:
-            await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
-        self.trace.record(
-            mission.id,
-            "final",
-            outcome=outcome,
-            summary=summary,
-            llm_steps=run.llm_steps,
-            usage=mission.usage.model_dump(),
-        )
-        await self.trace.flush()
-        if self.run is run:
-            self.run = None
-        if mission.teaching and self.planner is not None:
-            records = await self.trace.read(mission.id)
-            await self.teaching.distill_and_save(self.planner, run.prompt, records)
 
     async def recover(self) -> None:
         """At start-up: close the missions a crashed process life left live; the tasks they

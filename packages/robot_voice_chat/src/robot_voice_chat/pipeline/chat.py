@@ -97,8 +97,8 @@ class ChatPipeline:
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
-        if mission is not None:
-            note = await self._executor.on_user_turn(text)
+        note = await self._executor.on_user_turn(text) if mission is not None else None
+        if mission is not None and note is not None:
             # shown at once (not spoken: the planner may answer with its own say)
             await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=note))
             return TurnResult(turn_id, note, "mission", mission.id)

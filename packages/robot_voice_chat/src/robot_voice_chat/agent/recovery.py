@@ -22,8 +22,7 @@ INTERRUPTED = "interrupted by a restart"
 # No claim about its tasks: whether a drive had ended or is still going is only known when
 # its server answers (reconciliation stops what still runs, and says so).
 SUMMARY = (
-    "The mission was interrupted by a restart of the brain. "
-    "Give the instruction again to carry on."
+    "The mission was interrupted by a restart of the brain. Give the instruction again to carry on."
 )
 
 

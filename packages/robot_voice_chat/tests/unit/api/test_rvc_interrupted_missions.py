@@ -127,8 +127,10 @@ async def test_a_restart_after_the_drive_had_finished_claims_no_cancelled_tasks(
     await second.start()
     try:
         closed = await second.executor.find_mission(mission_id)
-        assert closed is not None and closed.state == "failed"
-        assert "cancel" not in closed.summary and "stopped" not in closed.summary
+        assert closed is not None
+        assert closed.state == "failed"
+        assert "cancel" not in closed.summary
+        assert "stopped" not in closed.summary
         await second.executor.reconcile("navigation")
         assert servers.called("navigation.cancel_task") == []
         speech = second.adapters.speech_output

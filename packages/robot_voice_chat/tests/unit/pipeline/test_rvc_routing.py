@@ -187,5 +187,6 @@ async def test_an_instruction_right_after_a_mission_failed_starts_a_new_mission(
     speech.let_go.set()
     result = await asyncio.wait_for(turn, 10)
     assert result.route == "mission_started", result
-    assert h.executor.active is not None and h.executor.active.instruction == "Go home"
+    assert h.executor.active is not None
+    assert h.executor.active.instruction == "Go home"
     await h.executor.shutdown()

@@ -170,8 +170,9 @@ class AuthConfig(BaseModel):
     # argon2 checks running at once (each ~64 MiB) and queued behind them; more → 429
     login_concurrency: int = Field(2, ge=1)
     login_queue: int = Field(8, ge=0)
-    # Proxies whose X-Forwarded-For/-Proto are believed (uvicorn's forwarded_allow_ips).
-    trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
+    # Peers whose X-Forwarded-For/-Proto are believed besides the proxy socket (a proxy on
+    # another host). Never loopback on a robot: every local process has that address.
+    trusted_proxies: list[str] = Field(default_factory=list)
 
 
 class UiConfig(BaseModel):

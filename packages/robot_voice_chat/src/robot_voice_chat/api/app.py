@@ -11,6 +11,7 @@ from fastapi import FastAPI
 
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
+from robot_voice_chat.api.forwarded import ForwardedFromProxy
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
 from robot_voice_chat.api.request_guard import RequestGuard
@@ -107,4 +108,5 @@ def create_asgi_app(container: Container) -> Any:
         # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
         if container.auth is not None:
             served = OperatorAuthMiddleware(served, container.auth)
-    return SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))
+    guarded = SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))
+    return ForwardedFromProxy(guarded, container.config.auth.trusted_proxies)

@@ -12,7 +12,6 @@ address of their own connection.
 
 from __future__ import annotations
 
-import os
 import socket
 import stat
 from collections.abc import Iterable
@@ -54,7 +53,7 @@ def unix_listener(path: Path) -> socket.socket:
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         sock.bind(str(path))
-        os.chmod(path, SOCKET_MODE)
+        path.chmod(SOCKET_MODE)
         sock.listen(128)
     except OSError:
         sock.close()

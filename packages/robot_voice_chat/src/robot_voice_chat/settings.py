@@ -110,6 +110,8 @@ class ApiConfig(BaseModel):
     # per client address, every HTTP route but the signed ingress; one open UI polls ~400/min
     default_rate_limit: str = "3000/minute"
     max_event_body_bytes: int = Field(65536, gt=0)
+    # every other request body (login, chat, approvals); larger ones are 413, unread
+    max_body_bytes: int = Field(65536, gt=0)
     # deeper events are refused (400): nothing legitimate nests this far, and deep nesting
     # overflows the stack of whatever walks the payload later (json, pydantic, the trace)
     max_event_json_depth: int = Field(32, ge=2)

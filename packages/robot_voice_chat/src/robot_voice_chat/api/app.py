@@ -8,9 +8,11 @@ from typing import Any
 
 import socketio
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
+from robot_voice_chat.api.body_limit import BodyLimitMiddleware, validation_error
 from robot_voice_chat.api.forwarded import ForwardedFromProxy
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
@@ -66,6 +68,13 @@ def create_app(
         limit=container.config.api.default_rate_limit,
         exempt_paths=[agent.EVENTS_PATH],  # the ingress keeps its own limits
     )
+    app.add_middleware(
+        BodyLimitMiddleware,
+        default=container.config.api.max_body_bytes,
+        limits=chat.BODY_LIMITS,  # a recorded turn is larger
+        exempt_paths=frozenset({agent.EVENTS_PATH}),  # it refuses its own (max_event_body_bytes)
+    )
+    app.add_exception_handler(RequestValidationError, validation_error)
     app.add_middleware(RequestContextMiddleware)
     if guard:
         app.add_middleware(RequestGuard, **_guard_options(container))

@@ -375,3 +375,52 @@ async def test_a_failed_login_does_not_log_the_typed_user_name(
             assert (await http.post("/api/auth/login", json=typed)).status_code == 401
     assert [e for e in logs if e["event"] == "login_failed"]
     assert "hunter2-typed-in-the-wrong-box" not in repr(logs)
+
+
+def login_app(monkeypatch: pytest.MonkeyPatch) -> Any:
+    monkeypatch.setenv("ADMIN_USERNAME", "ada")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "s" * 48)
+    return create_app(
+        bootstrap(compose_config("test", ["auth.enabled=true"])), manage_lifecycle=False
+    )
+
+
+async def test_a_huge_login_body_is_refused_unread_and_never_echoed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Issue 31: a 200 MB POST to /api/auth/login came back as a 422 carrying 200 MiB."""
+    sent = 0
+    chunk = b'{"username": "' + b"a" * (1 << 20)
+
+    async def body() -> AsyncIterator[bytes]:
+        nonlocal sent
+        for _ in range(200):  # 200 MiB if it were all read
+            sent += len(chunk)
+            yield chunk
+
+    transport = httpx.ASGITransport(login_app(monkeypatch))
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as http:
+        streamed = await http.post("/api/auth/login", content=body())
+        declared = await http.post(
+            "/api/auth/login",
+            content=b"{}",
+            headers={"Content-Length": str(200 << 20), "Content-Type": "application/json"},
+        )
+    assert streamed.status_code == 413, streamed.text[:200]
+    assert len(streamed.content) < 1000
+    assert sent <= 2 * len(chunk)  # it stopped reading at the limit
+    assert declared.status_code == 413
+
+
+async def test_a_login_the_schema_refuses_does_not_echo_what_was_sent(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    transport = httpx.ASGITransport(login_app(monkeypatch))
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as http:
+        refused = await http.post(
+            "/api/auth/login", json={"username": "ada", "password": ["my-real-password-1"]}
+        )
+    assert refused.status_code == 422
+    assert "my-real-password-1" not in refused.text
+    assert refused.json()["detail"][0]["loc"] == ["body", "password"]

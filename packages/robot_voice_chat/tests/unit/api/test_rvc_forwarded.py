@@ -10,6 +10,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+import structlog
+import structlog.testing
 
 from robot_voice_chat.api.forwarded import SOCKET_MODE, unix_listener
 from robot_voice_chat.main import main
@@ -39,13 +41,14 @@ def test_the_proxy_socket_is_for_the_brains_user_and_group_and_replaces_a_stale_
 
 
 def test_a_proxy_socket_path_that_is_not_a_socket_refuses_the_start(
-    short_dir: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    short_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr("robot_voice_chat.main.configure_logging", lambda *a: None)
     monkeypatch.setenv("RVC_DATA_DIR", str(short_dir / "data"))
     precious = short_dir / "notes.txt"
     precious.write_text("keep me", encoding="utf-8")
-    assert main(["--port", "0", "--proxy-socket", str(precious)]) == 2
+    with structlog.testing.capture_logs() as logs:
+        assert main(["--port", "0", "--proxy-socket", str(precious)]) == 2
     assert precious.read_text(encoding="utf-8") == "keep me"
-    captured = capsys.readouterr()
-    assert "is not a socket" in captured.out + captured.err
+    refused = [log for log in logs if log["event"] == "startup_refused"]
+    assert "is not a socket" in refused[0]["error"]

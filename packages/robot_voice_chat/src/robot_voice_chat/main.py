@@ -64,10 +64,21 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+GRACEFUL_SHUTDOWN_S = 10  # then open requests (a long poll) are cut: systemd stops at 15 s
+
+
 def server_config(app: Any, host: str, port: int) -> uvicorn.Config:
     """uvicorn without its own proxy-header handling: the app believes forwarded headers from
-    the proxy socket and ``auth.trusted_proxies`` only (api/forwarded.py)."""
-    return uvicorn.Config(app, host=host, port=port, log_config=None, proxy_headers=False)
+    the proxy socket and ``auth.trusted_proxies`` only (api/forwarded.py); a stop never waits
+    on a client for longer than ``GRACEFUL_SHUTDOWN_S``."""
+    return uvicorn.Config(
+        app,
+        host=host,
+        port=port,
+        log_config=None,
+        proxy_headers=False,
+        timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S,
+    )
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.api.auth import hash_password
 from robot_voice_chat.api.forwarded import unix_listener
 from robot_voice_chat.composition import Container, bootstrap, compose_config
+from robot_voice_chat.socket_events import MissionEventLine
 from robot_voice_chat.main import server_config
 
 PASSWORD = "open sesame 42"
@@ -424,3 +425,35 @@ async def test_a_login_the_schema_refuses_does_not_echo_what_was_sent(
     assert refused.status_code == 422
     assert "my-real-password-1" not in refused.text
     assert refused.json()["detail"][0]["loc"] == ["body", "password"]
+
+
+async def test_logout_answers_with_an_idle_polling_socket_and_closes_the_websocket(
+    served: tuple[str, Container],
+) -> None:
+    """Issue 31: an idle long-polling Socket.IO connection of the session stalled the logout
+    (200 s), and the session's websocket kept receiving events."""
+    address, container = served
+    async with httpx.AsyncClient(base_url=f"http://{address}", timeout=10) as http:
+        cookie = (await login(http)).cookies["rvc_session"]  # the client keeps it
+        opened = await http.get("/socket.io/?EIO=4&transport=polling")
+        assert opened.status_code == 200, opened.text
+        eio_sid = json.loads(opened.text[1:])["sid"]
+        poll = f"/socket.io/?EIO=4&transport=polling&sid={eio_sid}"
+        assert (await http.post(poll, content="40")).status_code == 200
+        assert "40{" in (await http.get(poll)).text  # joined; now idle
+        ws = await socket_connect(address, cookie)
+        try:
+            async with asyncio.timeout(10):
+                while not str(await ws.recv()).startswith("40{"):
+                    pass
+            async with asyncio.timeout(15):  # was: no answer for 200 s
+                out = await http.post("/api/auth/logout")
+            assert out.status_code == 200
+            await container.emitter.emit(
+                MissionEventLine(mission_id="m-x", kind="say", text="hi", ts=time.time())
+            )
+            frames = await read_until_closed(ws)
+            assert not [f for f in frames if "mission_event" in f]
+            assert frames[-2:] == ["41", "1"]
+        finally:
+            await ws.close()

@@ -23,8 +23,8 @@ from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.api.auth import hash_password
 from robot_voice_chat.api.forwarded import unix_listener
 from robot_voice_chat.composition import Container, bootstrap, compose_config
-from robot_voice_chat.socket_events import MissionEventLine
 from robot_voice_chat.main import server_config
+from robot_voice_chat.socket_events import MissionEventLine
 
 PASSWORD = "open sesame 42"
 HASH = hash_password(PASSWORD)

@@ -94,7 +94,7 @@ def create_app(
     app.include_router(chat.router)
     app.include_router(safety.router)
     app.include_router(approvals.router)
-    app.include_router(agent.build_router(container.config.api))
+    app.include_router(agent.build_router(container.config.api, container.seen_events))
     for router in (
         chat_history.router,
         camera.router,

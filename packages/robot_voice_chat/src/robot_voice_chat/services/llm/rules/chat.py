@@ -24,6 +24,7 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
+from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
     Names,
@@ -148,7 +149,7 @@ class RulesChat(LLMProvider):
                 text = f"{text} {self._pending.text}"
             return LLMResponse(text=text)
         if result.is_error:
-            return LLMResponse(text=f"That didn't work: {result.content}")
+            return LLMResponse(text=f"That didn't work: {reason_of(result.content)}.")
         return LLMResponse(text="Done.")
 
     def _reply(
@@ -163,7 +164,7 @@ class RulesChat(LLMProvider):
         if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
-            said = spoken_of(reading.actions)
+            said = spoken_of(reading.actions, names_of(places) if places else None)
             missing = _missing_service(reading.actions, names)
             if missing is not None:  # refused now, not after an "OK" the mission takes back
                 return LLMResponse(text=f"I can't {said} right now: my {missing} is not connected.")
@@ -206,7 +207,7 @@ class RulesChat(LLMProvider):
                 return LLMResponse(
                     text="I don't know any places: the navigation server is not connected."
                 )
-            listed = "; ".join(p.label() for p in places.places)
+            listed = ", ".join(p.spoken() for p in places.places)
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
@@ -285,7 +286,7 @@ def _asked(question: Question, messages: list[Message]) -> bool:
 
 def _where(result: ToolResult, names: Names = by_id) -> str:
     if result.is_error:
-        return f"I can't tell where I am right now: {result.content[:200]}"
+        return f"I can't tell where I am right now: {reason_of(result.content)}."
     try:
         pose = json.loads(result.content)
     except ValueError:
@@ -345,8 +346,8 @@ def _look_offer(obj: str) -> Question:
 
 def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:
     if names:
-        return f"Which place do you mean: {', '.join(n.replace('_', ' ') for n in names)}?"
-    known = ", ".join(p.name.replace("_", " ") for p in places.places)
+        return f"Which place do you mean: {', '.join(places.spoken(n) for n in names)}?"
+    known = ", ".join(p.spoken() for p in places.places)
     return f"I don't know a place called '{phrase}'. I know: {known}."
 
 

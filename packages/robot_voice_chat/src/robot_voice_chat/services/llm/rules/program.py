@@ -9,6 +9,7 @@ yields the tool calls of one planner step (:class:`Act`) and receives what came 
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Generator
 from dataclasses import dataclass, field
@@ -16,6 +17,11 @@ from typing import Any
 
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.plain import (
+    reason_of,
+    service_name,
+    suggestion_of,
+)
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
     by_id,
@@ -27,7 +33,6 @@ from robot_voice_chat.services.llm.rules.surface import (
     Locations,
     as_json,
     detour_legs,
-    error_of,
     has_tool,
     task_id_of,
 )
@@ -145,6 +150,8 @@ class MissionProgram:
         self.doing = ""  # what the robot is busy with, for those answers
         self.told_busy: str | None = None  # the activity the busy answer was said for
         self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
+        self.say: Names = by_id  # how sentences say the map's places (the live list's names)
+        self.known: list[str] = []  # the map's place ids (said by name inside server text)
         self.timeouts = 0  # "[timeout] still waiting" wakeups seen
 
     # --- plumbing --------------------------------------------------------------------------
@@ -220,10 +227,12 @@ class MissionProgram:
         if missing:
             server = missing[0].split(".")[0]
             raise _Finished(
-                "failed",
-                f"I can't do that right now: the {server} server is not connected "
-                f"(missing {', '.join(missing)}).",
+                "failed", f"I can't do that right now: my {service_name(server)} is not connected."
             )
+
+    def reason(self, content: str) -> str:
+        """A tool error as the robot says it (codes and tool names stay in the step)."""
+        return reason_of(content, self.say, self.known)
 
     # --- the missions ------------------------------------------------------------------------
     def _main(self) -> Steps:
@@ -275,13 +284,12 @@ class MissionProgram:
             plan.append((leg, drive, look, deliver))
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
         names: dict[str, str] = {}
-        spoken: Names = by_id
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
         if phrases and self.listed is not None:
-            names, spoken = self._places(self.listed, phrases)  # the plan goes with the 1st drive
+            names = self._places(self.listed, phrases)  # the plan goes with the 1st drive
         elif phrases:
             results = yield from self.act(self.plan_call(), Call(LIST_LOCATIONS))
-            names, spoken = self._places(results[1].content, phrases)
+            names = self._places(results[1].content, phrases)
         else:
             yield from self.act(self.plan_call())
         said: list[str] = []
@@ -294,7 +302,7 @@ class MissionProgram:
                 if not self.planned:
                     yield from self.act(self.plan_call())
                 found = yield from self._look_for(leg.obj, look)
-                where = f" {located(spoken(place))}" if place and leg.place else ""
+                where = f" {located(self.say(place))}" if place and leg.place else ""
                 if not found:
                     missed = f"I couldn't see the {leg.obj}{where}."
                     raise _Finished("failed", " ".join([*said, missed]))
@@ -302,31 +310,32 @@ class MissionProgram:
             if deliver is not None and leg.to is not None:
                 place = names[leg.to]
                 yield from self._drive(place, deliver, prepare=None)
-                said.append(f"I brought it to {spoken(place)}.")
+                said.append(f"I brought it to {self.say(place)}.")
             elif look is None and place is not None:
-                said.append(f"I'm {located(spoken(place))}.")
+                said.append(f"I'm {located(self.say(place))}.")
         raise _Finished("succeeded", " ".join(said))
 
-    def _places(self, listed: str, phrases: list[str]) -> tuple[dict[str, str], Names]:
-        """Each phrase's place on the live map (unknown or ambiguous ends before any drive),
-        and how sentences say the map's places."""
+    def _places(self, listed: str, phrases: list[str]) -> dict[str, str]:
+        """Each phrase's place on the live map (unknown or ambiguous ends before any drive);
+        sentences say the map's places by their names from here on."""
         locations = Locations.from_result(listed)
         index = PlaceIndex.from_result(listed)
+        self.say, self.known = names_of(index), locations.known()
         names: dict[str, str] = {}
         for phrase in phrases:
             exact = locations.resolve(phrase)
             match = index.resolve(phrase)
             if exact is None and not match.sure:
-                known = ", ".join(locations.known()) or "none"
+                known = ", ".join(self.say(n) for n in self.known) or "none"
                 if match.names:
-                    options = " or ".join(n.replace("_", " ") for n in match.names)
+                    options = " or ".join(self.say(n) for n in match.names)
                     known = f"did you mean {options}? Tell me again with the place"
                     raise _Finished("failed", f"I'm not sure which place {phrase!r} is: {known}.")
                 raise _Finished(
                     "failed", f"I don't know a place called {phrase!r}. I know: {known}."
                 )
             names[phrase] = exact or match.names[0]
-        return names, names_of(index)
+        return names
 
     def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
         """Drive to ``place``; on a failure try its suggestions in order, then give up."""
@@ -336,7 +345,9 @@ class MissionProgram:
             leg = route[0]
             legs += 1
             if legs > self.settings.max_legs:
-                raise _Finished("failed", f"I could not reach the {place} after {legs - 1} drives.")
+                raise _Finished(
+                    "failed", f"I could not reach {self.say(place)} after {legs - 1} drives."
+                )
             args: dict[str, Any] = {"step_id": current, "location": leg}
             calls = [*before, Call(NAVIGATE, args)]
             before = []
@@ -345,7 +356,7 @@ class MissionProgram:
                 calls.insert(-1, self._prewarm_reaction(prepare))
             result = (yield from self.act(*calls))[-1]
             if result.is_error and HELD_BY_SAFETY_STOP in result.content:  # a stop came first
-                yield from self._until_resumed(f"stopped before driving to the {leg}")
+                yield from self._until_resumed(f"stopped before driving to {self.say(leg)}")
                 legs -= 1
                 current = self._add_step(current, f"Resume the drive to the {leg}")
                 before = [self.plan_call()]
@@ -354,13 +365,16 @@ class MissionProgram:
                 result = yield from self._replace_own_drive(leg, args)
             if result.is_error:
                 raise _Finished(
-                    "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
+                    "failed", f"I couldn't drive to {self.say(leg)}: {self.reason(result.content)}."
                 )
             task_id = task_id_of(result.content)
             if task_id is None:
-                raise _Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+                raise _Finished(
+                    "failed",
+                    f"I couldn't drive to {self.say(leg)}: my navigation gave no answer I can use.",
+                )
             self.own_drives.add(task_id)
-            outcome = yield from self._await(task_id, f"driving to the {leg}")
+            outcome = yield from self._await(task_id, f"driving to {self.say(leg)}")
             if outcome.kind == "done":
                 route.pop(0)
                 if route:
@@ -385,21 +399,29 @@ class MissionProgram:
                 # is not busy (its task ended); a second such failure gives up below
                 retried.add(leg)
                 current = self._add_step(current, f"Retry the drive to the {leg}")
-                said = f"{failure.message or failure.code}. I'll try the drive once more."
+                said = f"{_capital(self._failure_said(failure))}. I'll try the drive once more."
                 before = [self.plan_call(), Call("say", {"text": said})]
                 continue
             if detour is None:
-                advice = "; ".join(failure.suggestions)
+                advice = [a for s in failure.suggestions if (a := self._suggestion(s))]
                 raise _Finished(
                     "failed",
-                    f"I couldn't reach the {place}: {failure.code} {failure.message}".strip()
-                    + (f" Suggestions I can't follow alone: {advice}" if advice else ""),
+                    f"I couldn't reach {self.say(place)}: {self._failure_said(failure)}."
+                    + (f" What could help: {'; '.join(advice)}." if advice else ""),
                 )
             suggestion, route = detour
             tried.add(suggestion)
             current = self._add_step(current, f"Detour via the {route[0]}")
-            said = f"{failure.message or failure.code} I'll {suggestion}."
+            plan = self._suggestion(suggestion) or f"drive via {self.say(route[0])}"
+            said = f"{_capital(self._failure_said(failure))}. I'll {plan}."
             before = [self.plan_call(), Call("say", {"text": said})]
+
+    def _failure_said(self, failure: Failure) -> str:
+        """A drive's failure as the robot says it ("The mailroom door is closed")."""
+        return self.reason(json.dumps({"error": failure.code, "detail": failure.message}))
+
+    def _suggestion(self, text: str) -> str | None:
+        return suggestion_of(text, self.say, self.known)
 
     def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
         """The base is busy. Only a drive of this mission (begun before a planner takeover)
@@ -408,7 +430,7 @@ class MissionProgram:
         if not mine or not has_tool(self.tools, CANCEL_TASK):
             raise _Finished(
                 "failed",
-                f"I couldn't drive to the {leg}: the robot is already driving on a task this "
+                f"I couldn't drive to {self.say(leg)}: the robot is already driving on a task this "
                 "mission did not start, and I won't stop someone else's drive. Say stop to "
                 "halt it, then ask me again.",
             )
@@ -450,9 +472,9 @@ class MissionProgram:
             elif self.timeouts > timeouts:  # a whole wakeup period and it is still gone
                 raise _Finished(
                     "failed",
-                    f"I lost contact with the {lost} server while {reason} and it has not "
+                    f"I lost contact with my {service_name(lost)} while {reason} and it has not "
                     "come back, so I can't tell or control what that task does; I stopped "
-                    "waiting. Check that server, then ask me again.",
+                    "waiting. Check that service, then ask me again.",
                 )
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
@@ -511,7 +533,7 @@ class MissionProgram:
         )
         if started.is_error:
             raise _Finished(
-                "failed", f"I couldn't start looking for the {obj}: {error_of(started.content)}"
+                "failed", f"I couldn't start looking for the {obj}: {self.reason(started.content)}."
             )
         data = as_json(started.content)
         skill = (
@@ -530,8 +552,7 @@ class MissionProgram:
         yield from self.act(*stops)
         if down is not None:  # not "I couldn't see it": the camera could not look at all
             raise _Finished(
-                "failed",
-                f"I couldn't look for the {obj}: the camera/vision is unavailable ({down}).",
+                "failed", f"I couldn't look for the {obj}: my camera is unavailable ({down})."
             )
         if seen.is_error:
             return ""
@@ -543,7 +564,7 @@ class MissionProgram:
         if not has_tool(self.tools, LIST_SKILLS):
             return None
         [listed] = yield from self.act(Call(LIST_SKILLS))
-        return error_of(listed.content) if listed.is_error else None
+        return self.reason(listed.content) if listed.is_error else None
 
     def _remembered(self) -> Steps:
         """What the robot saw last, when and where (the episodic memory), or "" without it."""
@@ -622,8 +643,7 @@ class MissionProgram:
                     memory = yield from self._remembered()
                     raise _Finished(
                         "failed",
-                        f"I can't look right now: the camera/vision is unavailable ({down}). "
-                        + memory,
+                        f"I can't look right now: my camera is unavailable ({down}). " + memory,
                     )
         if not text:
             memory = yield from self._remembered()
@@ -655,7 +675,7 @@ class MissionProgram:
         task_id = None if started.is_error else task_id_of(started.content)
         if task_id is None:
             raise _Finished(
-                "failed", f"I couldn't start watching for {thing}: {error_of(started.content)}"
+                "failed", f"I couldn't start watching for {thing}: {self.reason(started.content)}."
             )
         info = as_json(started.content)
         skill = str(info.get("skill_id", "watch_for")) if isinstance(info, dict) else "watch_for"
@@ -675,8 +695,20 @@ class MissionProgram:
             Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}),
         )
         if outcome.kind == "failed":
-            raise _Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
+            failed = _failed_event(outcome.line)
+            raise _Finished("failed", f"Watching for {thing} stopped: {self.reason(failed)}.")
         raise _Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _capital(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _failed_event(line: str) -> str:
+    """A ``[task …] failed CODE (…): message`` line as the error JSON ``reason_of`` reads."""
+    match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: .*)?$", line)
+    code, message = (match[1], match[2]) if match is not None else ("", "")
+    return json.dumps({"error": code, "detail": message})
 
 
 def _labels(data: Any) -> str:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
@@ -339,7 +340,7 @@ class Understanding:
             if leg.status == "missing":
                 return Reading("ask", question=self._fill(actions, index, leg, places))
             if leg.status == "ok":  # understood, but not surely: say it back
-                plan = spoken_of(actions)
+                plan = spoken_of(actions, _names(places))
                 return Reading(
                     "ask",
                     question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
@@ -358,11 +359,11 @@ class Understanding:
             for _, leg in hard
         )
         sure_actions = _known_only(actions, places)
-        plan = spoken_of(actions)
+        plan = spoken_of(actions, _names(places))
         if hard:
             if not sure_actions:
                 return Reading("refuse", text=missed)
-            sure = spoken_of(sure_actions)
+            sure = spoken_of(sure_actions, _names(places))
             question = (
                 f"I understood only part of that: {plan}. {missed} "
                 f"Shall I do just that ({sure})? (yes or no)"
@@ -379,7 +380,7 @@ class Understanding:
         labels = [_label(n, places) for n in leg.options]
         listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
         what = f"'{leg.phrase}'" if leg.phrase else "that"
-        context = f" (to {spoken_of(actions)})" if len(actions) > 1 else ""
+        context = f" (to {spoken_of(actions, _names(places))})" if len(actions) > 1 else ""
         return Question(
             f"Which place do you mean by {what}{context}: {listed}?",
             "choose",
@@ -402,7 +403,7 @@ class Understanding:
                 else "get"
             )
             return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
-        known = f" I know: {', '.join(places.known())}." if places and places.places else ""
+        known = f" I know: {_known(places)}." if places and places.places else ""
         ask = (
             "Where should I go?"
             if action.kind == "goto"
@@ -411,7 +412,7 @@ class Understanding:
         return Question(ask + known, "fill", actions, index=index, slot="place")
 
     def _unknown_place(self, phrase: str, places: PlaceIndex | None) -> str:
-        known = ", ".join(places.known()) if places and places.places else "none"
+        known = _known(places) if places and places.places else "none"
         return f"I don't know a place called {phrase!r}. I know: {known}."
 
     def _unclear(self, text: str) -> Reading:
@@ -473,6 +474,15 @@ def _ordinal(text: str, options: list[str]) -> str | None:
         if re.search(rf"\b{word}\b", text) and -len(options) <= index < len(options):
             return options[index]
     return None
+
+
+def _names(places: PlaceIndex | None) -> Callable[[str], str] | None:
+    """How sentences say the map's places (their human names), when the live list is known."""
+    return places.spoken if places is not None and places.places else None
+
+
+def _known(places: PlaceIndex) -> str:
+    return ", ".join(places.spoken(name) for name in places.known())
 
 
 def _label(name: str, places: PlaceIndex | None) -> str:

@@ -40,6 +40,27 @@ _PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
 )
 
 
+SERVICES = {
+    "navigation": "navigation",
+    "skill_control": "camera skills",
+    "perception": "camera",
+    "vision": "camera",
+    "episodic": "episodic memory",
+    "memory": "process memory",
+    "manipulation": "arm",
+}
+
+
+def service_name(server: str) -> str:
+    """``skill_control`` → "camera skills": an MCP server as the robot names it."""
+    return SERVICES.get(server, server.replace("_", " "))
+
+
+def plain_instruction(text: str) -> str:
+    """An instruction echoed back to a person: the grammar's map ids with spaces."""
+    return re.sub(r"\b([A-Za-z0-9]+)_(?=[A-Za-z0-9])", r"\1 ", text)
+
+
 @dataclass(frozen=True)
 class Leak:
     kind: str  # "task id", "tool name", "error code", "snake_case id", ...

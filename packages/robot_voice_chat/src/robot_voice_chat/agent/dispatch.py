@@ -29,6 +29,7 @@ from robot_voice_chat.agent.task_registry import (
 )
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
@@ -376,7 +377,7 @@ class TaskDispatcher:
         await self.output.log_line(run, "task_event", line)
         await self.output.say(
             run,
-            f"I lost contact with the {server} server and am waiting for it to come back. "
+            f"I lost contact with my {service_name(server)} and am waiting for it to come back. "
             "Say stop to halt me.",
         )
         run.post(line)

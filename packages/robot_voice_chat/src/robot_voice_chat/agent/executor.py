@@ -34,6 +34,7 @@ from robot_voice_chat.control.approvals import ApprovalBroker, PendingApproval
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
+from robot_voice_chat.robot_words import plain_instruction
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -204,11 +205,12 @@ class MissionExecutor:
         run.awaiting_user = False
         if mission.state == "paused":
             run.post(f"{run.prompt.paused_note}\nUser: {text}")
-            return f"Your answer went to the paused mission ({mission.instruction})."
+            echoed = plain_instruction(mission.instruction)
+            return f"Your answer went to the paused mission ({echoed})."
         run.post(f"[user] {text}")
         return (
-            f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
-            "message went to it. Say stop to halt me."
+            f"I'm busy with a mission ({plain_instruction(mission.instruction)}; it is "
+            f"{mission.state}); your message went to it. Say stop to halt me."
         )
 
     async def _awaiting_approval(self, request: PendingApproval, waiting: bool) -> None:
@@ -243,7 +245,8 @@ class MissionExecutor:
             logger.warning("mission_failed", code=exc.code, summary=exc.summary)
             run.finished = ("failed", exc.summary)
         except LLMError as exc:
-            run.finished = ("failed", f"The planner failed: {exc}")
+            logger.warning("planner_failed", error=str(exc)[:500])
+            run.finished = ("failed", "I had to stop the mission: my planner is not answering.")
         except asyncio.CancelledError:
             run.finished = run.finished or ("cancelled", "The mission was cancelled.")
             await self._finalize(run)

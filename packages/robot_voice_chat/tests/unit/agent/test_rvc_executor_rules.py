@@ -325,7 +325,7 @@ async def test_a_mission_is_told_when_its_server_dies_and_gives_up_if_it_stays_a
     mission = o.executor.active
     assert mission is not None
     assert mission.steps[0].detail == "navigation server unreachable: waiting for it to come back"
-    assert any("I lost contact with the navigation server" in s for s in lines_said(o))
+    assert any("I lost contact with my navigation" in s for s in lines_said(o))
     await async_wait_until(
         lambda: o.executor.run is None or o.executor.run.llm_steps > steps_before,
         5,

@@ -13,19 +13,9 @@ import json
 import re
 from collections.abc import Callable, Iterable
 
-from robot_voice_chat.robot_words import leaks
+from robot_voice_chat.robot_words import SERVICES, leaks, service_name
 
 Names = Callable[[str], str]  # a map id → how a sentence says it ("Alice's desk")
-
-SERVICES = {
-    "navigation": "navigation",
-    "skill_control": "camera skills",
-    "perception": "camera",
-    "vision": "camera",
-    "episodic": "episodic memory",
-    "memory": "process memory",
-    "manipulation": "arm",
-}
 # What a code means to a person; keys upper case (servers send both cases).
 REASONS = {
     "SAFETY_STOP_LATCHED": (
@@ -51,11 +41,6 @@ _SERVER_TOOL = re.compile(r"\b(?P<server>[a-z_]+)\.[a-z_]+\b")
 # navigate_to("corridor_b") inside a suggestion; "call navigate_to(...) again"
 _NAV_CALL = re.compile(r"""navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\)""")
 _AGAIN = re.compile(r"""call navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\) again""")
-
-
-def service_name(server: str) -> str:
-    """``skill_control`` → "camera skills": a server as the robot names it."""
-    return SERVICES.get(server, server.replace("_", " "))
 
 
 def _parts(content: str) -> tuple[str, str]:

@@ -15,13 +15,10 @@ from collections.abc import Generator
 from dataclasses import dataclass, field
 from typing import Any
 
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import Command
-from robot_voice_chat.services.llm.rules.plain import (
-    reason_of,
-    service_name,
-    suggestion_of,
-)
+from robot_voice_chat.services.llm.rules.plain import reason_of, suggestion_of
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
     by_id,

@@ -9,7 +9,18 @@ call it on every reply they see, so a new sentence that leaks is caught wherever
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+
+from robot_voice_chat.socket_events import (
+    ChatError,
+    ChatMessage,
+    MissionEventLine,
+    MissionFinished,
+    SocketEvent,
+    Speak,
+)
 
 _SERVERS = r"navigation|perception|skill_control|memory|episodic|manipulation|vision"
 _PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
@@ -88,3 +99,40 @@ def leaks(sentence: str) -> list[Leak]:
 def check_robot_words(sentences: list[str] | tuple[str, ...]) -> list[Leak]:
     """The leaks of every sentence (tests: ``assert not check_robot_words(said)``)."""
     return [leak for sentence in sentences for leak in leaks(sentence)]
+
+
+def sentences_of(event: SocketEvent) -> list[str]:
+    """What an event shows or says as the robot's words (chat replies, spoken and said
+    lines, mission summaries); plan steps, tool calls and task events are not."""
+    if isinstance(event, ChatMessage) and event.role == "assistant":
+        return [event.text]
+    if isinstance(event, MissionEventLine) and event.kind == "say":
+        return [event.text]
+    if isinstance(event, MissionFinished):
+        return [event.summary]
+    if isinstance(event, ChatError):
+        return [event.message]
+    if isinstance(event, Speak):
+        return [event.text]
+    return []
+
+
+# The fakes of the speech and emitter ports report what the robot said here, so a test run
+# can check every sentence its scenario produced (tests/conftest.py).
+_witnessed: list[str] | None = None
+
+
+def witness(sentences: list[str]) -> None:
+    if _witnessed is not None:
+        _witnessed.extend(sentences)
+
+
+@contextmanager
+def witnessing() -> Iterator[list[str]]:
+    """Collect everything the fakes were asked to say or show within the block."""
+    global _witnessed
+    previous, _witnessed = _witnessed, []
+    try:
+        yield _witnessed
+    finally:
+        _witnessed = previous

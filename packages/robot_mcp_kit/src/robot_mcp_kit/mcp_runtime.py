@@ -24,13 +24,16 @@ from dataclasses import dataclass
 from typing import Any, BinaryIO, Literal, get_args
 
 import anyio
+import structlog
 from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.stdio import stdio_server
 
 from robot_mcp_kit.correlation import install_mission_correlation
+from robot_mcp_kit.http_serving import serve_http
 
+logger = structlog.get_logger(__name__)
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
 DEFAULT_HOST = "127.0.0.1"
@@ -162,13 +165,23 @@ async def serve_mcp(
         await _serve_stdio(server, wire)
     elif settings.transport == "stdio":
         await server.run_stdio_async()
-    elif settings.transport == "sse":
-        await server.run_sse_async(host=settings.host, port=settings.port)
     else:
-        await server.run_streamable_http_async(host=settings.host, port=settings.port)
+        app = (
+            server.sse_app(host=settings.host)
+            if settings.transport == "sse"
+            else server.streamable_http_app(host=settings.host)
+        )
+        level = str(server.settings.log_level).lower()
+        stopped_by = await serve_http(app, settings.host, settings.port, level)
+        logger.info("mcp_server_stopped", transport=settings.transport, signal=stopped_by)
 
 
 def run_server(server: MCPServer, default_port: int, wire: BinaryIO | None = None) -> None:
-    """Run ``server`` on the transport chosen by the environment (blocks until it stops)."""
+    """Run ``server`` on the transport chosen by the environment (blocks until it stops; a
+    stop signal returns normally, so the caller's cleanup runs and nothing is printed but
+    one ``mcp_server_stopped`` line)."""
     settings = transport_settings(os.environ, default_port)
-    anyio.run(serve_mcp, server, settings, wire)
+    try:
+        anyio.run(serve_mcp, server, settings, wire)
+    except KeyboardInterrupt:  # Ctrl+C outside uvicorn's own handling (start-up, stdio)
+        logger.info("mcp_server_stopped", transport=settings.transport, signal="SIGINT")

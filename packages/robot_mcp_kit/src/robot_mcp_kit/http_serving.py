@@ -23,7 +23,7 @@ import structlog
 import uvicorn
 
 logger = structlog.get_logger(__name__)
-GRACEFUL_SHUTDOWN_S = 5.0  # then open streams are cut (systemd waits 15 s before SIGKILL)
+GRACEFUL_SHUTDOWN_S = 5  # then open streams are cut (systemd waits 15 s before SIGKILL)
 
 
 class OneResponse:

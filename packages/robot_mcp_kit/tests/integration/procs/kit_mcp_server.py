@@ -48,4 +48,4 @@ if __name__ == "__main__":
         run_server(build(), default_port=9999, wire=wire)
     finally:
         native_print("at shutdown")
-    print("cleaned up", file=sys.stderr)  # only after a clean return from run_server
+    sys.stderr.write("cleaned up\n")  # only after a clean return from run_server

@@ -28,11 +28,23 @@ SERVICES=(
   "mcp-perception-buffer ros perception-buffer"
   "robot-mcp-memory memory"
   "robot-mcp-navigation ros navigation"
+  "robot-mcp-manipulation ros manipulation"
   "robot-mcp-episodic ros episodic"
   "robot-voice-chat brain"
 )
 UNITS=()
 for entry in "${SERVICES[@]}"; do UNITS+=("${entry%% *}"); done
+# One entry per MCP server: "<its env file>:<NAME>". Each gets two credentials, generated once:
+# the brain's (MCP_AUTH_TOKEN there, <NAME>_MCP_TOKEN in brain.env) and the operators' tools'
+# (MCP_OPERATOR_TOKEN there, <NAME>_MCP_OPERATOR_TOKEN in operator.env, which no unit reads).
+MCP_SERVERS=(
+  "skill-control:SKILL_CONTROL"
+  "perception-buffer:PERCEPTION"
+  "memory:MEMORY"
+  "episodic:EPISODIC"
+  "navigation:NAVIGATION"
+  "manipulation:MANIPULATION"
+)
 LEGACY_USER=robot  # every unit ran as this one user before 0.x; removed by --purge
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DESTDIR="${DESTDIR:-}"
@@ -157,12 +169,15 @@ write_env_files() {
   install -d -m 0700 "$ETC"
   chmod 0700 "$ETC"  # also when an older install made it 0750 root:robot
   system chown root:root "${ETC#"$DESTDIR"}"
-  # One HMAC secret per event-posting server (navigation, perception buffer), shared with the
-  # brain; generated once. skill_control posts no events.
-  local nav perc admin_key
+  # One HMAC secret per event-posting server (navigation, manipulation, perception buffer),
+  # shared with the brain; generated once. skill_control posts no events.
+  local nav perc manip admin_key
   nav="$(env_value NAV_EVENT_SECRET "$ETC/brain.env")"
   nav="${nav:-$(env_value RVC_EVENT_SECRET "$ETC/navigation.env")}"
   nav="${nav:-$(new_secret)}"
+  manip="$(env_value MANIP_EVENT_SECRET "$ETC/brain.env")"
+  manip="${manip:-$(env_value RVC_EVENT_SECRET "$ETC/manipulation.env")}"
+  manip="${manip:-$(new_secret)}"
   perc="$(env_value PERCEPTION_EVENT_SECRET "$ETC/brain.env")"
   perc="${perc:-$(env_value RVC_EVENT_SECRET "$ETC/perception-buffer.env")}"
   perc="${perc:-$(new_secret)}"
@@ -180,12 +195,17 @@ write_env_files() {
   # file of named places (default: the office sample map), NAV_MOTION=simulated for a dry run.
   env_file navigation "RVC_EVENT_SECRET=$nav" NAV_MOTION=nav2 NAV2_ACTION=/navigate_to_pose \
     NAV_POSE_TOPIC=/amcl_pose LOG_LEVEL=INFO
+  # The robot's arm: its Pick/Place action servers (robot_manipulation_interfaces).
+  env_file manipulation "RVC_EVENT_SECRET=$manip" MANIP_PICK_ACTION=/manipulation/pick \
+    MANIP_PLACE_ACTION=/manipulation/place MANIP_HELD_TOPIC=/manipulation/held LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
+    "MANIP_EVENT_SECRET=$manip" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local
+  write_mcp_credentials
   # every env file a SERVICES entry names exists (empty for a new service without settings)
   local entry name
   for entry in "${SERVICES[@]}"; do
@@ -195,6 +215,28 @@ write_env_files() {
     say "set the operator password: /opt/$APP/.venv/bin/robot-voice-chat hash-password," \
       "then put it in /etc/$APP/brain.env as ADMIN_PASSWORD_HASH='<hash>' (single quotes)"
   fi
+}
+
+# No MCP server runs open (issue 27): each has its own credential for the brain and one for
+# operators' tools (MCP Inspector, smoke.sh), kept across re-runs.
+write_mcp_credentials() {
+  local entry file name brain operator brain_pairs=() operator_pairs=()
+  for entry in "${MCP_SERVERS[@]}"; do
+    file="${entry%%:*}" name="${entry#*:}"
+    brain="$(env_value "${name}_MCP_TOKEN" "$ETC/brain.env")"
+    brain="${brain:-$(env_value MCP_AUTH_TOKEN "$ETC/$file.env")}"
+    brain="${brain:-$(new_secret)}"
+    operator="$(env_value "${name}_MCP_OPERATOR_TOKEN" "$ETC/operator.env")"
+    operator="${operator:-$(env_value MCP_OPERATOR_TOKEN "$ETC/$file.env")}"
+    operator="${operator:-$(new_secret)}"
+    env_file "$file" "MCP_AUTH_TOKEN=$brain" "MCP_OPERATOR_TOKEN=$operator"
+    brain_pairs+=("${name}_MCP_TOKEN=$brain")
+    operator_pairs+=("${name}_MCP_OPERATOR_TOKEN=$operator")
+  done
+  env_file brain "${brain_pairs[@]}"
+  [[ -f "$ETC/operator.env" ]] || printf '%s\n' "# operator.env — the MCP servers' credentials for \
+operators' tools (MCP Inspector, smoke.sh; RUNBOOK); no unit reads it" >"$ETC/operator.env"
+  env_file operator "${operator_pairs[@]}"
 }
 
 # Each unit runs as its own user and reads exactly the env files its SERVICES entry lists.

@@ -104,7 +104,7 @@ def proxied(caddy: str, tmp_path: Path, socket_dir: Path) -> Iterator[Proxied]:
         # the robot preset's host names, login and proxy trust; offline adapters, no keys
         "RVC_DEPLOYMENT": "robot",
         "RVC_CONFIG_OVERRIDES": "llm=rules llm_planner=rules speech_output=socketio "
-        "speech_input=none tools.require_event_secrets=false",
+        "speech_input=none tools.require_event_secrets=false tools.require_mcp_credentials=false",
         "ROBOT_HOSTNAME": ROBOT,
         "RVC_TRACE_DIR": str(tmp_path / "missions"),
         "RVC_DATA_DIR": str(tmp_path / "brain"),
@@ -113,7 +113,7 @@ def proxied(caddy: str, tmp_path: Path, socket_dir: Path) -> Iterator[Proxied]:
         "ADMIN_SECRET_KEY": secrets.token_urlsafe(32),
         **{
             f"RVC_{s}_URL": f"{dead}/sse"
-            for s in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
+            for s in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
         },
     }
     launcher = ProcessLauncher(tmp_path)

@@ -24,14 +24,18 @@ from robot_ros_bridge import RosBridge
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
+    assert_refuses_strangers,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
 )
 from robot_stack_testing.sample_frames import frames_showing
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 REPO = Path(__file__).resolve().parents[4]
 FRAMES = REPO / "data" / "scenes"
 
@@ -71,7 +75,11 @@ def start_server_processes(
     launcher: ProcessLauncher, node_name: str
 ) -> tuple[tuple[str, str], tuple[LaunchedProcess, LaunchedProcess]]:
     ports = free_tcp_port(), free_tcp_port()
-    common = {"MCP_TRANSPORT": "streamable-http", "VISION_NODE_NAME": node_name}
+    common = {
+        "MCP_TRANSPORT": "streamable-http",
+        "MCP_AUTH_TOKEN": TOKEN,
+        "VISION_NODE_NAME": node_name,
+    }
     skills = launcher.start(
         "skill-control",
         [sys.executable, "-m", "mcp_skill_control"],
@@ -85,6 +93,9 @@ def start_server_processes(
     for port in ports:
         wait_for_tcp_port(port, 30.0)
     urls = f"http://127.0.0.1:{ports[0]}/mcp", f"http://127.0.0.1:{ports[1]}/mcp"
+    # nobody without the server's credential gets in (issue 27)
+    assert_refuses_strangers(urls[0], "skill_control")
+    assert_refuses_strangers(urls[1], "perception")
     return urls, (skills, buffer)
 
 
@@ -97,7 +108,10 @@ async def call(client: Client, tool: str, args: dict[str, Any] | None = None) ->
 
 @asynccontextmanager
 async def clients(urls: tuple[str, str]) -> Any:
-    async with Client(urls[0]) as skills, Client(urls[1]) as perception:
+    async with (
+        Client(mcp_transport(urls[0], TOKEN)) as skills,
+        Client(mcp_transport(urls[1], TOKEN)) as perception,
+    ):
         yield skills, perception
 
 

@@ -18,6 +18,7 @@ from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.events.log_only import LogOnlyEventSink
 from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.map import NavMap, load_map
+from robot_mcp_navigation.mapview.base import MapView, NoMapView
 from robot_mcp_navigation.motion.base import MotionBase
 from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase
 from robot_mcp_navigation.motion.nav2.port import Nav2Action
@@ -106,12 +107,16 @@ def build_motion_base(
     )
 
 
-def build_nav2_action(settings: NavigationSettings) -> tuple[Nav2Action, Callable[[], None]]:
-    """The rclpy NavigateToPose client and pose subscription, and how to close them.
+def build_nav2_action(
+    settings: NavigationSettings,
+) -> tuple[Nav2Action, MapView, Callable[[], None]]:
+    """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions, and how
+    to close them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
     """
     try:
+        from robot_mcp_navigation.mapview.rclpy_view import RclpyMapView
         from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
         from robot_ros_bridge import RosBridge
     except ImportError as exc:
@@ -122,10 +127,11 @@ def build_nav2_action(settings: NavigationSettings) -> tuple[Nav2Action, Callabl
     bridge = RosBridge("robot_mcp_navigation").start()
     try:
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
+        view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
     except BaseException:
         bridge.close()
         raise
-    return action, bridge.close
+    return action, view, bridge.close
 
 
 def build_app(
@@ -133,15 +139,17 @@ def build_app(
     *,
     base: MotionBase | None = None,
     events: EventSink | None = None,
+    map_view: MapView | None = None,
 ) -> NavigationApp:
     nav_map = load_map(settings.map_path)
     if not settings.failures_enabled:
         nav_map = nav_map.without_failures()
     closers: list[Callable[[], None]] = []
+    view: MapView = map_view or NoMapView()
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
-            nav2_action, close = build_nav2_action(settings)
+            nav2_action, view, close = build_nav2_action(settings)
             closers.append(close)
         base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
@@ -163,6 +171,6 @@ def build_app(
         base,
         events,
         navigator,
-        build_mcp_server(navigator, settings.log_level, confirmer),
+        build_mcp_server(navigator, settings.log_level, confirmer, view),
         closers,
     )

@@ -25,6 +25,7 @@ from robot_voice_chat.api.routes import (
     chat_history,
     health,
     history,
+    robot_arm,
     robot_map,
     safety,
     ui,
@@ -99,6 +100,7 @@ def create_app(
         chat_history.router,
         camera.router,
         robot_map.router,
+        robot_arm.router,
         history.router,
         ui.router,
     ):

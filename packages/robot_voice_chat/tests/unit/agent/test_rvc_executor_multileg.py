@@ -62,7 +62,7 @@ async def test_three_legs_with_then_and_commas_keep_their_order(tmp_path: Path) 
 
 
 async def test_fetch_and_deliver_finds_it_there_then_brings_it(tmp_path: Path) -> None:
-    o = office(tmp_path)
+    o = office(tmp_path, arm=True)
     starts = _record_where_each_drive_starts(o)
     mission = await o.run("fetch the package from the mailroom and bring it to reception")
     assert mission.state == "succeeded", mission.summary
@@ -70,13 +70,15 @@ async def test_fetch_and_deliver_finds_it_there_then_brings_it(tmp_path: Path) -
     assert [to for _, to in starts] == ["mailroom", "corridor_b", "mailroom", "reception"]
     assert starts[-1][0] == "mailroom"
     queries = o.tools.called("skill_control.instantiate_skill")
-    assert [q["params"] for q in queries] == [{"query": "package"}]
+    # the look before the pick, and the look that confirms it arrived
+    assert [q["params"] for q in queries] == [{"query": "package"}, {"query": "yellow package"}]
     names = [name for name, _ in o.tools.calls]
-    assert names.index("perception.wait_for_result") < len(names) - 1 - names[::-1].index(
+    assert names.index("manipulation.pick") < len(names) - 1 - names[::-1].index(
         "navigation.navigate_to"
     )
     assert mission.summary == (
-        "I found the package in the mailroom: yellow package (0.91). I brought it to the reception."
+        "I picked up the yellow package in the mailroom. "
+        "I brought the yellow package to the reception: I can see it there."
     )
     assert o.world.at == "reception"
 
@@ -107,4 +109,19 @@ async def test_a_delivery_to_an_unknown_place_is_asked_about_not_driven(tmp_path
     assert not o.tools.called("navigation.navigate_to")
     assert "I don't know a place called 'moon'" in mission.summary
     # what it offers to do instead leaves the unknown delivery out
-    assert "Shall I do just that (get the red mug from the kitchen)?" in mission.summary
+    assert "Do you want me to just get the red mug from the kitchen?" in mission.summary
+
+
+async def test_two_things_to_find_in_one_place_take_one_drive(tmp_path: Path) -> None:
+    """Issue 32: "look for the scissors and the red mug in the kitchen" drives there once and
+    looks twice."""
+    o = office(tmp_path)
+    starts = _record_where_each_drive_starts(o)
+    mission = await o.run("look for the scissors and the red mug in the kitchen")
+    assert mission.state == "succeeded", mission.summary
+    assert starts == [("dock", "kitchen")]
+    titles = [s.title for s in mission.steps]
+    assert titles.count("Drive to the kitchen") == 1
+    assert titles.count("Look for the scissors") == titles.count("Look for the red mug") == 1
+    assert mission.summary.startswith("I found the scissors in the kitchen")
+    assert "I found the red mug in the kitchen" in mission.summary

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -14,7 +15,8 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.harness import task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
-from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
+from robot_voice_chat.services.llm.rules.program import MissionProgram
+from robot_voice_chat.services.llm.rules.steps import Observation, Program
 from robot_voice_chat.services.tools.fake_office import Office, office
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 
@@ -47,10 +49,13 @@ async def test_an_alias_resolves_and_an_unknown_place_is_refused_with_the_known_
 async def test_fetch_survives_the_closed_door_by_the_suggested_detour_and_finds_it(
     tmp_path: Path,
 ) -> None:
-    o = office(tmp_path)
+    o = office(tmp_path, arm=True)
     mission = await o.run("Please fetch the package from the mailroom.")
     assert mission.state == "succeeded", mission.summary
-    assert mission.summary == "I found the package in the mailroom: yellow package (0.91)."
+    assert mission.summary == (
+        "I picked up the yellow package in the mailroom. I'm holding it; tell me where to bring it."
+    )
+    assert o.world.arm.held == "yellow package"
     drives = [a["location"] for a in o.tools.called("navigation.navigate_to")]
     assert drives == ["mailroom", "corridor_b", "mailroom"]
     # the failure's suggestions were read from get_task; the one needing a person was skipped
@@ -58,7 +63,9 @@ async def test_fetch_survives_the_closed_door_by_the_suggested_detour_and_finds_
     statuses = o.statuses(mission)
     assert statuses["s1"] == "failed"
     assert mission.steps[0].detail.startswith("DOOR_CLOSED")
-    assert [statuses[s] for s in ("s1b", "s1c", "s2", "s3", "s4", "s5")] == ["succeeded"] * 6
+    assert [statuses[s] for s in ("s1b", "s1c", "s2", "s3", "s4", "s5", "s6", "s7")] == [
+        "succeeded"
+    ] * 8
     # the eta trigger prewarmed the camera with no planner hop; the prewarm skill was stopped
     assert o.tools.called("skill_control.prewarm_skill") == [
         {"template": "find_object", "params": {"query": "package"}}
@@ -138,6 +145,7 @@ async def test_stop_mid_drive_pauses_and_continue_drives_again(tmp_path: Path) -
     assert mission.state == "paused"
     assert o.tools.called("navigation.stop_navigation") == [{}]
     o.world.drive_s = 0.05
+    await o.executor.latch.clear("operator", "checked")  # an operator clears the stop first
     await o.executor.on_user_turn("continue")
     await o.executor.wait_idle(10)
     assert mission.state == "succeeded", mission.summary
@@ -406,3 +414,37 @@ async def test_a_sentence_that_failed_while_navigation_was_down_works_once_it_is
     assert mission.state == "succeeded", mission.summary
     assert o.world.at == "kitchen"
     assert o.tools.called("navigation.navigate_to") == [{"location": "kitchen"}]
+
+
+@pytest.mark.parametrize(
+    ("reason", "why"),
+    [
+        ("network", "the cloud vision service is unreachable"),
+        ("budget", "my cloud vision budget is spent for now"),
+        ("something_new", "the vision model failed"),  # an unknown reason is not said raw
+    ],
+)
+async def test_a_find_that_cannot_see_says_so_and_never_that_the_thing_is_not_there(
+    tmp_path: Path, reason: str, why: str
+) -> None:
+    """Issue 30: the vision node could not look at all (no fallback grounder) — the buffer's
+    result carries cannot_see; the robot says it cannot see, in plain words."""
+    o = office(tmp_path)
+    answer = {"skill": "find_object", "detections": [], "stale": True,
+              "cannot_see": True, "cannot_see_reason": reason}  # fmt: skip
+    o.tools.add("perception.wait_for_result", lambda _args: answer, skill="string",
+                timeout_s="number")  # fmt: skip
+    mission = await o.run("find the stapler")
+    assert mission.state == "failed"
+    assert mission.summary == (
+        f"I can't see right now ({why}), so I don't know whether the stapler is there."
+    )
+    assert not _codes_ids_or_tool_names(mission.summary)
+    assert o.tools.called("skill_control.stop_skill")  # the skill is still stopped
+
+
+def _codes_ids_or_tool_names(said: str) -> list[str]:
+    """What the robot's words must not carry: snake_case ids and reasons, ERROR_CODES, dotted
+    tool names, task ids (nav-1a2b)."""
+    patterns = (r"\b\w+_\w+\b", r"\b[A-Z]{2,}\b", r"\b[a-z_]+\.[a-z_]+\b", r"\b[a-z]+-\w*\d\w*\b")
+    return [hit for pattern in patterns for hit in re.findall(pattern, said)]

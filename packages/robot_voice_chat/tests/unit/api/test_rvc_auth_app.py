@@ -53,7 +53,7 @@ async def serve(
     """The brain served like ``main`` serves it (TCP, and the proxy socket if asked)."""
     port = free_tcp_port()
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
-    for name in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
+    for name in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
         monkeypatch.setenv(f"RVC_{name}_URL", "http://127.0.0.1:9/sse")  # nothing there
     monkeypatch.setenv("ADMIN_USERNAME", "ada")
     monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)

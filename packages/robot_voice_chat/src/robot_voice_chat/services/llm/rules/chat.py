@@ -23,6 +23,7 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     ToolResult,
 )
+from robot_voice_chat.services.llm.rules import answers
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
 from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.rules.recollection import (
@@ -32,13 +33,13 @@ from robot_voice_chat.services.llm.rules.recollection import (
     names_of,
     recollection,
 )
+from robot_voice_chat.services.llm.understanding import saying
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
     Question,
     Reading,
     instruction_of,
-    spoken_of,
 )
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
@@ -53,10 +54,13 @@ from robot_voice_chat.services.llm.understanding.understand import Understanding
 LIST_LOCATIONS = "navigation.list_locations"
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
+RESUME = "resume_mission"  # the fast path's own tool: is there a paused mission, a latched stop
+_TOLD = ("time", "doing", "distance", "smalltalk", "thanks", "resume")  # issue 32's answers
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
-    "somewhere, watch for something, tell you what I see, where I am and which places I know, "
+    "somewhere (with my arm: pick it up, put it down, hand it over), watch for something, "
+    "tell you what I see, where I am and which places I know, "
     "what I saw or did earlier ('when did you last see the mug?') — "
     "also several steps in a row ('go to the kitchen, then to reception')"
 )
@@ -76,6 +80,10 @@ def ack(command: Command) -> str:
         return f"I'll look for the {command.obj}."
     if command.kind == "watch":
         return f"I'll watch for {command.obj}."
+    if command.kind == "pick":
+        return f"I'll pick up the {command.obj}."
+    if command.kind in ("put", "release"):
+        return "I'll put it down." if command.kind == "put" else "Here you are."
     return "Let me look."
 
 
@@ -87,6 +95,7 @@ class _Sent:
     purpose: str
     recall: Recall | None = None
     places: PlaceIndex | None = None
+    about: str | None = None  # the place a distance question is about
 
 
 class RulesChat(LLMProvider):
@@ -138,6 +147,8 @@ class RulesChat(LLMProvider):
             return self._reply(request, places, messages, names)
         if purpose == "pose":
             return LLMResponse(text=_where(result, names_of(sent.places)))
+        if purpose in ("doing", "distance", "resume"):
+            return LLMResponse(text=_told(sent, result))
         if purpose == "history":
             recall = sent.recall
             tool = recall.tool if recall else _tool_of(result, messages)
@@ -164,7 +175,7 @@ class RulesChat(LLMProvider):
         if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
-            said = spoken_of(reading.actions, names_of(places) if places else None)
+            said = saying.plan(reading.actions, places)
             missing = _missing_service(reading.actions, names)
             if missing is not None:  # refused now, not after an "OK" the mission takes back
                 return LLMResponse(text=f"I can't {said} right now: my {missing} is not connected.")
@@ -177,6 +188,8 @@ class RulesChat(LLMProvider):
             return self._call("stop_mission", {}, "stop")
         if reading.kind == "answer" and reading.recall is not None:
             return self._recall(reading.recall, places, names)
+        if reading.kind == "answer" and reading.topic in _TOLD:
+            return self._tell(reading, places, names)
         if reading.kind == "answer":
             return self._answer(reading.topic, places, names)
         if reading.kind == "greet":
@@ -211,6 +224,32 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
+    def _tell(self, reading: Reading, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
+        """The time, what I'm doing, how far a place is, small talk, thanks, continue: answered
+        from the clock, the pose and the place list, never by moving."""
+        topic = reading.topic
+        if topic == "time":
+            return LLMResponse(text=answers.clock_sentence(self._clock()))
+        if topic == "resume":
+            if RESUME in names:  # the brain knows whether a stop is latched
+                return self._call(RESUME, {}, "resume")
+            return LLMResponse(text=answers.NOTHING_TO_CONTINUE)
+        if topic == "doing":
+            if GET_POSE in names:
+                return self._call(GET_POSE, {}, "doing", places=places)
+            return LLMResponse(text=answers.doing_sentence(None, False, places))
+        if topic == "distance" and reading.about is not None and places is not None:
+            place = places.get(reading.about)
+            if place is not None and GET_POSE in names:
+                return self._call(GET_POSE, {}, "distance", places=places, about=place.name)
+            if place is not None:
+                return LLMResponse(text=answers.distance_sentence(place, None, False, places))
+        if topic == "distance" and not reading.text:
+            return LLMResponse(
+                text="I can't tell how far that is: the navigation server is not connected."
+            )
+        return LLMResponse(text=reading.text or "You're welcome.")
+
     def _recall(self, recall: Recall, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
         """A question about the past: one episodic call (never a motion)."""
         if recall.tool not in names:
@@ -242,10 +281,11 @@ class RulesChat(LLMProvider):
         purpose: str,
         recall: Recall | None = None,
         places: PlaceIndex | None = None,
+        about: str | None = None,
     ) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
-        self._sent[call.id] = _Sent(purpose, recall, places)
+        self._sent[call.id] = _Sent(purpose, recall, places, about)
         while len(self._sent) > 64:  # answers that never came back
             self._sent.pop(next(iter(self._sent)))
         return LLMResponse(tool_calls=[call], stop_reason="tool_use")
@@ -284,6 +324,18 @@ def _asked(question: Question, messages: list[Message]) -> bool:
     return not replies or replies[-1].strip().endswith(question.text)
 
 
+def _told(sent: _Sent, result: ToolResult) -> str:
+    """The answer to a doing / distance / continue question from its tool's result."""
+    if sent.purpose == "resume":
+        return result.content if not result.is_error else answers.NOTHING_TO_CONTINUE
+    if sent.purpose == "doing":
+        return answers.doing_sentence(result.content, result.is_error, sent.places)
+    place = sent.places.get(sent.about) if sent.places is not None and sent.about else None
+    if place is None:
+        return "I can't tell how far that is right now."
+    return answers.distance_sentence(place, result.content, result.is_error, sent.places)
+
+
 def _where(result: ToolResult, names: Names = by_id) -> str:
     if result.is_error:
         return f"I can't tell where I am right now: {reason_of(result.content)}."
@@ -306,6 +358,7 @@ def _where(result: ToolResult, names: Names = by_id) -> str:
 _PURPOSE_OF_TOOL = {
     LIST_LOCATIONS: "places",
     GET_POSE: "pose",
+    RESUME: "resume",
     "start_mission": "mission",
     "stop_mission": "stop",
     WHAT_HAPPENED: "history",

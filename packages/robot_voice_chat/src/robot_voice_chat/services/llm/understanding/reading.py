@@ -10,7 +10,7 @@ from typing import Literal
 from robot_voice_chat.services.llm.understanding.places import located
 from robot_voice_chat.services.llm.understanding.recall import Recall
 
-ActionKind = Literal["goto", "find", "fetch", "watch", "see"]
+ActionKind = Literal["goto", "find", "fetch", "watch", "see", "pick", "put", "release"]
 ReadingKind = Literal["act", "ask", "refuse", "answer", "stop", "greet", "cancel"]
 
 
@@ -33,6 +33,8 @@ class Action:
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_instruction(self)
         return "what do you see"
 
     def spoken(self, names: Callable[[str], str] | None = None) -> str:
@@ -50,6 +52,8 @@ class Action:
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_spoken(self)
         return "tell you what I see"
 
     def code(self) -> str:
@@ -58,12 +62,32 @@ class Action:
             return "see"
         if self.kind == "goto":
             return f"goto:{self.place}"
-        text = f"{self.kind}:{self.obj}"
+        text = f"{self.kind}:{self.obj}" if self.obj else self.kind
         if self.place:
             text += f"@{self.place}"
         if self.to:
             text += f">{self.to}"
         return text
+
+
+def _hands_instruction(action: Action) -> str:
+    """pick / put / release in the exact grammar's words (commands.py parses them back)."""
+    if action.kind == "pick":
+        return f"pick up {action.obj}"
+    if action.kind == "put":
+        what = action.obj or "it"
+        return f"put {what} down" + (f" at {action.place}" if action.place else "")
+    return "hand it over"
+
+
+def _hands_spoken(action: Action) -> str:
+    place = (action.place or "").replace("_", " ")
+    if action.kind == "pick":
+        return f"pick up the {action.obj}"
+    if action.kind == "put":
+        what = f"the {action.obj}" if action.obj else "it"
+        return f"put {what} down" + (f" at the {place}" if action.place else "")
+    return "hand it over"
 
 
 def instruction_of(actions: list[Action]) -> str:
@@ -105,12 +129,14 @@ class Reading:
     kind: ReadingKind
     actions: list[Action] = field(default_factory=list)
     question: Question | None = None
-    text: str = ""  # a refusal's sentence
-    topic: str = ""  # answer: where | places | abilities | history | greet | <site intent>
+    text: str = ""  # a refusal's sentence; an answer that needs no tool (small talk, thanks)
+    topic: str = ""  # answer: where | places | abilities | history | greet | distance | time |
+    # doing | smalltalk | thanks | resume | <site intent>
     recall: Recall | None = None  # topic history: the episodic call that answers it
     intent: str = ""
     score: float = 1.0
     stage: Literal["grammar", "semantic", "answer"] = "grammar"
+    about: str | None = None  # answer: the place a question is about (a map id)
 
     def code(self) -> list[str]:
         if self.kind == "act":

@@ -262,6 +262,9 @@ install_units() {
     install -m 0644 "$OPT/deploy/$unit.service" "$SYSTEMD/$unit.service"
   done
   install -m 0644 "$OPT/deploy/$APP.target" "$SYSTEMD/$APP.target"
+  # the TLS proxy joins the brain's group: only it may connect to the brain's proxy socket
+  install -d -m 0755 "$SYSTEMD/caddy.service.d"
+  install -m 0644 "$OPT/deploy/caddy-robot-stack.conf" "$SYSTEMD/caddy.service.d/$APP.conf"
   system systemctl daemon-reload
   system systemctl enable "$APP.target" "${UNITS[@]/%/.service}"
   if ((start)); then
@@ -277,7 +280,8 @@ uninstall() {
     system systemctl disable --now "$APP.target" "${UNITS[@]/%/.service}"
   fi
   for unit in "${UNITS[@]}"; do rm -f "$SYSTEMD/$unit.service"; done
-  rm -f "$SYSTEMD/$APP.target"
+  rm -f "$SYSTEMD/$APP.target" "$SYSTEMD/caddy.service.d/$APP.conf"
+  rmdir "$SYSTEMD/caddy.service.d" 2>/dev/null || true  # only if nothing else is in it
   system systemctl daemon-reload
   rm -rf "$OPT" "$OPT.new"
   if ((purge)); then

@@ -455,3 +455,19 @@ def test_unknown_arguments_are_refused(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "unknown argument --frobnicate" in result.stderr
+
+
+def test_only_the_tls_proxy_joins_the_brains_group_for_its_proxy_socket(installed: Path) -> None:
+    """Issue 31: forwarded headers are believed from the proxy socket, not from loopback."""
+    brain = installed / "etc/systemd/system/robot-voice-chat.service"
+    start = " ".join(unit_values(brain, "ExecStart"))
+    socket = re.search(r"--proxy-socket (\S+)", start)
+    assert socket is not None, start
+    assert socket[1].startswith("/run/robot-voice-chat/")
+    assert unit_values(brain, "RuntimeDirectory") == ["robot-voice-chat"]
+    assert unit_values(brain, "RuntimeDirectoryMode") == ["0750"]
+    caddyfile = (ROOT / "deploy/Caddyfile").read_text(encoding="utf-8")
+    assert f"reverse_proxy unix/{socket[1]}" in caddyfile
+    assert "reverse_proxy 127.0.0.1" not in caddyfile
+    drop_in = installed / "etc/systemd/system/caddy.service.d/robot-stack.conf"
+    assert unit_values(drop_in, "SupplementaryGroups") == ["robot-voice-chat"]

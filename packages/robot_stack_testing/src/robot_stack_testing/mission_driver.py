@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import httpx
 import socketio
@@ -189,6 +189,24 @@ class MissionRecord:
     events: list[tuple[str, Any]] = field(default_factory=list)
     reply: dict[str, Any] = field(default_factory=dict)
     snapshot: dict[str, Any] = field(default_factory=dict)
+    replies: list[str] = field(default_factory=list)  # every REST reply, in order
+
+    def robot_words(self) -> list[str]:
+        """Everything shown or said as the robot's words: REST and chat replies, spoken and
+        said lines, mission summaries (not plan steps, tool calls or task events)."""
+        said = list(self.replies)
+        for name, data in self.events:
+            if not isinstance(data, dict):
+                continue
+            if (name == "chat_message" and data.get("role") == "assistant") or (
+                name == "mission_event" and data.get("kind") == "say"
+            ):
+                said.append(str(data.get("text", "")))
+            elif name in ("speak", "chat_error"):
+                said.append(str(data.get("text") or data.get("message") or ""))
+            elif name == "mission_finished":
+                said.append(str(data.get("summary", "")))
+        return [s for s in said if s]
 
     def of(self, name: str) -> list[Any]:
         return [data for event, data in self.events if event == name]
@@ -307,7 +325,13 @@ class Narrator:
 
 
 class MissionDriver:
-    """A user at the brain: REST for the turn, Socket.IO for everything the UI shows."""
+    """A user at the brain: REST for the turn, Socket.IO for everything the UI shows.
+
+    ``words_check`` (a checker such as ``robot_voice_chat.robot_words.leaks``; the e2e
+    conftest sets it) reads every sentence the robot said or showed when the driver closes,
+    and raises if any leaks a task id, tool name, code or snake_case id."""
+
+    words_check: ClassVar[Callable[[str], list[Any]] | None] = None
 
     def __init__(self, brain_url: str, narrator: Narrator | None = None) -> None:
         self.brain_url = brain_url.rstrip("/")
@@ -322,9 +346,14 @@ class MissionDriver:
         await self.sio.connect(self.brain_url, transports=["websocket"], wait_timeout=10)
         return self
 
-    async def __aexit__(self, *exc: object) -> None:
+    async def __aexit__(self, exc_type: object, *exc: object) -> None:
         await self.sio.disconnect()
         await self.http.aclose()
+        check = type(self).words_check
+        if check is not None and exc_type is None:
+            found = [leak for said in self.record.robot_words() for leak in check(said)]
+            if found:
+                raise AssertionError(f"the robot's words leak: {found[:5]}")
 
     async def _on_event(self, name: str, data: Any = None) -> None:
         self.record.events.append((name, data))
@@ -369,6 +398,7 @@ class MissionDriver:
         response.raise_for_status()
         reply: dict[str, Any] = response.json()
         self.record.reply = reply
+        self.record.replies.append(str(reply.get("reply", "")))
         return reply
 
     async def wait_finished(self, timeout_s: float) -> MissionRecord:

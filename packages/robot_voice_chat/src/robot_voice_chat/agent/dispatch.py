@@ -16,6 +16,7 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
+from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.task_registry import (
@@ -29,6 +30,7 @@ from robot_voice_chat.agent.task_registry import (
 )
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
@@ -381,7 +383,7 @@ class TaskDispatcher:
         await self.output.log_line(run, "task_event", line)
         await self.output.say(
             run,
-            f"I lost contact with the {server} server and am waiting for it to come back. "
+            f"I lost contact with my {service_name(server)} and am waiting for it to come back. "
             "Say stop to halt me.",
         )
         run.post(line)
@@ -418,3 +420,9 @@ class TaskDispatcher:
                     interrupted=task_id in self.interrupted,
                 )
                 await self.cancel_task(server, task_id)
+                if task_id in self.interrupted and self._is_motion(server):
+                    await self.output.speech.say(stopped_after_restart(server))
+
+    def _is_motion(self, server: str) -> bool:
+        cfg = self.tools.servers().get(server)
+        return cfg is not None and cfg.motion

@@ -145,7 +145,9 @@ class GuardedToolBackend(ToolBackend):
             )
             extra = {"bound": decision.bound} if decision.bound else {}
             return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
-        if decision.action == "confirm":
+        if decision.action == "confirm" and current_dispatch().approved_by is not None:
+            logger.info("tool_preapproved", tool=name, by=current_dispatch().approved_by)
+        elif decision.action == "confirm":
             answer = await self._ask(name, arguments, decision)
             if not answer.approved:
                 logger.warning("tool_refused", tool=name, code=POLICY_DENIED, detail=answer.detail)

@@ -13,7 +13,11 @@ from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 
-TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.navigate_to")]
+TOOLS = [
+    *FAST_LOCAL_TOOLS,
+    ToolDefinition(name="navigation.navigate_to"),
+    ToolDefinition(name="skill_control.instantiate_skill"),
+]
 
 
 def user(text: str) -> list[Message]:

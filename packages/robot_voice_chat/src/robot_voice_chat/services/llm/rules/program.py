@@ -9,10 +9,12 @@ yields the tool calls of one planner step (:class:`Act`) and receives what came 
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass
 from typing import Any
 
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
 from robot_voice_chat.services.llm.rules.carry import (
     GET_HELD,
@@ -23,6 +25,7 @@ from robot_voice_chat.services.llm.rules.carry import (
     Carrying,
 )
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.plain import reason_of, suggestion_of
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
     by_id,
@@ -44,7 +47,6 @@ from robot_voice_chat.services.llm.rules.surface import (
     Locations,
     as_json,
     detour_legs,
-    error_of,
     has_tool,
     task_id_of,
 )
@@ -119,6 +121,9 @@ class MissionProgram(Carrying):
         self.own_drives: set[str] = set(own_drives or ())
         self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
         self.doing = ""  # what the robot is busy with, for those answers
+        self.told_busy: str | None = None  # the activity the busy answer was said for
+        self.say: Names = by_id  # how sentences say the map's places (the live list's names)
+        self.known: list[str] = []  # the map's place ids (said by name inside server text)
         self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
         self.timeouts = 0  # "[timeout] still waiting" wakeups seen
         self.seen: Any = None  # the last look's result (its detections carry mask_refs)
@@ -140,15 +145,23 @@ class MissionProgram(Carrying):
     def act(self, *calls: Call, text: str = "") -> Steps:
         """One planner step; a person who spoke since the last one is answered with it (a
         brief ``say``, spec §5.1), and the callers see the results of their own calls only."""
-        answer = [Call("say", {"text": self.busy_answer()})] if self.user_turns else []
+        answer = []
+        if self.user_turns and self.told_busy != self.activity():
+            # said once per activity: every turn already got its own answer on screen, and
+            # twenty messages must not make the robot say the same thing twenty times
+            answer = [Call("say", {"text": self.busy_answer()})]
+            self.told_busy = self.activity()
         self.user_turns.clear()
         observation: Observation = yield Act([*answer, *calls], text)
         self.absorb(observation)
         return observation.results[len(answer) :]
 
+    def activity(self) -> str:
+        return self.doing or f"working on: {self.command.text.strip()}"
+
     def busy_answer(self) -> str:
         heard = self.user_turns[-1]
-        doing = self.doing or f"working on: {self.command.text.strip()}"
+        doing = self.activity()
         return (
             f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
             "mission: say stop to halt me, then give me the new task."
@@ -189,10 +202,12 @@ class MissionProgram(Carrying):
         if missing:
             server = missing[0].split(".")[0]
             raise Finished(
-                "failed",
-                f"I can't do that right now: the {server} server is not connected "
-                f"(missing {', '.join(missing)}).",
+                "failed", f"I can't do that right now: my {service_name(server)} is not connected."
             )
+
+    def reason(self, content: str) -> str:
+        """A tool error as the robot says it (codes and tool names stay in the step)."""
+        return reason_of(content, self.say, self.known)
 
     # --- the missions ------------------------------------------------------------------------
     def _main(self) -> Steps:
@@ -330,14 +345,15 @@ class MissionProgram(Carrying):
         and how sentences say the map's places."""
         locations = Locations.from_result(listed)
         index = PlaceIndex.from_result(listed)
+        self.say, self.known = names_of(index), locations.known()
         names: dict[str, str] = {}
         for phrase in phrases:
             exact = locations.resolve(phrase)
             match = index.resolve(phrase)
             if exact is None and not match.sure:
-                known = ", ".join(locations.known()) or "none"
+                known = ", ".join(self.say(n) for n in self.known) or "none"
                 if match.names:
-                    options = " or ".join(n.replace("_", " ") for n in match.names)
+                    options = " or ".join(self.say(n) for n in match.names)
                     known = f"did you mean {options}? Tell me again with the place"
                     raise Finished("failed", f"I'm not sure which place {phrase!r} is: {known}.")
                 raise Finished(
@@ -354,7 +370,9 @@ class MissionProgram(Carrying):
             leg = route[0]
             legs += 1
             if legs > self.settings.max_legs:
-                raise Finished("failed", f"I could not reach the {place} after {legs - 1} drives.")
+                raise Finished(
+                    "failed", f"I could not reach {self.say(place)} after {legs - 1} drives."
+                )
             args: dict[str, Any] = {"step_id": current, "location": leg}
             calls = [*before, Call(NAVIGATE, args)]
             before = []
@@ -363,7 +381,7 @@ class MissionProgram(Carrying):
                 calls.insert(-1, self._prewarm_reaction(prepare))
             result = (yield from self.act(*calls))[-1]
             if result.is_error and HELD_BY_SAFETY_STOP in result.content:  # a stop came first
-                yield from self._until_resumed(f"stopped before driving to the {leg}")
+                yield from self._until_resumed(f"stopped before driving to {self.say(leg)}")
                 legs -= 1
                 current = self._add_step(current, f"Resume the drive to the {leg}")
                 before = [self.plan_call()]
@@ -372,13 +390,16 @@ class MissionProgram(Carrying):
                 result = yield from self._replace_own_drive(leg, args)
             if result.is_error:
                 raise Finished(
-                    "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
+                    "failed", f"I couldn't drive to {self.say(leg)}: {self.reason(result.content)}."
                 )
             task_id = task_id_of(result.content)
             if task_id is None:
-                raise Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+                raise Finished(
+                    "failed",
+                    f"I couldn't drive to {self.say(leg)}: my navigation gave no answer I can use.",
+                )
             self.own_drives.add(task_id)
-            outcome = yield from self._await(task_id, f"driving to the {leg}")
+            outcome = yield from self._await(task_id, f"driving to {self.say(leg)}")
             if outcome.kind == "done":
                 route.pop(0)
                 if route:
@@ -403,21 +424,29 @@ class MissionProgram(Carrying):
                 # is not busy (its task ended); a second such failure gives up below
                 retried.add(leg)
                 current = self._add_step(current, f"Retry the drive to the {leg}")
-                said = f"{failure.message or failure.code}. I'll try the drive once more."
+                said = f"{_capital(self._failure_said(failure))}. I'll try the drive once more."
                 before = [self.plan_call(), Call("say", {"text": said})]
                 continue
             if detour is None:
-                advice = "; ".join(failure.suggestions)
+                advice = [a for s in failure.suggestions if (a := self._suggestion(s))]
                 raise Finished(
                     "failed",
-                    f"I couldn't reach the {place}: {failure.code} {failure.message}".strip()
-                    + (f" Suggestions I can't follow alone: {advice}" if advice else ""),
+                    f"I couldn't reach {self.say(place)}: {self._failure_said(failure)}."
+                    + (f" What could help: {'; '.join(advice)}." if advice else ""),
                 )
             suggestion, route = detour
             tried.add(suggestion)
             current = self._add_step(current, f"Detour via the {route[0]}")
-            said = f"{failure.message or failure.code} I'll {suggestion}."
+            plan = self._suggestion(suggestion) or f"drive via {self.say(route[0])}"
+            said = f"{_capital(self._failure_said(failure))}. I'll {plan}."
             before = [self.plan_call(), Call("say", {"text": said})]
+
+    def _failure_said(self, failure: Failure) -> str:
+        """A drive's failure as the robot says it ("the mailroom door is closed")."""
+        return self.reason(json.dumps({"error": failure.code, "detail": failure.message}))
+
+    def _suggestion(self, text: str) -> str | None:
+        return suggestion_of(text, self.say, self.known)
 
     def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
         """The base is busy. Only a drive of this mission (begun before a planner takeover)
@@ -426,7 +455,7 @@ class MissionProgram(Carrying):
         if not mine or not has_tool(self.tools, CANCEL_TASK):
             raise Finished(
                 "failed",
-                f"I couldn't drive to the {leg}: the robot is already driving on a task this "
+                f"I couldn't drive to {self.say(leg)}: the robot is already driving on a task this "
                 "mission did not start, and I won't stop someone else's drive. Say stop to "
                 "halt it, then ask me again.",
             )
@@ -468,9 +497,9 @@ class MissionProgram(Carrying):
             elif self.timeouts > timeouts:  # a whole wakeup period and it is still gone
                 raise Finished(
                     "failed",
-                    f"I lost contact with the {lost} server while {reason} and it has not "
+                    f"I lost contact with my {service_name(lost)} while {reason} and it has not "
                     "come back, so I can't tell or control what that task does; I stopped "
-                    "waiting. Check that server, then ask me again.",
+                    "waiting. Check that service, then ask me again.",
                 )
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
@@ -529,7 +558,7 @@ class MissionProgram(Carrying):
         )
         if started.is_error:
             raise Finished(
-                "failed", f"I couldn't start looking for the {obj}: {error_of(started.content)}"
+                "failed", f"I couldn't start looking for the {obj}: {self.reason(started.content)}."
             )
         data = as_json(started.content)
         skill = (
@@ -548,8 +577,7 @@ class MissionProgram(Carrying):
         yield from self.act(*stops)
         if down is not None:  # not "I couldn't see it": the camera could not look at all
             raise Finished(
-                "failed",
-                f"I couldn't look for the {obj}: the camera/vision is unavailable ({down}).",
+                "failed", f"I couldn't look for the {obj}: my camera is unavailable ({down})."
             )
         if seen.is_error:
             return ""
@@ -569,7 +597,7 @@ class MissionProgram(Carrying):
         if not has_tool(self.tools, LIST_SKILLS):
             return None
         [listed] = yield from self.act(Call(LIST_SKILLS))
-        return error_of(listed.content) if listed.is_error else None
+        return self.reason(listed.content) if listed.is_error else None
 
     def _remembered(self) -> Steps:
         """What the robot saw last, when and where (the episodic memory), or "" without it."""
@@ -648,8 +676,7 @@ class MissionProgram(Carrying):
                     memory = yield from self._remembered()
                     raise Finished(
                         "failed",
-                        f"I can't look right now: the camera/vision is unavailable ({down}). "
-                        + memory,
+                        f"I can't look right now: my camera is unavailable ({down}). " + memory,
                     )
         if not text:
             memory = yield from self._remembered()
@@ -681,7 +708,7 @@ class MissionProgram(Carrying):
         task_id = None if started.is_error else task_id_of(started.content)
         if task_id is None:
             raise Finished(
-                "failed", f"I couldn't start watching for {thing}: {error_of(started.content)}"
+                "failed", f"I couldn't start watching for {thing}: {self.reason(started.content)}."
             )
         info = as_json(started.content)
         skill = str(info.get("skill_id", "watch_for")) if isinstance(info, dict) else "watch_for"
@@ -701,8 +728,20 @@ class MissionProgram(Carrying):
             Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}),
         )
         if outcome.kind == "failed":
-            raise Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
+            failed = _failed_event(outcome.line)
+            raise Finished("failed", f"Watching for {thing} stopped: {self.reason(failed)}.")
         raise Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _capital(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _failed_event(line: str) -> str:
+    """A ``[task …] failed CODE (…): message`` line as the error JSON ``reason_of`` reads."""
+    match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: .*)?$", line)
+    code, message = (match[1], match[2]) if match is not None else ("", "")
+    return json.dumps({"error": code, "detail": message})
 
 
 def _already_there(leg: Command, at: str | None) -> bool:

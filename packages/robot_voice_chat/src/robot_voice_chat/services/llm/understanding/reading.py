@@ -3,9 +3,11 @@ a refusal, or a question the robot answers from its tools."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
+from robot_voice_chat.services.llm.understanding.places import located
 from robot_voice_chat.services.llm.understanding.recall import Recall
 
 ActionKind = Literal["goto", "find", "fetch", "watch", "see", "pick", "put", "release"]
@@ -35,17 +37,18 @@ class Action:
             return _hands_instruction(self)
         return "what do you see"
 
-    def spoken(self) -> str:
-        """The action as the robot says it back."""
-        place = (self.place or "").replace("_", " ")
-        to = (self.to or "").replace("_", " ")
+    def spoken(self, names: Callable[[str], str] | None = None) -> str:
+        """The action as the robot says it back; ``names`` says a map id by its human name
+        ("Alice's desk"), else the id with spaces."""
+        say = names or _by_id
+        place, to = say(self.place or ""), say(self.to or "")
         if self.kind == "goto":
-            return f"go to the {place}"
+            return f"go to {place}"
         if self.kind == "find":
-            return f"look for the {self.obj}" + (f" in the {place}" if self.place else "")
+            return f"look for the {self.obj}" + (f" {located(place)}" if self.place else "")
         if self.kind == "fetch":
-            return f"get the {self.obj} from the {place}" + (
-                f" and bring it to the {to}" if self.to else ""
+            return f"get the {self.obj} from {place}" + (
+                f" and bring it to {to}" if self.to else ""
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
@@ -91,8 +94,12 @@ def instruction_of(actions: list[Action]) -> str:
     return ", then ".join(a.instruction() for a in actions)
 
 
-def spoken_of(actions: list[Action]) -> str:
-    said = [a.spoken() for a in actions]
+def _by_id(place: str) -> str:
+    return f"the {place.replace('_', ' ')}"
+
+
+def spoken_of(actions: list[Action], names: Callable[[str], str] | None = None) -> str:
+    said = [a.spoken(names) for a in actions]
     return said[0] if len(said) == 1 else ", then ".join(said[:-1]) + ", then " + said[-1]
 
 

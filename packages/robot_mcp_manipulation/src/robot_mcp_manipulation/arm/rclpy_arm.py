@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import structlog
@@ -77,19 +78,24 @@ def place_goal(mode: PlaceMode) -> Any:
 
 
 class RclpyArmGoal(ArmGoal):
-    def __init__(self, bridge: RosBridge, handle: Any) -> None:
+    def __init__(self, bridge: RosBridge, handle: Any, on_held: Callable[[Held], None]) -> None:
         self._bridge = bridge
         self._handle = handle
+        self._on_held = on_held
         self._result_future = handle.get_result_async()
 
     async def outcome(self) -> ArmOutcome:
         response = await self._bridge.await_future(self._result_future, None)
         result = response.result
+        held = held_of(result.held)
+        # The result says what is held when the goal ended; the held topic may arrive later
+        # (another topic, no ordering across them), so a read right after a pick is not stale.
+        self._on_held(held)
         return ArmOutcome(
             _STATUS.get(int(response.status), "unknown"),
             int(result.error_code),
             str(result.error_msg),
-            held_of(result.held),
+            held,
             str(getattr(result, "placed_label", "")),
         )
 
@@ -116,6 +122,9 @@ class RclpyArm(ArmActions):
 
     def _on_held(self, msg: Any) -> None:  # executor thread; one reference assignment
         self._held = held_of(msg)
+
+    def _remember_held(self, held: Held) -> None:
+        self._held = held
 
     def held(self) -> Held | None:
         return self._held
@@ -169,7 +178,7 @@ class RclpyArm(ArmActions):
             raise ArmUnavailableError(
                 f"the {kind} action server on {name} rejected the goal (the arm is busy?)"
             )
-        return RclpyArmGoal(self._bridge, handle)
+        return RclpyArmGoal(self._bridge, handle, self._remember_held)
 
 
 def _cancel_if_accepted(future: Any) -> None:

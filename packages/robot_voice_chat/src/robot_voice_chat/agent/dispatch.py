@@ -398,9 +398,10 @@ class TaskDispatcher:
             run.post(line)
         if not self.tools.has_tool(f"{server}.list_tasks"):
             return
-        outcome = await self.tools.call_tool(
-            f"{server}.list_tasks", {"states": ["running"]}, self.config.tool_timeout_s
-        )
+        with dispatching(DispatchContext(may_ask=False, caller="the brain's reconciliation")):
+            outcome = await self.tools.call_tool(
+                f"{server}.list_tasks", {"states": ["running"]}, self.config.tool_timeout_s
+            )
         running = None if outcome.is_error else running_task_ids(outcome.text)
         if running is None:
             logger.warning("reconcile_failed", server=server, result=outcome.text[:200])

@@ -172,7 +172,9 @@ class GuardedToolBackend(ToolBackend):
     ) -> ApprovalAnswer:
         context = current_dispatch()
         if self.approvals is None or not context.may_ask:
-            who = "a prepared reaction" if not context.may_ask else "this caller"
+            who = context.caller or (
+                "a prepared reaction" if not context.may_ask else "this caller"
+            )
             return ApprovalAnswer(
                 False, f"it needs an operator's approval, which {who} cannot ask for"
             )

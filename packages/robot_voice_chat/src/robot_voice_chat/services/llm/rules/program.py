@@ -9,13 +9,12 @@ yields the tool calls of one planner step (:class:`Act`) and receives what came 
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass
 from typing import Any
 
 from robot_voice_chat.robot_words import service_name
-from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
+from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.rules.carry import (
     GET_HELD,
     NO_ARM,
@@ -25,14 +24,14 @@ from robot_voice_chat.services.llm.rules.carry import (
     Carrying,
 )
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.driving import NAVIGATE, Driving
 from robot_voice_chat.services.llm.rules.looking import (
     INSTANTIATE,
-    PREWARM,
     STOP_SKILL,
     WAIT_RESULT,
     Looking,
 )
-from robot_voice_chat.services.llm.rules.plain import reason_of, suggestion_of
+from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
     by_id,
@@ -49,18 +48,12 @@ from robot_voice_chat.services.llm.rules.steps import (
     Steps,
 )
 from robot_voice_chat.services.llm.rules.surface import (
-    Failure,
     Locations,
-    detour_legs,
     has_tool,
-    task_id_of,
 )
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 
-NAVIGATE = "navigation.navigate_to"
 LIST_LOCATIONS = "navigation.list_locations"
-GET_TASK = "navigation.get_task"
-CANCEL_TASK = "navigation.cancel_task"
 # the historical mode of "what do you see" (seed 000 §8): the newest sightings of the last day
 UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
@@ -85,8 +78,8 @@ class Settings:
     max_legs: int = 6
 
 
-# Looking first: its look steps stand in for the stubs Carrying declares for them.
-class MissionProgram(Looking, Carrying):
+# Looking and Driving first: their steps stand in for the stubs Carrying declares for them.
+class MissionProgram(Looking, Driving, Carrying):
     """One mission's program; ``resumed`` = taking over a conversation another planner began,
     ``own_drives`` = the drives that conversation started and that may still run."""
 
@@ -274,6 +267,8 @@ class MissionProgram(Looking, Carrying):
             names, spoken = self._places(results[1].content, phrases)
         else:
             yield from self.act(self.plan_call())
+        if self._say_places_in_titles(names, spoken) and self.planned:
+            yield from self.act(self.plan_call())  # the plan again, places as people say them
         said: list[str] = []
         place: str | None = None
         for leg, ids in plan:
@@ -338,6 +333,18 @@ class MissionProgram(Looking, Carrying):
                 said.append(f"I'm {located(spoken(place))}.")
         raise Finished("succeeded", " ".join(said))
 
+    def _say_places_in_titles(self, names: dict[str, str], spoken: Names) -> bool:
+        """Step titles name places as people say them ("Drive to Alice's desk"), never by a
+        map id; True if a title changed."""
+        changed = False
+        for step in self.steps:
+            title = step.title
+            for phrase, name in names.items():
+                title = re.sub(rf"\bthe {re.escape(phrase)}\b", _literal(spoken(name)), title)
+            changed |= title != step.title
+            step.title = title
+        return changed
+
     def _places(self, listed: str, phrases: list[str]) -> tuple[dict[str, str], Names]:
         """Each phrase's place on the live map (unknown or ambiguous ends before any drive),
         and how sentences say the map's places."""
@@ -359,131 +366,6 @@ class MissionProgram(Looking, Carrying):
                 )
             names[phrase] = exact or match.names[0]
         return names, names_of(index)
-
-    def _drive(self, place: str, step_id: str, prepare: str | None) -> Steps:
-        """Drive to ``place``; on a failure try its suggestions in order, then give up."""
-        route, tried, retried, legs = [place], set[str](), set[str](), 0
-        current, before = step_id, [self.plan_call()] if not self.planned else []
-        while route:
-            leg = route[0]
-            legs += 1
-            if legs > self.settings.max_legs:
-                raise Finished(
-                    "failed", f"I could not reach {self.say(place)} after {legs - 1} drives."
-                )
-            args: dict[str, Any] = {"step_id": current, "location": leg}
-            calls = [*before, Call(NAVIGATE, args)]
-            before = []
-            if legs == 1 and prepare and has_tool(self.tools, PREWARM) and self.settings.prewarm:
-                args["triggers"] = [{"type": "eta_below", "seconds": self.settings.eta_trigger_s}]
-                calls.insert(-1, self._prewarm_reaction(prepare))
-            result = (yield from self.act(*calls))[-1]
-            if result.is_error and HELD_BY_SAFETY_STOP in result.content:  # a stop came first
-                yield from self._until_resumed(f"stopped before driving to {self.say(leg)}")
-                legs -= 1
-                current = self._add_step(current, f"Resume the drive to the {leg}")
-                before = [self.plan_call()]
-                continue
-            if result.is_error and "BUSY" in result.content:
-                result = yield from self._replace_own_drive(leg, args)
-            if result.is_error:
-                raise Finished(
-                    "failed", f"I couldn't drive to {self.say(leg)}: {self.reason(result.content)}."
-                )
-            task_id = task_id_of(result.content)
-            if task_id is None:
-                raise Finished(
-                    "failed",
-                    f"I couldn't drive to {self.say(leg)}: my navigation gave no answer I can use.",
-                )
-            self.own_drives.add(task_id)
-            outcome = yield from self._await(task_id, f"driving to {self.say(leg)}")
-            if outcome.kind == "done":
-                route.pop(0)
-                if route:
-                    current = self._add_step(current, f"Drive on to the {route[0]}")
-                    before = [self.plan_call()]
-                continue
-            if outcome.kind == "paused":
-                current = self._add_step(current, f"Resume the drive to the {leg}")
-                before = [self.plan_call()]
-                continue
-            failure = yield from self._failure(task_id, outcome.line)
-            detour = next(
-                (
-                    (s, legs_of)
-                    for s in failure.suggestions
-                    if s not in tried and (legs_of := detour_legs(s))
-                ),
-                None,
-            )
-            if detour is None and failure.retry_suggested and leg not in retried:
-                # once per leg: the same drive again is what the server advises, and the base
-                # is not busy (its task ended); a second such failure gives up below
-                retried.add(leg)
-                current = self._add_step(current, f"Retry the drive to the {leg}")
-                said = f"{_capital(self._failure_said(failure))}. I'll try the drive once more."
-                before = [self.plan_call(), Call("say", {"text": said})]
-                continue
-            if detour is None:
-                advice = [a for s in failure.suggestions if (a := self._suggestion(s))]
-                raise Finished(
-                    "failed",
-                    f"I couldn't reach {self.say(place)}: {self._failure_said(failure)}."
-                    + (f" What could help: {'; '.join(advice)}." if advice else ""),
-                )
-            suggestion, route = detour
-            tried.add(suggestion)
-            current = self._add_step(current, f"Detour via the {route[0]}")
-            plan = self._suggestion(suggestion) or f"drive via {self.say(route[0])}"
-            said = f"{_capital(self._failure_said(failure))}. I'll {plan}."
-            before = [self.plan_call(), Call("say", {"text": said})]
-
-    def _failure_said(self, failure: Failure) -> str:
-        """A drive's failure as the robot says it ("the mailroom door is closed")."""
-        return self.reason(json.dumps({"error": failure.code, "detail": failure.message}))
-
-    def _suggestion(self, text: str) -> str | None:
-        return suggestion_of(text, self.say, self.known)
-
-    def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
-        """The base is busy. Only a drive of this mission (begun before a planner takeover)
-        is cancelled and replaced; a drive someone else started is never stopped here."""
-        mine = sorted(t for t in self.own_drives if t not in self.terminal)
-        if not mine or not has_tool(self.tools, CANCEL_TASK):
-            raise Finished(
-                "failed",
-                f"I couldn't drive to {self.say(leg)}: the robot is already driving on a task this "
-                "mission did not start, and I won't stop someone else's drive. Say stop to "
-                "halt it, then ask me again.",
-            )
-        yield from self.act(*(Call(CANCEL_TASK, {"task_id": t}) for t in mine))
-        self.own_drives.difference_update(mine)
-        return (yield from self.act(Call(NAVIGATE, args)))[0]
-
-    def _add_step(self, after: str, title: str) -> str:
-        """A new drive step right after ``after``: s1 → s1b, s1c, … (ids never reused)."""
-        index = next(i for i, s in enumerate(self.steps) if s.id == after)
-        self.extra_steps += 1
-        new_id = f"{self.steps[0].id}{chr(ord('a') + self.extra_steps)}"
-        self.steps.insert(index + 1, PlanStep(new_id, title, NAVIGATE))
-        return new_id
-
-    def _prewarm_reaction(self, obj: str) -> Call:
-        return Call(
-            "register_reaction",
-            {
-                "event": {
-                    "server": "navigation",
-                    "type": "trigger_fired",
-                    "match": {"type": "eta_below"},
-                },
-                "call": {
-                    "tool": PREWARM,
-                    "arguments": {"template": "find_object", "params": {"query": obj}},
-                },
-            },
-        )
 
     def _await(self, task_id: str, reason: str) -> Steps:
         self.doing = reason
@@ -531,21 +413,10 @@ class MissionProgram(Looking, Carrying):
             return "continue"
         return "unclear"
 
-    def _failure(self, task_id: str, line: str, get_task: str = GET_TASK) -> Steps:
-        if has_tool(self.tools, get_task):
-            [result] = yield from self.act(Call(get_task, {"task_id": task_id}))
-            failure = Failure.from_task_info(result.content)
-            if failure is not None:
-                return failure
-        match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: (.*))?$", line)
-        if match is None:
-            return Failure("FAILED", line, [])
-        suggestions = [match[3]] if match[3] else []
-        return Failure(match[1], match[2], suggestions, recoverable="(recoverable)" in line)
 
-
-def _capital(text: str) -> str:
-    return text[:1].upper() + text[1:]
+def _literal(text: str) -> str:
+    """``text`` as a ``re.sub`` replacement (its backslashes are not group references)."""
+    return text.replace("\\", "\\\\")
 
 
 def _already_there(leg: Command, at: str | None) -> bool:

@@ -92,7 +92,7 @@ def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
         "ADMIN_SECRET_KEY": secrets.token_urlsafe(32),
         **{
             f"RVC_{s}_URL": f"{dead}/sse"
-            for s in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
+            for s in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
         },
     }
     launcher = ProcessLauncher(tmp_path)

@@ -21,6 +21,7 @@ def _loopback_only(address: Any) -> None:
 
 MCP_TOKEN_VARS = (
     "NAVIGATION_MCP_TOKEN",
+    "MANIPULATION_MCP_TOKEN",
     "MEMORY_MCP_TOKEN",
     "EPISODIC_MCP_TOKEN",
     "SKILL_CONTROL_MCP_TOKEN",

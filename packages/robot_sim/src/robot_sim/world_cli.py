@@ -4,16 +4,22 @@
     robot-sim-world kitchen                                 # the kitchen is empty
     robot-sim-world --active false                          # the navigator rejects goals
     robot-sim-world --door mailroom_west_door=open          # open (or close) a door
+    robot-sim-world --fail-grasps 1                         # the next grasp fails
+    robot-sim-world --out-of-reach "yellow package"         # the arm cannot reach it
+    robot-sim-world --held ""                               # the gripper is empty
+    robot-sim-world --show                                  # print the world as JSON
 
 It sets the node's parameters (``places.<place>.objects``, ``doors.<door>.closed``,
-``active``) through the standard
+``active``, ``gripper.*``) through the standard
 parameter service, like ``ros2 param set /robot_sim …``. Exit 0 when the node accepted the
 change, 1 when it refused it (the reason is printed), 2 when no robot-sim answered in time.
+``--show`` reads the same parameters back and prints ``{"places": {...}, "held": ...}``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import threading
 from collections.abc import Callable, Sequence
@@ -22,11 +28,18 @@ from typing import Any
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
 from robot_sim.node import NODE_NAME
-from robot_sim.world_params import ACTIVE, door_parameter, objects_parameter
+from robot_sim.world_params import (
+    ACTIVE,
+    FAIL_GRASPS,
+    HELD,
+    OUT_OF_REACH,
+    door_parameter,
+    objects_parameter,
+)
 
 
 def _door(text: str) -> tuple[str, bool]:
@@ -46,6 +59,14 @@ def parameters_from(args: argparse.Namespace) -> list[Parameter[Any]]:
         )
     if args.active is not None:
         changes.append(Parameter(ACTIVE, Parameter.Type.BOOL, args.active == "true"))
+    if args.fail_grasps is not None:
+        changes.append(Parameter(FAIL_GRASPS, Parameter.Type.INTEGER, args.fail_grasps))
+    if args.out_of_reach is not None:
+        # [""] rather than []: an empty list reaches the node untyped
+        reach = args.out_of_reach or [""]
+        changes.append(Parameter(OUT_OF_REACH, Parameter.Type.STRING_ARRAY, reach))
+    if args.held is not None:
+        changes.append(Parameter(HELD, Parameter.Type.STRING, args.held))
     return changes
 
 
@@ -61,12 +82,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="DOOR=open|closed",
         help="open or close a door",
     )
+    parser.add_argument("--fail-grasps", type=int, help="that many next grasps fail")
+    parser.add_argument(
+        "--out-of-reach", nargs="*", metavar="LABEL", help="labels the arm cannot reach"
+    )
+    parser.add_argument("--held", metavar="LABEL", help='what the gripper holds ("": nothing)')
+    parser.add_argument("--show", action="store_true", help="print what stands where (JSON)")
     parser.add_argument("--node", default=NODE_NAME, help="the robot-sim node's name")
     parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for it")
     args = parser.parse_args(argv)
     changes = parameters_from(args)
-    if not changes:
-        parser.error("name a place (and its objects), --door and/or --active")
+    if not changes and not args.show:
+        parser.error("name a place (and its objects), --door, --active, --fail-grasps, …")
     context = Context()
     rclpy.init(context=context)
     node = rclpy.create_node("robot_sim_world", context=context)
@@ -79,6 +106,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not client.wait_for_services(timeout_sec=args.timeout):
             sys.stderr.write(f"no {args.node} node answered within {args.timeout} s\n")
             return 2
+        if args.show:
+            return _show(client, args.timeout)
         # A request sent right after discovery can be answered before the node's reply
         # writer has matched this new client (rmw then drops the reply), so the same
         # (idempotent) change is sent once more if the first half of the wait passes.
@@ -100,14 +129,48 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     finally:
         executor.shutdown(timeout_sec=2.0)
+        # the spin thread must be gone before the interpreter exits, or the C++ side aborts
+        # ("terminate called without an active exception", exit 134)
+        spinner.join(timeout=5.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def _show(client: AsyncParameterClient, timeout_s: float) -> int:
+    """Print the world as robot-sim's parameters say it is."""
+    for _attempt in range(2):  # see the note on the first request after discovery
+        listed = threading.Event()
+        names_future = client.list_parameters(["places", "gripper"], 3)
+        names_future.add_done_callback(_setter(listed))
+        if listed.wait(timeout_s / 2):
+            break
+    else:
+        sys.stderr.write(f"robot-sim did not answer within {timeout_s} s\n")
+        return 2
+    listing: Any = names_future.result()
+    names = [n for n in listing.result.names if n.endswith(".objects") or n == HELD]
+    got = threading.Event()
+    values_future = client.get_parameters(names)
+    values_future.add_done_callback(_setter(got))
+    if not got.wait(timeout_s):
+        sys.stderr.write(f"robot-sim did not answer within {timeout_s} s\n")
+        return 2
+    answer: Any = values_future.result()
+    values = dict(zip(names, answer.values, strict=True))
+    places: dict[str, Any] = {
+        name.removeprefix("places.").removesuffix(".objects"): parameter_value_to_python(value)
+        for name, value in values.items()
+        if name != HELD
+    }
+    held = parameter_value_to_python(values[HELD]) if HELD in values else ""
+    sys.stdout.write(json.dumps({"places": places, "held": held or None}) + "\n")
+    return 0
 
 
 def _setter(event: threading.Event) -> Callable[[object], None]:
     """A done callback that sets ``event`` (one per attempt)."""
     return lambda _future: event.set()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

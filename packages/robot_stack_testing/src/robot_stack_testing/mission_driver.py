@@ -12,6 +12,8 @@ from __future__ import annotations
 import asyncio
 import json
 import secrets
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -28,6 +30,8 @@ from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
 from robot_stack_testing.waiting import async_wait_until
 
 MAILROOM_REQUEST = "Please fetch the package from the mailroom."
+FETCH_REQUEST = "Please fetch the package from the mailroom and bring it to reception."
+"""The demo's request (issue 28): the package leaves the mailroom and arrives at reception."""
 PACKAGE_LABEL = "yellow package"
 MAILROOM_PROCESS_ID = "fetch-package-from-mailroom"
 MAILROOM_PROCESS = f"""---
@@ -48,17 +52,34 @@ tags: [mailroom, package, fetch]
 """
 
 
+def sim_world(*change: str) -> dict[str, Any]:
+    """robot-sim's world as its ROS parameters say (``robot-sim-world --show``: ``{"places":
+    {place: [labels]}, "held": label | None}``), after an optional change such as
+    ``"--fail-grasps", "2"``. Tests read the world here, never from what the robot says."""
+    world_cli = [sys.executable, "-m", "robot_sim.world_cli"]
+    if change:
+        subprocess.run(  # noqa: S603 - our own module, arguments from the test
+            [*world_cli, *change], check=True, capture_output=True, timeout=60
+        )
+    shown = subprocess.run(  # noqa: S603 - our own module
+        [*world_cli, "--show"], check=True, capture_output=True, timeout=60
+    )
+    world: dict[str, Any] = json.loads(shown.stdout)
+    return world
+
+
 def fresh_secret() -> str:
     return secrets.token_urlsafe(32)
 
 
 def stack_env(secret: str) -> dict[str, str]:
     """The runner's environment: one fresh HMAC secret for the servers (RVC_EVENT_SECRET)
-    and the brain (per-server NAV_/PERCEPTION_EVENT_SECRET); ROS discovery on loopback."""
+    and the brain (per-server NAV_/PERCEPTION_/MANIP_EVENT_SECRET); ROS discovery on loopback."""
     return {
         "RVC_EVENT_SECRET": secret,
         "NAV_EVENT_SECRET": secret,
         "PERCEPTION_EVENT_SECRET": secret,
+        "MANIP_EVENT_SECRET": secret,
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
     }
 

@@ -188,6 +188,7 @@ def test_the_stack_environment_shares_one_secret_and_stays_on_loopback() -> None
     env = stack_env("s3cret")
 
     assert env["RVC_EVENT_SECRET"] == env["NAV_EVENT_SECRET"] == env["PERCEPTION_EVENT_SECRET"]
+    assert env["MANIP_EVENT_SECRET"] == env["RVC_EVENT_SECRET"]
     assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
 
 

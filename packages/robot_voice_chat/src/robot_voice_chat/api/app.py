@@ -22,6 +22,7 @@ from robot_voice_chat.api.routes import (
     chat_history,
     health,
     history,
+    robot_arm,
     robot_map,
     safety,
     ui,
@@ -89,6 +90,7 @@ def create_app(
         chat_history.router,
         camera.router,
         robot_map.router,
+        robot_arm.router,
         history.router,
         ui.router,
     ):

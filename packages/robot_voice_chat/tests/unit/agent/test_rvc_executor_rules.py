@@ -15,7 +15,8 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.harness import task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
-from robot_voice_chat.services.llm.rules.program import MissionProgram, Observation, Program
+from robot_voice_chat.services.llm.rules.program import MissionProgram
+from robot_voice_chat.services.llm.rules.steps import Observation, Program
 from robot_voice_chat.services.tools.fake_office import Office, office
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 
@@ -48,10 +49,13 @@ async def test_an_alias_resolves_and_an_unknown_place_is_refused_with_the_known_
 async def test_fetch_survives_the_closed_door_by_the_suggested_detour_and_finds_it(
     tmp_path: Path,
 ) -> None:
-    o = office(tmp_path)
+    o = office(tmp_path, arm=True)
     mission = await o.run("Please fetch the package from the mailroom.")
     assert mission.state == "succeeded", mission.summary
-    assert mission.summary == "I found the package in the mailroom: yellow package (0.91)."
+    assert mission.summary == (
+        "I picked up the yellow package in the mailroom. I'm holding it; tell me where to bring it."
+    )
+    assert o.world.arm.held == "yellow package"
     drives = [a["location"] for a in o.tools.called("navigation.navigate_to")]
     assert drives == ["mailroom", "corridor_b", "mailroom"]
     # the failure's suggestions were read from get_task; the one needing a person was skipped
@@ -59,7 +63,9 @@ async def test_fetch_survives_the_closed_door_by_the_suggested_detour_and_finds_
     statuses = o.statuses(mission)
     assert statuses["s1"] == "failed"
     assert mission.steps[0].detail.startswith("DOOR_CLOSED")
-    assert [statuses[s] for s in ("s1b", "s1c", "s2", "s3", "s4", "s5")] == ["succeeded"] * 6
+    assert [statuses[s] for s in ("s1b", "s1c", "s2", "s3", "s4", "s5", "s6", "s7")] == [
+        "succeeded"
+    ] * 8
     # the eta trigger prewarmed the camera with no planner hop; the prewarm skill was stopped
     assert o.tools.called("skill_control.prewarm_skill") == [
         {"template": "find_object", "params": {"query": "package"}}

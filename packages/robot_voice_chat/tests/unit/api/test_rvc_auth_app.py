@@ -31,7 +31,7 @@ async def served(
 ) -> AsyncIterator[tuple[str, Container]]:
     port = free_tcp_port()
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
-    for name in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
+    for name in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
         monkeypatch.setenv(f"RVC_{name}_URL", "http://127.0.0.1:9/sse")  # nothing there
     monkeypatch.setenv("ADMIN_USERNAME", "ada")
     monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)

@@ -55,7 +55,7 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
 def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readiness(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "MANIP_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     monkeypatch.delenv("RVC_EPISODIC_URL", raising=False)
     for deployment in ("dev", "robot", "test"):
@@ -63,6 +63,11 @@ def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readines
         assert servers["episodic"].optional, deployment
         assert servers["episodic"].url == "http://127.0.0.1:9203/sse"
         assert not servers["navigation"].optional
+        arm = servers["manipulation"]  # issue 28: a motion server the stop and barge-in reach
+        assert arm.motion, deployment
+        assert arm.safety_stop_tool == "stop_manipulation"
+        assert arm.optional  # a robot without an arm still boots ready
+        assert arm.url == "http://127.0.0.1:9102/sse"
     states = {"navigation": "connected", "episodic": "disconnected"}
     assert servers_ready(states, {"episodic"})
     assert not servers_ready(states, set())
@@ -95,7 +100,7 @@ def test_robot_deployment_refuses_a_configured_planner_without_its_key(
 ) -> None:
     monkeypatch.setenv("GROQ_API_KEY", "test")
     monkeypatch.setenv("OPENAI_API_KEY", "test")
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "MANIP_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     monkeypatch.setenv("ADMIN_PASSWORD_HASH", hash_password("robot operator"))
     monkeypatch.setenv("ADMIN_SECRET_KEY", "k" * 32)

@@ -58,7 +58,8 @@ _TOLD = ("time", "doing", "distance", "smalltalk", "thanks", "resume")  # issue 
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
-    "somewhere, watch for something, tell you what I see, where I am and which places I know, "
+    "somewhere (with my arm: pick it up, put it down, hand it over), watch for something, "
+    "tell you what I see, where I am and which places I know, "
     "what I saw or did earlier ('when did you last see the mug?') — "
     "also several steps in a row ('go to the kitchen, then to reception')"
 )
@@ -78,6 +79,10 @@ def ack(command: Command) -> str:
         return f"I'll look for the {command.obj}."
     if command.kind == "watch":
         return f"I'll watch for {command.obj}."
+    if command.kind == "pick":
+        return f"I'll pick up the {command.obj}."
+    if command.kind in ("put", "release"):
+        return "I'll put it down." if command.kind == "put" else "Here you are."
     return "Let me look."
 
 

@@ -34,15 +34,12 @@ from robot_voice_chat.services.llm.rules.program import (
     LIST_LOCATIONS,
     NAVIGATE,
     TASK_EVENT,
-    Act,
-    Call,
     MissionProgram,
-    Observation,
-    Program,
     Settings,
 )
 from robot_voice_chat.services.llm.rules.recall_program import recall_program
 from robot_voice_chat.services.llm.rules.recollection import names_of
+from robot_voice_chat.services.llm.rules.steps import Act, Call, Observation, Program
 from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
 from robot_voice_chat.services.llm.understanding.legs import legs_of
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex

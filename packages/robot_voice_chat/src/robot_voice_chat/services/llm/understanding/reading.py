@@ -8,7 +8,7 @@ from typing import Literal
 
 from robot_voice_chat.services.llm.understanding.recall import Recall
 
-ActionKind = Literal["goto", "find", "fetch", "watch", "see"]
+ActionKind = Literal["goto", "find", "fetch", "watch", "see", "pick", "put", "release"]
 ReadingKind = Literal["act", "ask", "refuse", "answer", "stop", "greet", "cancel"]
 
 
@@ -31,6 +31,8 @@ class Action:
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_instruction(self)
         return "what do you see"
 
     def spoken(self) -> str:
@@ -47,6 +49,8 @@ class Action:
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_spoken(self)
         return "tell you what I see"
 
     def code(self) -> str:
@@ -55,12 +59,32 @@ class Action:
             return "see"
         if self.kind == "goto":
             return f"goto:{self.place}"
-        text = f"{self.kind}:{self.obj}"
+        text = f"{self.kind}:{self.obj}" if self.obj else self.kind
         if self.place:
             text += f"@{self.place}"
         if self.to:
             text += f">{self.to}"
         return text
+
+
+def _hands_instruction(action: Action) -> str:
+    """pick / put / release in the exact grammar's words (commands.py parses them back)."""
+    if action.kind == "pick":
+        return f"pick up {action.obj}"
+    if action.kind == "put":
+        what = action.obj or "it"
+        return f"put {what} down" + (f" at {action.place}" if action.place else "")
+    return "hand it over"
+
+
+def _hands_spoken(action: Action) -> str:
+    place = (action.place or "").replace("_", " ")
+    if action.kind == "pick":
+        return f"pick up the {action.obj}"
+    if action.kind == "put":
+        what = f"the {action.obj}" if action.obj else "it"
+        return f"put {what} down" + (f" at the {place}" if action.place else "")
+    return "hand it over"
 
 
 def instruction_of(actions: list[Action]) -> str:

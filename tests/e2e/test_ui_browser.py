@@ -480,7 +480,7 @@ def test_approve_lets_the_drive_run_and_deny_makes_the_planner_report(
     card.get_by_role("button", name="Deny").click()
     expect(card).to_be_hidden(timeout=20_000)
     expect(summary.last).to_contain_text("failed", timeout=STEP_TIMEOUT_MS)
-    expect(summary.last).to_contain_text("denied")
+    expect(summary.last).to_contain_text("the operator said no")
     assert settled_xy(page) == at_kitchen  # no drive after the deny
     shoot(page, "13-denied-reported")
     assert errors == [], errors

@@ -34,7 +34,7 @@ from robot_voice_chat.services.llm.rules.recollection import (
     recollection,
 )
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
-from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN
+from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN, read_recall
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake_office import DOOR_SUGGESTIONS, Office, office
@@ -121,6 +121,25 @@ def test_every_tool_error_is_said_in_plain_words(content: str) -> None:
     assert leaks(said) == [], said
 
 
+@pytest.mark.parametrize(
+    ("why", "said"),
+    [
+        ("denied by alice", "the operator (alice) said no"),
+        ("wrong room", "the operator said no: wrong room"),
+        ("answered 'no'", "the operator said no"),
+        ("no answer within 60 s", "nobody approved it in time (no answer within 60 s)"),
+        ("safety stop: operator", "a stop withdrew the request for approval"),
+    ],
+)
+def test_an_approval_not_given_is_said_as_what_happened_not_as_the_policy(
+    why: str, said: str
+) -> None:
+    detail = f"navigation.navigate_to was not sent: denied ({why})"
+    content = json.dumps({"error": "POLICY_DENIED", "detail": detail, "approval": "denied"})
+    assert reason_of(content) == said
+    assert "policy" not in said
+
+
 @pytest.mark.parametrize("suggestion", [*DOOR_SUGGESTIONS, "retry", "retry_after_s:300"])
 def test_a_suggestion_is_said_plainly_or_not_at_all(suggestion: str) -> None:
     said = suggestion_of(suggestion, OFFICE_PLACES.spoken, ["corridor_b", "mailroom"])
@@ -192,6 +211,18 @@ def test_every_sentence_template_is_plain(name: str, template: Callable[[], str]
 def test_a_glimpse_is_not_said_as_seen_for_zero_seconds() -> None:
     data = {"found": True, "results": [sighting("kitchen", seen_for="0 s", seen_for_s=0.1)]}
     assert "for" not in last_seen_sentence(data, None).split("(", 1)[1]
+
+
+def test_where_is_it_now_names_the_last_place_only_and_when_did_you_see_it_names_both() -> None:
+    data = {"found": True, "results": [sighting("reception"), sighting("mailroom", "2 min ago")]}
+    now = read_recall("where is the red mug now?")
+    then = read_recall("when did you last see the red mug?")
+    assert now is not None
+    assert now.offer
+    assert then is not None
+    assert not then.offer
+    assert "mailroom" not in last_seen_sentence(data, now)
+    assert "Before that I saw it in the mailroom 2 min ago." in last_seen_sentence(data, then)
 
 
 # --- missions that fail every way the offline planner knows ---------------------------------

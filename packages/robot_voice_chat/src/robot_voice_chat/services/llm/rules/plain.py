@@ -41,6 +41,9 @@ _SERVER_TOOL = re.compile(r"\b(?P<server>[a-z_]+)\.[a-z_]+\b")
 # navigate_to("corridor_b") inside a suggestion; "call navigate_to(...) again"
 _NAV_CALL = re.compile(r"""navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\)""")
 _AGAIN = re.compile(r"""call navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\) again""")
+# the guard's refusal after an approval was not given: "<tool> was not sent: denied (<why>)"
+_NOT_APPROVED = re.compile(r"was not sent: (?:denied \((?P<why>.*)\)|(?P<other>.*))$")
+_DENIED_BY = re.compile(r"^(?:denied|answered) (?:by (?P<who>[\w.@-]+)|'(?P<said>[^']*)')$")
 
 
 def _parts(content: str) -> tuple[str, str]:
@@ -60,6 +63,9 @@ def _parts(content: str) -> tuple[str, str]:
 def reason_of(content: str, names: Names | None = None, known: Iterable[str] = ()) -> str:
     """Why a call failed, in plain words (no code, tool name or raw text)."""
     code, detail = _parts(content)
+    not_approved = _NOT_APPROVED.search(detail) if code.upper() == "POLICY_DENIED" else None
+    if not_approved is not None:
+        return _why_not_approved(not_approved["why"] or not_approved["other"] or "")
     lost = _NOT_CONNECTED.search(detail)
     if lost is not None:
         return f"my {service_name(lost['server'])} is not connected"
@@ -77,6 +83,26 @@ def reason_of(content: str, names: Names | None = None, known: Iterable[str] = (
     if server is not None and server["server"] in SERVICES:
         return f"my {service_name(server['server'])} could not do it"
     return "something went wrong there"
+
+
+def _why_not_approved(why: str) -> str:
+    """An operator's no, an approval nobody gave in time, a stop that withdrew the question,
+    or one nobody could ask for — each said as what happened (a "no" is not the policy's)."""
+    if why.startswith("no answer within"):
+        return f"nobody approved it in time ({why})"
+    if why.startswith("safety stop"):
+        return "a stop withdrew the request for approval"
+    if why.startswith("the call was abandoned"):
+        return "the mission ended before anyone approved it"
+    if why.startswith("it needs an operator's approval"):
+        return why
+    denied = _DENIED_BY.match(why)
+    who = denied["who"] if denied is not None else None
+    if who and who != "operator":
+        return f"the operator ({who}) said no"
+    if denied is not None or not why or leaks(why):
+        return "the operator said no"
+    return f"the operator said no: {why}"
 
 
 def by_id(place: str) -> str:

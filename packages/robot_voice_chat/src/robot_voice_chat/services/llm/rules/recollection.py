@@ -86,9 +86,13 @@ def last_seen_sentence(data: dict[str, Any], recall: Recall | None, names: Names
     absent = top.get("absent_since")
     if isinstance(absent, dict):
         sentence += f" When I looked there again {absent.get('ago', '')} it was gone."
+    # "where is it now?" asks for the present: the last place only, never older ones
+    asks_now = recall is not None and recall.offer
     earlier = next(
         (r for r in results[1:] if r.get("place") and r.get("place") != top.get("place")), None
     )
+    if asks_now:
+        earlier = None
     if earlier is not None:
         seen = earlier.get("last_seen") or {}
         sentence += (

@@ -36,7 +36,10 @@ def test_failures_can_be_switched_off() -> None:
 
 async def test_the_mailroom_door_is_closed_once_then_the_robot_gets_in() -> None:
     events = FakeEventSink()
-    app = build_app(load_settings({"NAV_TIME_SCALE": "400", "NAV_TICK_S": "0.005"}), events=events)
+    app = build_app(
+        load_settings({"NAV_TIME_SCALE": "400", "NAV_TICK_S": "0.005", "NAV_SUPERVISION": "off"}),
+        events=events,
+    )
 
     async with app.running():
         assert events.started

@@ -40,6 +40,15 @@ class SimSettings(BaseModel):
     pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")
     feedback_hz: float = Field(default=10.0, gt=0.0, le=50.0, alias="SIM_FEEDBACK_HZ")
     ready_file: Path | None = Field(default=None, alias="SIM_READY_FILE")
+    # issue 27: honour the motion servers' dead-man locks like a robot's twist_mux (on in the
+    # local stack, whose navigation server publishes one; off for robot-sim driven alone)
+    supervisor_lock: bool = Field(default=False, alias="SIM_SUPERVISOR_LOCK")
+    supervisor_lock_topics: tuple[str, ...] = Field(
+        default=("/robot/supervisor_lock",), alias="SIM_SUPERVISOR_LOCK_TOPICS"
+    )
+    supervisor_lock_timeout_s: float = Field(
+        default=0.5, gt=0.0, le=5.0, alias="SIM_SUPERVISOR_LOCK_TIMEOUT_S"
+    )
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
         default="INFO", alias="LOG_LEVEL"
     )
@@ -48,6 +57,20 @@ class SimSettings(BaseModel):
     @classmethod
     def _empty_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
+
+    @field_validator("supervisor_lock_topics", mode="before")
+    @classmethod
+    def _topic_list(cls, value: object) -> object:
+        if isinstance(value, str):
+            return tuple(t.strip() for t in value.split(",") if t.strip())
+        return value
+
+    @field_validator("supervisor_lock_topics")
+    @classmethod
+    def _lock_topics(cls, value: tuple[str, ...]) -> tuple[str, ...]:
+        if not value or any(not t.startswith("/") or " " in t for t in value):
+            raise ValueError("comma-separated absolute ROS names such as /robot/supervisor_lock")
+        return value
 
     @field_validator("scenes_dir")
     @classmethod

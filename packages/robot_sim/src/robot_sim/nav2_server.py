@@ -41,6 +41,11 @@ from robot_sim.drive import DriveSim, DriveState
 
 logger = structlog.get_logger(__name__)
 
+FAILED_TO_MAKE_PROGRESS = 105
+"""``nav2_msgs/action/FollowPath`` FAILED_TO_MAKE_PROGRESS: what Nav2's controller reports when
+its progress checker sees the robot not moving (a twist_mux lock holding the base)."""
+HELD_MESSAGE = "Failed to make progress: the base's velocity commands are held by its lock"
+
 NO_VALID_PATH = 208
 """``nav2_msgs/action/ComputePathToPose`` NO_VALID_PATH (Nav2 1.4, Kilted): bt_navigator
 reports the failing planner's code in NavigateToPose's ``error_code``."""
@@ -78,6 +83,7 @@ class NavigateToPoseServer:
         self._active: _Run | None = None
         self._runs: dict[bytes, _Run] = {}
         self.accepting = True
+        self.held: Callable[[], bool] = lambda: False  # the supervisor lock holds the base
         self._server = ActionServer(
             node,
             NavigateToPose,
@@ -96,6 +102,13 @@ class NavigateToPoseServer:
             run.cancel = True
             run.wake.set()
         self._server.destroy()
+
+    def wake(self) -> None:
+        """Look at the drive now (the supervisor lock halted it)."""
+        with self._lock:
+            run = self._active
+        if run is not None:
+            run.wake.set()
 
     @property
     def driving(self) -> bool:
@@ -155,6 +168,9 @@ class NavigateToPoseServer:
                 f"behavior tree {request.behavior_tree!r} not loaded: the sim runs none",
             )
         goal = messages.pose_from_msg(request.pose.pose)
+        if self.held():  # accepted, then Nav2's controller makes no progress
+            self._halt_if_active(run)
+            return self._abort(run, FAILED_TO_MAKE_PROGRESS, HELD_MESSAGE)
         with self._lock:
             if self._active is not run:
                 return self._abort(run, NavigateToPose.Result.NONE, "preempted by a newer goal")
@@ -183,6 +199,9 @@ class NavigateToPoseServer:
                 message = state.failure.message if state.failure else "no valid path"
                 self._stopped()
                 return self._abort(run, NO_VALID_PATH, message)
+            if state.status == "halted":  # the supervisor lock stopped the base
+                self._stopped()
+                return self._abort(run, FAILED_TO_MAKE_PROGRESS, HELD_MESSAGE)
             run.wake.wait(self._period)
             run.wake.clear()
 

@@ -25,6 +25,7 @@ from robot_sim.camera import Camera
 from robot_sim.config import SimSettings
 from robot_sim.drive import DriveSim
 from robot_sim.nav2_server import NavigateToPoseServer
+from robot_sim.supervisor_lock import SupervisorLockGate
 from robot_sim.world_params import WorldParameters
 
 logger = structlog.get_logger(__name__)
@@ -62,6 +63,17 @@ class SimNode(Node):
             self, drive, settings.action_name, settings.feedback_hz, wall, self._publish_image
         )
         self.parameters = WorldParameters(self, camera.world, self._set_active)
+        self.lock: SupervisorLockGate | None = None
+        if settings.supervisor_lock:  # twist_mux's locks in front of the drive (issue 27)
+            self.lock = SupervisorLockGate(
+                self,
+                drive,
+                settings.supervisor_lock_topics,
+                settings.supervisor_lock_timeout_s,
+                wall,
+                self.navigator.wake,
+            )
+            self.navigator.held = self.lock.locked
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)
         self._odom = self.create_publisher(Odometry, "/odom", 10)
         self._image = self.create_publisher(Image, settings.camera_topic, CAMERA_QOS)

@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from pydantic import ValidationError
 
+from robot_mcp_kit.supervision import SUPERVISE_TOOL
 from robot_voice_chat.agent.archive import SqliteMissionArchive
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
@@ -33,6 +34,7 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
 from robot_voice_chat.control.policy import PolicyError, ToolPolicy
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -137,6 +139,7 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         connect_timeout_s=config.tools.connect_timeout_s,
         reconnect_interval_s=config.tools.reconnect_interval_s,
         health_interval_s=config.tools.health_interval_s,
+        quiet_tools=frozenset({SUPERVISE_TOOL}),
     )
     return Adapters(
         llm=llm,
@@ -172,6 +175,7 @@ class Container:
     sio: Any = None
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
     history: ChatHistory = field(default_factory=ChatHistory)
+    supervisor: MotionSupervisor | None = None  # the lease on every motion server
 
     def policy_summary(self) -> dict[str, Any] | None:
         """The tool policy in force (version, digest, file) for readyz."""
@@ -185,6 +189,8 @@ class Container:
         self.adapters.tools.add_connect_listener(self.executor.reconcile)
         self.adapters.tools.add_disconnect_listener(self.executor.on_server_lost)
         await self.adapters.tools.start()
+        if self.supervisor is not None:
+            await self.supervisor.start()
         logger.info(
             "app_started",
             deployment=self.config.deployment,
@@ -194,6 +200,8 @@ class Container:
 
     async def stop(self) -> None:
         await self.executor.shutdown()
+        if self.supervisor is not None:
+            await self.supervisor.aclose()
         await self.adapters.tools.aclose()
         await self.adapters.speech_output.aclose()
         await self.adapters.llm.aclose()
@@ -221,6 +229,13 @@ def assemble(
         audit_path=state_path(agent, config.control.audit_log, "approvals.jsonl"),
         timeout_s=config.control.approval_timeout_s,
     )
+    # the lease is the brain's own control traffic: the supervisor alone holds the raw backend
+    supervisor = MotionSupervisor(
+        adapters.tools,
+        latch,
+        period_s=config.control.lease_period_s,
+        ttl_s=config.control.lease_ttl_s,
+    )
     # the one choke point: everything below holds the guarded backend, never the raw one
     guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals)
     adapters = replace(adapters, tools=guarded)
@@ -241,6 +256,7 @@ def assemble(
         archive=archive,
         latch=latch,
         approvals=approvals,
+        supervisor=supervisor,
     )
     guarded.set_elicitation_handler(
         approval_elicitation(
@@ -258,7 +274,16 @@ def assemble(
         config=config.chat,
     )
     return Container(
-        config, adapters, emitter, executor, pipeline, teaching, trace, sio, history=history
+        config,
+        adapters,
+        emitter,
+        executor,
+        pipeline,
+        teaching,
+        trace,
+        sio,
+        history=history,
+        supervisor=supervisor,
     )
 
 

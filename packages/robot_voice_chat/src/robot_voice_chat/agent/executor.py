@@ -26,6 +26,7 @@ from robot_voice_chat.agent.run import (
     SafetyStopLatchedError,
 )
 from robot_voice_chat.agent.skills import SkillLedger
+from robot_voice_chat.agent.supervision_words import stop_hint
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
@@ -33,6 +34,7 @@ from robot_voice_chat.control.approvals import ApprovalBroker, PendingApproval
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -71,8 +73,10 @@ class MissionExecutor:
         archive: MissionArchive | None = None,
         latch: SafetyLatch | None = None,
         approvals: ApprovalBroker | None = None,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.planner = planner
+        self.supervisor = supervisor
         self.tools = tools
         self.emitter = emitter
         self.speech = speech
@@ -105,6 +109,8 @@ class MissionExecutor:
             output=self.output,
             plan_tools=self.plan_tools,
             current_run=lambda: self.run,
+            latched=lambda: self.latch.latched,
+            supervisor=supervisor,
         )
         self.bargein = BargeIn(
             tools=tools,
@@ -117,6 +123,7 @@ class MissionExecutor:
             current_run=lambda: self.run,
             latch=self.latch,
             approvals=approvals,
+            supervisor=supervisor,
         )
 
     @property
@@ -173,8 +180,7 @@ class MissionExecutor:
             raise RuntimeError("no active mission")
         mission = run.mission
         if self.is_stop(text):
-            await self.safety_stop(reason=f"user said {text!r}")
-            return "Stopped. Should I continue or abort?"
+            return await self.safety_stop(reason=f"user said {text!r}")
         if self.approvals is not None:  # a yes/no to the approval the mission waits for
             answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
             if answer is not None:
@@ -190,7 +196,7 @@ class MissionExecutor:
         run.post(f"[user] {text}")
         return (
             f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
-            "message went to it. Say stop to halt me."
+            f"message went to it.{stop_hint(self.supervisor)}"
         )
 
     async def _awaiting_approval(self, request: PendingApproval, waiting: bool) -> None:
@@ -474,5 +480,6 @@ class MissionExecutor:
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)
 
-    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
-        await self.bargein.safety_stop(reason, by)
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> str:
+        """Latch the software stop and halt motion; what the person is told."""
+        return await self.bargein.safety_stop(reason, by)

@@ -15,6 +15,7 @@ from typing import Any, Protocol
 
 import structlog
 
+from robot_mcp_kit.supervision import SUPERVISE_TOOL
 from robot_voice_chat.control.context import DispatchContext, current_dispatch
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch, latched_sentence
 from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
@@ -66,6 +67,13 @@ class GuardedToolBackend(ToolBackend):
         self.latch = latch
         self.policy = policy
         self.approvals = approvals
+
+    def is_supervision_tool(self, name: str) -> bool:
+        """A motion server's lease tool: the brain's supervisor sends it on the raw backend;
+        no planner, reaction, fast path or route may (it could lift a server's latch)."""
+        server, _, tool = name.partition(".")
+        cfg = self.inner.servers().get(server)
+        return tool == SUPERVISE_TOOL and cfg is not None and cfg.motion
 
     def is_stop_tool(self, name: str) -> bool:
         server, _, tool = name.partition(".")
@@ -125,6 +133,9 @@ class GuardedToolBackend(ToolBackend):
     async def call_tool(
         self, name: str, arguments: dict[str, object], timeout_s: float | None = None
     ) -> ToolOutcome:
+        if self.is_supervision_tool(name):
+            logger.warning("tool_refused", tool=name, code=POLICY_DENIED)
+            return refusal(POLICY_DENIED, f"{name} is reserved for the robot's supervisor")
         refused = self.latched_refusal(name)
         if refused is not None:
             return refused
@@ -166,7 +177,7 @@ class GuardedToolBackend(ToolBackend):
 
     # --- the rest of the port, unchanged -------------------------------------------------
     def list_tools(self) -> list[ToolDefinition]:
-        return self.inner.list_tools()
+        return [t for t in self.inner.list_tools() if not self.is_supervision_tool(t.name)]
 
     def servers(self) -> dict[str, McpServerConfig]:
         return self.inner.servers()
@@ -181,7 +192,7 @@ class GuardedToolBackend(ToolBackend):
         self.inner.add_disconnect_listener(listener)
 
     def has_tool(self, name: str) -> bool:
-        return self.inner.has_tool(name)
+        return self.inner.has_tool(name) and not self.is_supervision_tool(name)
 
     def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
         self.inner.set_elicitation_handler(handler)

@@ -86,14 +86,21 @@ class ChatPipeline:
             )
             return result
 
-    async def stop(self, reason: str = "stop_pipeline") -> None:
+    async def stop(self, reason: str = "stop_pipeline") -> str:
         """``stop_pipeline`` / stop_mission / ``POST /api/safety/stop``: end streaming replies,
-        safety stop (latched until an operator clears it), then quiet."""
+        safety stop (latched until an operator clears it), then quiet. Returns what the
+        person is told; a stop some motion server did not confirm is said even without a
+        mission (a paused mission says it itself)."""
         current = asyncio.current_task()
         for turn in list(self._fast_turns):
             if turn is not current:  # stop_mission called from inside a turn ends the rest
                 turn.cancel()
-        await self._executor.safety_stop(reason=reason)
+        mission = self._executor.active
+        told = await self._executor.safety_stop(reason=reason)
+        if mission is None and told != "Stopped.":
+            turn_id = uuid.uuid4().hex[:8]
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=told))
+        return told
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
@@ -193,8 +200,8 @@ class ChatPipeline:
         if call.name == "start_mission":
             return await self._start_mission(call, turn_id)
         if call.name == "stop_mission":
-            await self.stop("stop_mission (asked in chat)")
-            return ToolResult(tool_call_id=call.id, content="stopped"), None
+            told = await self.stop("stop_mission (asked in chat)")
+            return ToolResult(tool_call_id=call.id, content=told), None
         if not self._fast_path_may_call(call.name):
             logger.warning("fast_path_motion_refused", tool=call.name)
             text = f"{call.name} moves the robot: call start_mission for physical tasks."

@@ -54,5 +54,7 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
             "safety": container.executor.latch.state.model_dump(),
             "policy": container.policy_summary(),
+            # the lease on every motion server (issue 27): fresh, unreachable, unsupported
+            "supervision": container.supervisor.summary() if container.supervisor else None,
         },
     }

@@ -237,7 +237,7 @@ def assemble(
         ttl_s=config.control.lease_ttl_s,
     )
     # the one choke point: everything below holds the guarded backend, never the raw one
-    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals)
+    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals, supervisor)
     adapters = replace(adapters, tools=guarded)
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)

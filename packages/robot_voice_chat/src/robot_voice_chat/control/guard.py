@@ -19,6 +19,7 @@ from robot_mcp_kit.supervision import SUPERVISE_TOOL
 from robot_voice_chat.control.context import DispatchContext, current_dispatch
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch, latched_sentence
 from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
@@ -62,11 +63,13 @@ class GuardedToolBackend(ToolBackend):
         latch: SafetyLatch,
         policy: ToolPolicy | None = None,
         approvals: ApprovalGate | None = None,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.inner = inner
         self.latch = latch
         self.policy = policy
         self.approvals = approvals
+        self.supervisor = supervisor  # a motion call waits for a fresh lease (issue 27)
 
     def is_supervision_tool(self, name: str) -> bool:
         """A motion server's lease tool: the brain's supervisor sends it on the raw backend;
@@ -159,6 +162,13 @@ class GuardedToolBackend(ToolBackend):
                 text = f"{name} was not sent: {answer.detail}"
                 return refusal(POLICY_DENIED, text, approval="denied")
             refused = self.latched_refusal(name)  # a stop may have come while we asked
+            if refused is not None:
+                return refused
+        if self.supervisor is not None and self.moves(name):
+            # right after a (re)connect the first lease may still be on its way: the server
+            # refuses motion without one (NOT_SUPERVISED), so let it land first
+            await self.supervisor.ensure_fresh(name.partition(".")[0])
+            refused = self.latched_refusal(name)
             if refused is not None:
                 return refused
         return await self.inner.call_tool(name, arguments, timeout_s)

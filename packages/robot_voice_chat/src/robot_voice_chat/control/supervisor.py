@@ -90,8 +90,10 @@ class MotionSupervisor:
         return [name for name, cfg in self.tools.servers().items() if cfg.motion]
 
     async def start(self) -> None:
-        """One renewal loop per motion server; the latch's changes are sent at once."""
+        """One renewal loop per motion server; the latch's changes and (re)connections are
+        sent at once."""
         self.latch.add_listener(self._on_latch)
+        self.tools.add_connect_listener(self._on_connect)
         for server in self.motion_servers():
             self._views[server] = LeaseView(server)
             self._wakes[server] = asyncio.Event()
@@ -119,6 +121,22 @@ class MotionSupervisor:
 
     async def _on_latch(self, state: LatchState) -> None:
         self.wake()
+
+    async def _on_connect(self, server: str) -> None:
+        if server in self._wakes:
+            self._wakes[server].set()
+
+    async def ensure_fresh(self, server: str, timeout_s: float | None = None) -> bool:
+        """Before a motion call: a fresh lease on ``server`` (one is asked for at once when
+        it has none, e.g. right after it connected), waiting at most ``timeout_s`` (a TTL by
+        default). True when fresh; a server not supervised by this brain answers False."""
+        if server not in self._wakes or self.fresh(server):
+            return self.fresh(server)
+        self._wakes[server].set()
+        deadline = self._clock() + (self.ttl_s if timeout_s is None else timeout_s)
+        while not self.fresh(server) and self._clock() < deadline:
+            await asyncio.sleep(self.period_s / 4)
+        return self.fresh(server)
 
     # --- the view -----------------------------------------------------------------------
     def view(self, server: str) -> LeaseView | None:

@@ -54,6 +54,7 @@ def start_navigation(
         [sys.executable, "-m", "robot_mcp_navigation"],
         env={
             "NAV_MOTION": "nav2",
+            "NAV_SUPERVISION": "off",  # no brain here to hold a lease
             "MCP_TRANSPORT": "streamable-http",
             "MCP_PORT": str(port),
             "RVC_EVENTS_URL": receiver.url,

@@ -146,8 +146,10 @@ export function MapView() {
                   data-x={pose.x}
                   data-y={pose.y}
                   data-moving={pose.moving}
-                  aria-label={`Robot at ${pose.x.toFixed(1)}, ${pose.y.toFixed(1)}${pose.moving ? ` driving to ${pose.destination}` : ''}`}
+                  data-stale={pose.stale || undefined}
+                  aria-label={`Robot ${pose.stale ? 'last seen' : 'at'} ${pose.x.toFixed(1)}, ${pose.y.toFixed(1)}${pose.moving ? ` driving to ${pose.destination}` : ''}`}
                   role="img"
+                  opacity={pose.stale ? 0.4 : undefined}
                   transform={`translate(${x} ${y}) rotate(${deg})`}
                 >
                   <circle r={8} className="fill-robot" />
@@ -161,6 +163,13 @@ export function MapView() {
         <p className="px-3 py-1.5 text-xs text-muted">
           {pose.moving ? `Driving to ${pose.destination}` : pose.at_location ? `At ${pose.at_location}` : 'Stopped'} ·
           click a place to fill “Go to …”
+        </p>
+      )}
+      {pose?.pose_note && (
+        // the robot's position is not live, or it jumped when the base came back: said, not hidden
+        <p role="status" data-testid="pose-note" className="border-t border-line bg-warn-bg px-3 py-1 text-xs text-fg">
+          {pose.stale ? 'Position not live: ' : 'Position jumped: '}
+          {pose.pose_note}
         </p>
       )}
       {past && (

@@ -83,6 +83,7 @@ class MotionSupervisor:
         self._wall = wall
         self._views: dict[str, LeaseView] = {}
         self._wakes: dict[str, asyncio.Event] = {}
+        self._renewed: dict[str, asyncio.Event] = {}  # set after each renewal attempt
         self._tasks: list[asyncio.Task[None]] = []
 
     # --- lifecycle ----------------------------------------------------------------------
@@ -97,6 +98,7 @@ class MotionSupervisor:
         for server in self.motion_servers():
             self._views[server] = LeaseView(server)
             self._wakes[server] = asyncio.Event()
+            self._renewed[server] = asyncio.Event()
             self._tasks.append(asyncio.create_task(self._loop(server), name=f"lease-{server}"))
         logger.info(
             "supervision_started",
@@ -133,9 +135,12 @@ class MotionSupervisor:
         if server not in self._wakes or self.fresh(server):
             return self.fresh(server)
         self._wakes[server].set()
-        deadline = self._clock() + (self.ttl_s if timeout_s is None else timeout_s)
-        while not self.fresh(server) and self._clock() < deadline:
-            await asyncio.sleep(self.period_s / 4)
+        renewed = self._renewed[server]
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(self.ttl_s if timeout_s is None else timeout_s):
+                while not self.fresh(server):
+                    renewed.clear()
+                    await renewed.wait()
         return self.fresh(server)
 
     # --- the view -----------------------------------------------------------------------
@@ -204,6 +209,7 @@ class MotionSupervisor:
                 await self.renew(server)
             except Exception:  # a renewal loop must outlive any one failure
                 logger.exception("supervision_renewal_crashed", server=server)
+            self._renewed[server].set()
             remaining = self.period_s - (self._clock() - started)
             if remaining > 0 and not wake.is_set():
                 with contextlib.suppress(TimeoutError):

@@ -46,11 +46,11 @@ class TurnResult:
     mission_id: str | None = None
 
 
-def busy_message(mission: Mission) -> str:
-    return (
-        f"I'm busy with a mission right now ({mission.instruction}; it is {mission.state}). "
-        "Say stop if you want me to halt."
-    )
+def busy_message(mission: Mission, offer_stop: bool = True) -> str:
+    """``offer_stop``: every motion server answers, so a stop halts the robot (issue 27)."""
+    stop = " Say stop if you want me to halt." if offer_stop else ""
+    doing = f"{mission.instruction}; it is {mission.state}"
+    return f"I'm busy with a mission right now ({doing}).{stop}"
 
 
 class ChatPipeline:
@@ -220,7 +220,8 @@ class ChatPipeline:
                 raise ValueError("start_mission needs an instruction")
             mission = await self._executor.start(instruction)
         except MissionBusyError as exc:
-            reply = busy_message(exc.mission)
+            supervisor = self._executor.supervisor
+            reply = busy_message(exc.mission, supervisor is None or supervisor.all_fresh())
             route: Route = "error"
             mission_id = None
         except (MissionsDisabledError, ValueError) as exc:

@@ -134,3 +134,26 @@ async def test_no_planner_or_caller_behind_the_guard_sees_or_sends_the_lease(
     assert refused.is_error
     assert "reserved for the robot's supervisor" in refused.text
     assert server.leases == []
+
+
+async def test_a_motion_call_right_after_a_reconnect_waits_for_the_first_lease(
+    tools: FakeToolBackend, latch: SafetyLatch, server: Server
+) -> None:
+    tools.states["navigation"] = "disconnected"
+    supervisor = MotionSupervisor(tools, latch, period_s=2.0, ttl_s=5.0)  # renewals far apart
+    await supervisor.start()
+    try:
+        await async_wait_until(
+            lambda: supervisor.summary()["servers"]["navigation"]["state"] == "unreachable",
+            5,
+            "no lease while disconnected",
+        )
+        tools.states["navigation"] = "connected"
+        guarded = GuardedToolBackend(tools, latch, supervisor=supervisor)
+
+        await guarded.call_tool("navigation.navigate_to", {"location": "kitchen"})
+    finally:
+        await supervisor.aclose()
+
+    order = [name for name, _ in tools.calls if name.startswith("navigation.")]
+    assert order.index("navigation.supervise") < order.index("navigation.navigate_to")

@@ -96,6 +96,17 @@ async def test_a_base_that_comes_back_elsewhere_is_reported_as_relocated(rig: Ri
     assert "came back 6.0 m from where it was last seen" in pose["pose_note"]
 
 
+async def test_a_pose_gap_during_a_drive_is_no_relocation(rig: Rig) -> None:
+    """A loaded host may deliver no pose for a while: the robot was moving, not teleported."""
+    now = time.monotonic()
+    rig.action.publish_pose(Pose(1, 0), at=now - 2.0)
+    await rig.navigator.navigate_to("kitchen")
+    rig.action.publish_pose(Pose(6, 0), at=now)  # 5 m after a 2 s gap, while driving
+
+    assert rig.navigator.pose()["relocated"] is None
+    assert rig.action.last_relocation() is not None  # the topic did jump; it is not said
+
+
 async def test_with_no_pose_yet_the_pose_is_stale_and_says_so() -> None:
     rig = make_rig()
     pose = rig.navigator.pose()

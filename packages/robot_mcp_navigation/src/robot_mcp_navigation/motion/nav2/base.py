@@ -96,6 +96,7 @@ class Nav2MotionBase(MotionBase):
         self._feedback_timeout_s = feedback_timeout_s
         self._pose_max_age_s = pose_max_age_s
         self._lost_at: float | None = None  # when the base stopped answering a goal
+        self._drive_ended_at = 0.0  # monotonic; a pose gap while driving is no relocation
         self._background: set[asyncio.Task[None]] = set()
 
     @property
@@ -157,8 +158,16 @@ class Nav2MotionBase(MotionBase):
         return PoseStatus(False, age, came_back, relocated)
 
     def _relocated(self, now: float) -> dict[str, Any] | None:
+        """A relocation worth saying: the base came back after it was lost, or the pose
+        jumped while the robot stood idle (a restart, a re-localisation). A gap in the pose
+        topic during a drive (a loaded host) is no relocation: the robot was moving."""
         moved = self._action.last_relocation()
         if moved is None or now - moved.at > RELOCATION_SHOWN_S:
+            return None
+        silence_began = moved.at - moved.silent_s
+        lost_meanwhile = self._lost_at is not None and silence_began <= self._lost_at <= moved.at
+        idle = not self._driving and silence_began >= self._drive_ended_at
+        if not (lost_meanwhile or idle):
             return None
         return {
             "from": {"x": round(moved.before.x, 2), "y": round(moved.before.y, 2)},
@@ -281,6 +290,7 @@ class Nav2MotionBase(MotionBase):
         finally:
             waiter.cancel()
             self._driving = False
+            self._drive_ended_at = time.monotonic()
             self._goal = None
 
     def _base_lost(self, goal: DriveGoal, handle: Nav2Goal, elapsed: float) -> DriveResult:

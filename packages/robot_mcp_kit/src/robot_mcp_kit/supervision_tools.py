@@ -10,8 +10,11 @@ Adopting supervision in a motion server (navigation does exactly this, see its c
         raise tool_error(refused.code, refused.detail)
     # while serving: cancel whatever runs when the lease lapses or latches
     watchdog = asyncio.create_task(watch_supervision(supervision, stop_all, lambda: moving))
-    # and the dead-man lock on the robot's twist_mux (robot_ros_bridge.lock_publisher):
-    SupervisorLockPublisher(bridge, supervision.locked, topic="/robot/supervisor_lock")
+    # and the dead-man lock on the robot's twist_mux (robot_ros_bridge.lock_publisher), on a
+    # topic of its own: navigation has /robot/supervisor_lock, so e.g. manipulation takes
+    # /robot/supervisor_lock/manipulation (+ a twist_mux lock entry and robot-sim's
+    # SIM_SUPERVISOR_LOCK_TOPICS); never two publishers on one lock topic
+    SupervisorLockPublisher(bridge, supervision.locked, topic="/robot/supervisor_lock/manipulation")
 """
 
 from __future__ import annotations

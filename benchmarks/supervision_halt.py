@@ -81,19 +81,25 @@ class Bench:
         return bool(lease.get("fresh"))
 
     async def drive(self) -> None:
-        """A drive from this client, once the brain supervises and the stop is clear."""
+        """A drive from this client, once the brain supervises and the stop is clear: the
+        next place of the list that takes the goal and gets the robot moving."""
         await async_wait_until(self.supervised, 90, "navigation supervised", 0.1)
         if (await self.http.get("/api/safety")).json()["latched"]:
             await self.http.post("/api/safety/clear", json={"reason": "benchmark: clear"})
         await async_wait_until(lambda: self.watch.halted_at(0.2) is not None, 30, "still", 0.05)
-        for _ in range(len(PLACES)):
+        for _ in range(3 * len(PLACES)):
             place = PLACES[self.turn % len(PLACES)]
             self.turn += 1
             answer = await call_mcp(self.navigation, "navigate_to", {"location": place})
-            if "task_id" in answer:
-                break
-            await asyncio.sleep(0.5)  # busy or refused: the next place, after a moment
-        await async_wait_until(self.watch.moving, 30, "the robot driving", 0.02)
+            if "task_id" not in answer:  # busy, or the clear's lease not there yet
+                await asyncio.sleep(0.5)
+                continue
+            try:
+                await async_wait_until(self.watch.moving, 5, "the robot driving", 0.02)
+                return
+            except TimeoutError:  # already there: stop it and take the next place
+                await call_mcp(self.navigation, "stop_navigation", {})
+        raise RuntimeError("no drive got the robot moving")
 
     async def halt_after(self, action: Callable[[], Awaitable[float]]) -> float:
         started = await action()

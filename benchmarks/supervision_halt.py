@@ -157,7 +157,8 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
     }
     results: dict[str, list[float]] = {mode: [] for mode in modes}
     load_before = os.getloadavg()
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = args.keep or scratch
         watch = AmclWatch()
         try:
             with local_stack(
@@ -178,7 +179,10 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
                     for index in range(args.runs):
                         took = await runner()
                         results[mode].append(took)
-                        print(f"{mode} {index + 1}/{args.runs}: halted {took * 1000:.0f} ms after")
+                        print(
+                            f"{mode} {index + 1}/{args.runs}: halted {took * 1000:.0f} ms after"
+                            f" (at {time.time():.3f})"
+                        )
                 await bench.http.aclose()
         finally:
             watch.close()
@@ -200,6 +204,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=20)
     parser.add_argument("--only", default="brain,navigation,stop")
+    parser.add_argument("--keep", default="", help="a directory for the stack's logs (kept)")
     args = parser.parse_args()
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never off this machine
     os.environ.setdefault("ROS_DOMAIN_ID", str(40 + os.getpid() % 50))

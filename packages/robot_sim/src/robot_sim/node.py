@@ -98,6 +98,8 @@ class SimNode(Node):
         self.navigator.accepting = active
 
     def _publish_pose(self) -> None:
+        if self.lock is not None:  # never a pose past the moment twist_mux held the base
+            self.lock.enforce()
         state = self.drive.state(self._wall())
         stamp = self.get_clock().now().to_msg()
         self._amcl.publish(messages.amcl_pose(state.pose, stamp))

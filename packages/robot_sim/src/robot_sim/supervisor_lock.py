@@ -7,6 +7,12 @@ lock is locked — ``true``, or its publisher silent longer than the timeout, or
 command and the base controller's command timeout stops the wheels. Here that is: the drive
 halts (``DriveSim.halt``) within one check period of the lock engaging, and stays halted.
 
+The halt is dated like a separate twist_mux would date it, not by when this process gets round to
+it: the drive stops where it was when the lock engaged (the first ``true``, or the silent lock's
+timeout running out), never earlier than a pose already published as open — so a robot-sim
+starved of CPU under load does not simulate wheels that kept turning while twist_mux held them.
+The pose timer enforces the lock before each ``/amcl_pose``.
+
 Nav2 does not learn of a twist_mux lock: its controller keeps computing commands, the robot
 does not move, its progress checker gives up after ``movement_time_allowance`` (10 s by default)
 and the NavigateToPose goal ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105).
@@ -49,8 +55,11 @@ class SupervisorLockGate:
         self._clock = clock
         self._on_halt = on_halt
         self._mutex = threading.Lock()
+        self._enforcing = threading.Lock()  # the gate's timer and the pose timer
         self._locks = {topic: TwistMuxLock(timeout_s, LOCK_PRIORITY) for topic in topics}
         self._was_locked: bool | None = None
+        self._started = clock()
+        self._last_open = self._started  # the last moment the locks were seen open
         group = MutuallyExclusiveCallbackGroup()
         for topic in topics:
             node.create_subscription(
@@ -77,22 +86,42 @@ class SupervisorLockGate:
     def locked(self) -> bool:
         return bool(self.held_by())
 
+    def _engaged_at(self, now: float) -> float:
+        """When the locks that hold now engaged (twist_mux's view: a ``true`` when it came,
+        a silent lock when its timeout ran out, one never heard since we started)."""
+        with self._mutex:
+            times = [
+                lock.stamp
+                if lock.data and lock.stamp is not None
+                else (lock.stamp + lock.timeout_s if lock.stamp is not None else self._started)
+                for lock in self._locks.values()
+                if lock.is_locked(now)
+            ]
+        return min(times, default=now)
+
     def enforce(self) -> None:
         """Halt the drive while any lock is locked; log each change of the locks."""
-        held = self.held_by()
-        now = self._clock()
-        if bool(held) != self._was_locked:
-            self._was_locked = bool(held)
-            if held:
-                logger.warning("supervisor_lock_engaged", topics=held)
-            else:
-                logger.info("supervisor_lock_released")
-        if held and self._drive.state(now).driving:
-            state = self._drive.halt(now)
+        with self._enforcing:
+            now = self._clock()
+            held = self.held_by()
+            if bool(held) != self._was_locked:
+                self._was_locked = bool(held)
+                if held:
+                    logger.warning("supervisor_lock_engaged", topics=held)
+                else:
+                    logger.info("supervisor_lock_released")
+            if not held:
+                self._last_open = now
+                return
+            if not self._drive.state(now).driving:
+                return
+            at = min(now, max(self._engaged_at(now), self._last_open))
+            state = self._drive.halt(at)
             logger.warning(
                 "base_held_by_supervisor_lock",
                 topics=held,
+                late_ms=round((now - at) * 1000, 1),
                 x=round(state.pose.x, 2),
                 y=round(state.pose.y, 2),
             )
-            self._on_halt()
+        self._on_halt()

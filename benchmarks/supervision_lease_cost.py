@@ -75,15 +75,24 @@ async def renew_forever(url: str, rtts: list[float]) -> None:
             await asyncio.sleep(max(0.0, 0.25 - (time.perf_counter() - started)))
 
 
-async def over_mcp(url: str, calls: int) -> dict[str, Any]:
+async def over_mcp(url: str, calls: int, blocks: int = 10) -> dict[str, Any]:
+    """Blocks of ``get_pose`` calls with and without a renewing brain, alternated so that
+    the machine's load changes hit both alike."""
     await get_pose_rtts(url, 20)  # warm up
     renewals: list[float] = []
-    renewing = asyncio.create_task(renew_forever(url, renewals))
-    with_lease = await get_pose_rtts(url, calls)
-    renewing.cancel()
-    with contextlib.suppress(asyncio.CancelledError):
-        await renewing
-    without = await get_pose_rtts(url, calls)
+    with_lease: list[float] = []
+    without: list[float] = []
+    per_block = max(1, calls // blocks)
+    for block in range(blocks * 2):
+        if block % 2 == 0:
+            renewing = asyncio.create_task(renew_forever(url, renewals))
+            await asyncio.sleep(0.3)  # the renewing client connected and renewing
+            with_lease += await get_pose_rtts(url, per_block)
+            renewing.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await renewing
+        else:
+            without += await get_pose_rtts(url, per_block)
     return {
         "get_pose_with_lease_renewals": summary(with_lease),
         "get_pose_without": summary(without),

@@ -10,12 +10,15 @@ then one of
 - ``navigation``: ``kill -9`` of the navigation server → its lock falls silent → robot-sim
   halts after the lock's 0.5 s timeout; navigation is restarted after each run;
 - ``stop``: ``POST /api/safety/stop`` → the brain cancels, calls the stop tool and sends the
-  latched lease; cleared again after each run.
+  latched lease; cleared again after each run;
+- ``base``: ``kill -9`` of robot-sim → navigation ends the drive ``BASE_UNAVAILABLE`` (no
+  NavigateToPose feedback for 3 s); measured to the task's failure as ``get_task`` shows it;
+  robot-sim is restarted after each run.
 
 "Halted" is the header stamp of the first ``/amcl_pose`` message at the final position (the
 robot's own clock, stamps compare with ``time.time()``), once the pose has stood still 0.5 s.
 
-Run: ``uv run python benchmarks/supervision_halt.py [--runs 20] [--only brain,navigation,stop]``.
+Run: ``uv run python benchmarks/supervision_halt.py [--runs 20] [--only brain,stop,base]``.
 Writes benchmarks/results/supervision_halt.json.
 """
 
@@ -42,6 +45,12 @@ from robot_stack_testing.stack import LocalStack, free_port_overrides, local_sta
 ROOT = Path(__file__).resolve().parents[1]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 RESULTS = Path(__file__).with_name("results")
+NAMES = {
+    "brain": "brain_kill_to_halted",
+    "navigation": "navigation_kill_to_halted",
+    "stop": "stop_to_halted",
+    "base": "robot_sim_kill_to_base_unavailable",
+}
 PLACES = ["meeting_room", "dock", "mailroom", "desk_alice", "kitchen", "corridor_b"]
 
 
@@ -135,6 +144,23 @@ class Bench:
         self.services.start(self.services.specs["navigation"])
         return took
 
+    async def base_run(self) -> float:
+        """kill -9 of robot-sim → the drive's task failed BASE_UNAVAILABLE (seconds)."""
+        await self.drive()
+        running = await call_mcp(self.navigation, "list_tasks", {"states": ["running"]})
+        (task,) = running["tasks"]
+        killed = self.kill9("robot_sim")
+
+        async def lost() -> float | None:
+            info = await call_mcp(self.navigation, "get_task", {"task_id": task["task_id"]})
+            error = info.get("error") or {}
+            return time.time() if error.get("error_code") == "BASE_UNAVAILABLE" else None
+
+        reported = await async_wait_until(lost, 60, "BASE_UNAVAILABLE", 0.05)
+        assert reported is not None
+        self.services.start(self.services.specs["robot_sim"])
+        return reported - killed
+
     async def stop_run(self) -> float:
         await self.drive()
 
@@ -192,10 +218,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
         "load_average_before": [round(v, 2) for v in load_before],
         "load_average_after": [round(v, 2) for v in os.getloadavg()],
         "settings": {"lease_period_s": 0.25, "lease_ttl_s": 0.8, "lock_timeout_s": 0.5},
-        **{
-            f"{mode}_kill_to_halted" if mode != "stop" else "stop_to_halted": summary(v)
-            for mode, v in results.items()
-        },
+        **{NAMES[mode]: summary(values) for mode, values in results.items()},
         "raw_s": {mode: [round(v, 4) for v in values] for mode, values in results.items()},
     }
 
@@ -203,7 +226,7 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=20)
-    parser.add_argument("--only", default="brain,navigation,stop")
+    parser.add_argument("--only", default="brain,navigation,stop,base")
     parser.add_argument("--keep", default="", help="a directory for the stack's logs (kept)")
     args = parser.parse_args()
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never off this machine
@@ -211,6 +234,9 @@ def main() -> None:
     report = asyncio.run(run(args))
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / "supervision_halt.json"
+    if out.exists() and args.only != parser.get_default("only"):  # --only: keep the other modes
+        earlier = json.loads(out.read_text())
+        report = {**earlier, **report, "raw_s": {**earlier.get("raw_s", {}), **report["raw_s"]}}
     out.write_text(json.dumps(report, indent=2))
     print(json.dumps({k: v for k, v in report.items() if k != "raw_s"}, indent=2))
     print(f"wrote {out}")

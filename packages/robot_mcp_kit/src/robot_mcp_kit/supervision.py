@@ -66,10 +66,26 @@ class Lease:
         return now < self.expires_at
 
 
+LAPSE_REASONS: dict[Lapse, str] = {
+    "lapsed": "supervision was lost: the supervising brain stopped renewing its lease",
+    "latched": "the software stop was latched",
+}
+"""Why running motion ended, in words the task's failure message carries."""
+
+
 @dataclass(frozen=True)
 class Refusal:
     code: str
     detail: str
+
+    @property
+    def lapse(self) -> Lapse:
+        return "latched" if self.code == SAFETY_STOP_LATCHED else "lapsed"
+
+    @property
+    def reason(self) -> str:
+        """Why motion that ran ended, when it ended for this refusal."""
+        return LAPSE_REASONS[self.lapse]
 
 
 class Supervision:

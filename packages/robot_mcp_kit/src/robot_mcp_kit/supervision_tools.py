@@ -30,6 +30,7 @@ from mcp.types import ToolAnnotations
 from robot_mcp_kit.mcp_runtime import tool_error
 from robot_mcp_kit.supervision import (
     INVALID_LEASE,
+    LAPSE_REASONS,
     SUPERVISE_TOOL,
     Lapse,
     LeaseError,
@@ -45,12 +46,6 @@ SUPERVISES = ToolAnnotations(
     read_only_hint=False, destructive_hint=False, idempotent_hint=True, open_world_hint=False
 )
 """Renews the supervising brain's lease (and the latch it carries): the brain's own traffic."""
-
-LAPSE_REASONS: dict[Lapse, str] = {
-    "lapsed": "supervision was lost: the supervising brain stopped renewing its lease",
-    "latched": "the software stop was latched",
-}
-"""Why running motion ended, in words the task's failure message carries."""
 
 
 def add_supervise_tool(server: MCPServer, supervision: Supervision) -> None:

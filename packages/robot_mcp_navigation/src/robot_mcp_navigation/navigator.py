@@ -309,6 +309,11 @@ class Navigator:
     ) -> TaskInfo:
         pose = self._base.current_pose().as_dict()
         common = {"destination": drive.goal.name, "pose": pose}
+        refused = self.supervision.refusal() if self.supervision is not None else None
+        if refused is not None and drive.cancel_reason is None and result is not None:
+            # the lock stopped the base before the watchdog's cancel (robot-sim aborts its goal
+            # the moment its lock engages): the drive ended because supervision ended
+            drive.cancel_reason = refused.reason
         if result is not None and result.status == "arrived":
             done = {**common, "duration_s": round(result.elapsed_s, 2)}
             info = self._tasks.finish(drive.task_id, "succeeded", result=done)

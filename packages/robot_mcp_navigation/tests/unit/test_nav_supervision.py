@@ -145,3 +145,26 @@ async def test_another_client_cannot_drive_a_latched_server_over_mcp(rig: Rig) -
     assert refused.is_error
     assert json.loads(refused.content[0].text)["error"] == SAFETY_STOP_LATCHED  # type: ignore[union-attr]
     assert rig.base.goals == []
+
+
+async def test_a_drive_the_lock_ended_before_the_watchdog_looked_is_cancelled_not_stuck() -> None:
+    """The lock publisher says locked the moment the lease runs out and robot-sim aborts its
+    goal at once; the watchdog may look only afterwards. The drive ended for supervision."""
+    clock = Clock()
+    supervision = Supervision(clock=clock)
+    base = FakeMotionBase()
+    navigator = Navigator(
+        parse_map(MAP), base, FakeEventSink(), TaskTable(), supervision=supervision
+    )
+    supervision.renew("brain", 1.0, latched=False)
+    info = await navigator.navigate_to("kitchen")
+    await async_wait_until(lambda: base.driving, 5, "the base driving")
+
+    clock.now += 1.5  # lapsed; no watchdog runs here
+    base.fail(DriveFailure("ROBOT_STUCK", "Failed to make progress"))
+    await async_wait_until(lambda: not navigator.moving, 5, "the drive over")
+
+    task = navigator.get_task(info.task_id)
+    assert task.state == "cancelled"
+    assert "supervision was lost" in task.error["message"]  # type: ignore[index]
+    await navigator.close()

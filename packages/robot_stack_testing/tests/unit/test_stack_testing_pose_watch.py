@@ -41,25 +41,33 @@ def test_a_halt_is_the_stamp_of_the_first_message_at_the_final_position(
     try:
         publisher = robot.create_publisher(PoseWithCovarianceStamped, topic)
         wait_until(lambda: robot.node.count_subscribers(topic) >= 1, 10, "the watch subscribed")
-        stamps = iter(range(1000))
+        ticks = iter(range(1, 10_000))
+        sent: list[tuple[float, float]] = []  # (stamp, x) published
 
-        def publish_until(x: float, stamp: float) -> bool:
-            """One more message (best effort may drop some) until ``stamp`` was seen."""
-            latest = watch.latest()
-            if latest is not None and latest.stamp >= stamp - 1e-6:
+        def drive_on() -> bool:
+            """One more message 0.1 m further (best effort may drop some) until it moves."""
+            if watch.moving(window_s=0.3):
                 return True
-            tick = 100 + 0.05 * next(stamps)
-            publisher.publish(pose(min(x, 0.1 * (tick - 100) / 0.05), tick))
+            tick = next(ticks)
+            sent.append((100 + 0.05 * tick, 0.1 * tick))
+            publisher.publish(pose(sent[-1][1], sent[-1][0]))
             return False
 
-        wait_until(lambda: publish_until(0.5, 100.2), 10, "driving seen", 0.005)
-        assert watch.moving(window_s=0.3)
+        wait_until(drive_on, 10, "driving seen", 0.005)
         assert watch.halted_at() is None
-        wait_until(lambda: publish_until(0.5, 101.5), 20, "standing still seen", 0.005)
+        stopped_at, x = sent[-1]  # it stops here
+
+        def stand() -> bool:
+            if watch.halted_at(still_s=0.5) is not None:
+                return True
+            publisher.publish(pose(x, 100 + 0.05 * next(ticks)))
+            return False
+
+        wait_until(stand, 20, "standing still seen", 0.005)
 
         assert not watch.moving(window_s=0.3)
         halted = watch.halted_at(still_s=0.5)
         assert halted is not None
-        assert 100.2 <= halted <= 100.5  # where 0.5 m was first reached (samples may drop)
+        assert halted == pytest.approx(stopped_at, abs=0.3)  # its first sample there, or later
     finally:
         watch.close()

@@ -172,14 +172,15 @@ class Navigator:
 
     # -- commands ------------------------------------------------------------------------
 
-    def _refuse_unsupervised(self) -> None:
+    def refuse_unsupervised(self) -> None:
+        """Raise MotionRefusedError while supervision refuses motion (latched, unsupervised)."""
         refused = self.supervision.refusal() if self.supervision is not None else None
         if refused is not None:
             logger.warning("navigation_refused", code=refused.code, detail=refused.detail)
             raise MotionRefusedError(refused.code, refused.detail)
 
     async def navigate_to(self, location: str, triggers: Iterable[Trigger] = ()) -> TaskInfo:
-        self._refuse_unsupervised()
+        self.refuse_unsupervised()
         name = self._map.resolve(location)
         if name is None:
             known = ", ".join(sorted(self._map.locations))

@@ -37,6 +37,10 @@ async def _guard(call: Awaitable[T]) -> T:
         raise tool_error(exc.code, exc.detail) from exc
 
 
+async def _refused_now(navigator: Navigator) -> None:
+    navigator.refuse_unsupervised()
+
+
 def build_mcp_server(
     navigator: Navigator, log_level: LogLevel = "INFO", confirmer: MotionConfirmer | None = None
 ) -> MCPServer:
@@ -64,6 +68,7 @@ def build_mcp_server(
         this server's lease.
         """
         if confirmer is not None:
+            await _guard(_refused_now(navigator))  # never ask a person about a refused drive
             await confirmer.confirm(ctx, location)
         info = await _guard(navigator.navigate_to(location, triggers or []))
         return info.model_dump(mode="json")

@@ -30,8 +30,15 @@ from mcp import Client
 
 from robot_ros_bridge import RosBridge
 from robot_ros_bridge.vision_tasks import RosVisionTasks
-from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_port
+from robot_stack_testing import (
+    ProcessLauncher,
+    free_tcp_port,
+    fresh_token,
+    mcp_transport,
+    wait_for_tcp_port,
+)
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 RESULTS = Path(__file__).parent / "results" / "bridges_buffer_load.json"
 TICK = os.sysconf("SC_CLK_TCK")
 PAGE = os.sysconf("SC_PAGE_SIZE")
@@ -60,7 +67,7 @@ async def create_skills(node: str, count: int) -> None:
 
 
 async def buffer_state(url: str) -> dict[str, Any]:
-    async with Client(url) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
         result = await client.call_tool("list_buffers", {})
         data = json.loads(result.content[0].text)  # type: ignore[union-attr]
         t0 = time.perf_counter()
@@ -108,6 +115,7 @@ def main() -> None:
             [sys.executable, "-m", "mcp_perception_buffer"],
             env={
                 "MCP_TRANSPORT": "streamable-http",
+                "MCP_AUTH_TOKEN": TOKEN,
                 "MCP_PORT": str(port),
                 "VISION_NODE_NAME": node,
                 "LOG_LEVEL": "WARNING",

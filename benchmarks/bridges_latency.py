@@ -31,8 +31,15 @@ from typing import Any
 
 from mcp import Client
 
-from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_port
+from robot_stack_testing import (
+    ProcessLauncher,
+    free_tcp_port,
+    fresh_token,
+    mcp_transport,
+    wait_for_tcp_port,
+)
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 RESULTS_DIR = Path(__file__).parent / "results"
 REPO = Path(__file__).resolve().parents[1]
 
@@ -50,7 +57,10 @@ async def call(client: Client, tool: str, args: dict[str, Any]) -> tuple[bool, A
 async def measure(urls: tuple[str, str], skills: int, calls: int) -> dict[str, Any]:
     first_result: list[float] = []
     round_trips: list[float] = []
-    async with Client(urls[0]) as control, Client(urls[1]) as perception:
+    async with (
+        Client(mcp_transport(urls[0], TOKEN)) as control,
+        Client(mcp_transport(urls[1], TOKEN)) as perception,
+    ):
         for i in range(skills):
             started = time.perf_counter()
             wall = time.time()
@@ -133,6 +143,7 @@ def main() -> None:
         ports = free_tcp_port(), free_tcp_port()
         common = {
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "VISION_NODE_NAME": node,
             "LOG_LEVEL": "WARNING",
         }

@@ -32,8 +32,14 @@ from typing import Any
 
 from robot_mcp_episodic.store.sqlite import SqliteEpisodicStore
 from robot_ros_bridge import RosBridge
-from robot_stack_testing import ProcessLauncher, free_tcp_port, wait_for_tcp_port
+from robot_stack_testing import (
+    ProcessLauncher,
+    free_tcp_port,
+    fresh_token,
+    wait_for_tcp_port,
+)
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 RESULTS = Path(__file__).parent / "results"
 SKILLS = ("detect", "people", "find_mug", "doors")
 LABELS = ("mug", "chair", "person", "laptop", "door", "plant", "bottle", "bag", "monitor")
@@ -74,8 +80,9 @@ def measure_once(seconds: float, idle: bool) -> dict[str, Any]:
     pose_topic = f"/bench_pose_{uuid.uuid4().hex[:6]}"
     server = launcher.start(
         "episodic", [sys.executable, "-m", "robot_mcp_episodic"],
-        env={"MCP_TRANSPORT": "sse", "MCP_PORT": str(port), "EPISODIC_DIR": str(work / "data"),
-             "EPISODIC_POSE_TOPIC": pose_topic, "LOG_LEVEL": "WARNING"},
+        env={"MCP_TRANSPORT": "sse", "MCP_AUTH_TOKEN": TOKEN, "MCP_PORT": str(port),
+             "EPISODIC_DIR": str(work / "data"), "EPISODIC_POSE_TOPIC": pose_topic,
+             "LOG_LEVEL": "WARNING"},
     )  # fmt: skip
     bares = {
         kind: launcher.start(

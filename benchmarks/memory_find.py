@@ -41,7 +41,9 @@ from _memory_paraphrases_v2 import QUERIES as QUERIES_V2
 from robot_mcp_memory.documents import parse_process, render_process
 from robot_mcp_memory.service import ProcessMemory
 from robot_mcp_memory.store.sqlite_fts import SqliteFtsProcessStore
+from robot_stack_testing import fresh_token, mcp_transport
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 ROOT = Path(__file__).resolve().parent.parent
 SEED = 2002
 ROBOT_ID = "bench-robot"
@@ -341,6 +343,7 @@ def start_server(db: Path, log_path: Path) -> tuple[subprocess.Popen[bytes], int
     env = {
         **os.environ,
         "MCP_TRANSPORT": "streamable-http",
+        "MCP_AUTH_TOKEN": TOKEN,
         "MCP_PORT": str(port),
         "MEMORY_DB": str(db),
         "ROBOT_ID": ROBOT_ID,
@@ -376,7 +379,9 @@ async def mcp_latency(port: int, queries: list[str]) -> dict[str, Any]:
     from mcp import Client
 
     samples = []
-    async with Client(f"http://127.0.0.1:{port}/mcp", read_timeout_seconds=30) as client:
+    async with Client(
+        mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN), read_timeout_seconds=30
+    ) as client:
         for query in queries[:10]:
             await client.call_tool("find_processes", {"query": query, "k": 3})
         for query in queries:

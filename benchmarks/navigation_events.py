@@ -37,7 +37,9 @@ from starlette.routing import Route
 
 from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import HEADER_SIGNATURE, HEADER_TIMESTAMP, SignatureError, verify
+from robot_stack_testing import fresh_token, mcp_transport
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 SECRET = "benchmark-secret"
 RESULTS = Path(__file__).parent / "results" / "navigation_events.json"
 ROUTE = ["kitchen", "reception", "mailroom", "desk_alice", "corridor_b", "desk_bob", "dock"]
@@ -110,7 +112,7 @@ async def drive(port: int, receiver: Receiver, routes: int) -> tuple[list[float]
     rtts_ms: list[float] = []
     done = 0
     started = time.monotonic()
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         for index in range(routes):
             if time.monotonic() - started > DEADLINE_S - 10:
                 break
@@ -154,6 +156,7 @@ def main() -> None:
             "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
             "ROS_DOMAIN_ID": str(random.SystemRandom().randint(150, 200)),
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(nav_port),
             "RVC_EVENTS_URL": f"http://127.0.0.1:{recv_port}/events",
             "RVC_EVENT_SECRET": SECRET,

@@ -32,7 +32,9 @@ from mcp import Client
 from mcp_types import CallToolResult, TextContent
 
 from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
+from robot_stack_testing import fresh_token, mcp_transport
 
+TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 SECRET = "benchmark-secret"
 RESULTS = Path(__file__).parent / "results" / "navigation_nav2.json"
 TRACE = re.compile(r"^trace (\w+)(?: nav_time=([\d.]+))? wall=([\d.]+)$")
@@ -96,7 +98,7 @@ async def run_rounds(port: int, receiver: EventReceiver, rounds: int) -> dict[st
     nav_rtt: list[float] = []
     stop_rtt: list[float] = []
     tasks: list[str] = []
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         # Nav2 discovery and the first goal are not what is measured: one warm-up round.
         for index in range(rounds + 1):
             place = PLACES[index % len(PLACES)]
@@ -160,6 +162,7 @@ def main() -> None:
                             "NAV_MOTION": "nav2",
                             "NAV_SUPERVISION": "off",  # no brain: nobody holds a lease
                             "MCP_TRANSPORT": "streamable-http",
+                            "MCP_AUTH_TOKEN": TOKEN,
                             "MCP_PORT": str(port),
                             "RVC_EVENTS_URL": receiver.url,
                             "RVC_EVENT_SECRET": SECRET,

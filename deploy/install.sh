@@ -33,6 +33,16 @@ SERVICES=(
 )
 UNITS=()
 for entry in "${SERVICES[@]}"; do UNITS+=("${entry%% *}"); done
+# One entry per MCP server: "<its env file>:<NAME>". Each gets two credentials, generated once:
+# the brain's (MCP_AUTH_TOKEN there, <NAME>_MCP_TOKEN in brain.env) and the operators' tools'
+# (MCP_OPERATOR_TOKEN there, <NAME>_MCP_OPERATOR_TOKEN in operator.env, which no unit reads).
+MCP_SERVERS=(
+  "skill-control:SKILL_CONTROL"
+  "perception-buffer:PERCEPTION"
+  "memory:MEMORY"
+  "episodic:EPISODIC"
+  "navigation:NAVIGATION"
+)
 LEGACY_USER=robot  # every unit ran as this one user before 0.x; removed by --purge
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DESTDIR="${DESTDIR:-}"
@@ -189,6 +199,7 @@ write_env_files() {
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local
+  write_mcp_credentials
   # every env file a SERVICES entry names exists (empty for a new service without settings)
   local entry name
   for entry in "${SERVICES[@]}"; do
@@ -198,6 +209,28 @@ write_env_files() {
     say "set the operator password: /opt/$APP/.venv/bin/robot-voice-chat hash-password," \
       "then put it in /etc/$APP/brain.env as ADMIN_PASSWORD_HASH='<hash>' (single quotes)"
   fi
+}
+
+# No MCP server runs open (issue 27): each has its own credential for the brain and one for
+# operators' tools (MCP Inspector, smoke.sh), kept across re-runs.
+write_mcp_credentials() {
+  local entry file name brain operator brain_pairs=() operator_pairs=()
+  for entry in "${MCP_SERVERS[@]}"; do
+    file="${entry%%:*}" name="${entry#*:}"
+    brain="$(env_value "${name}_MCP_TOKEN" "$ETC/brain.env")"
+    brain="${brain:-$(env_value MCP_AUTH_TOKEN "$ETC/$file.env")}"
+    brain="${brain:-$(new_secret)}"
+    operator="$(env_value "${name}_MCP_OPERATOR_TOKEN" "$ETC/operator.env")"
+    operator="${operator:-$(env_value MCP_OPERATOR_TOKEN "$ETC/$file.env")}"
+    operator="${operator:-$(new_secret)}"
+    env_file "$file" "MCP_AUTH_TOKEN=$brain" "MCP_OPERATOR_TOKEN=$operator"
+    brain_pairs+=("${name}_MCP_TOKEN=$brain")
+    operator_pairs+=("${name}_MCP_OPERATOR_TOKEN=$operator")
+  done
+  env_file brain "${brain_pairs[@]}"
+  [[ -f "$ETC/operator.env" ]] || printf '%s\n' "# operator.env — the MCP servers' credentials for \
+operators' tools (MCP Inspector, smoke.sh; RUNBOOK); no unit reads it" >"$ETC/operator.env"
+  env_file operator "${operator_pairs[@]}"
 }
 
 # Each unit runs as its own user and reads exactly the env files its SERVICES entry lists.

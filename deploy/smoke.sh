@@ -12,6 +12,8 @@
 #   SMOKE_SKILL_CONTROL_PORT=9201 SMOKE_PERCEPTION_PORT=9202 SMOKE_EPISODIC_PORT=9203
 #   SMOKE_VISION_PORT=9112
 #   SMOKE_USER=operator SMOKE_PASSWORD=...   operator login when the brain requires one
+#   SMOKE_CREDENTIALS=/etc/robot-stack/operator.env   the MCP servers' credentials for operators'
+#                          tools (<NAME>_MCP_OPERATOR_TOKEN; <NAME>_MCP_TOKEN lines count too)
 #   SMOKE_LOG_CMD="journalctl -u robot-voice-chat -o cat --no-pager"   the brain's log
 #   SMOKE_PYTHON=/opt/robot-stack/.venv/bin/python   SMOKE_TIMEOUT=120
 #   SMOKE_STATE=<dir>   where the taught process id is kept between `mission` and `repeat`
@@ -29,12 +31,13 @@ LOG_CMD="${SMOKE_LOG_CMD:-journalctl -u robot-voice-chat -o cat --no-pager}"
 PYTHON="${SMOKE_PYTHON:-$root/.venv/bin/python}"
 TIMEOUT="${SMOKE_TIMEOUT:-120}"
 STATE="${SMOKE_STATE:-${XDG_RUNTIME_DIR:-/tmp}/robot-stack-smoke}"
+CREDENTIALS="${SMOKE_CREDENTIALS:-/etc/robot-stack/operator.env}"
 steps="http,mission,repeat"
 
 while (($#)); do
   case "$1" in
     --steps) steps="$2"; shift 2 ;;
-    -h|--help) sed -n '2,16p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}"; exit 0 ;;
     *) echo "smoke.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -51,14 +54,42 @@ brain_log() { bash -c "$LOG_CMD" 2>/dev/null || true; }
 jar="$STATE/cookies"
 authed_curl() { curl -sS -m 5 -b "$jar" -c "$jar" "$@"; }
 
+# the credential an operator's tool presents to MCP server NAME ("" when the file has none)
+credential() {
+  local upper value
+  upper="$(tr '[:lower:]' '[:upper:]' <<<"$1")"
+  [[ -r "$CREDENTIALS" ]] || return 0
+  value="$(sed -n "s/^${upper}_MCP_OPERATOR_TOKEN=//p" "$CREDENTIALS" | tail -n 1)"
+  [[ -n "$value" ]] || value="$(sed -n "s/^${upper}_MCP_TOKEN=//p" "$CREDENTIALS" | tail -n 1)"
+  printf '%s' "$value"
+}
+
+# GET an SSE endpoint (the stream stays open: -m 2 cuts it) presenting header line $2 (read
+# from stdin, so no secret shows in the process list); prints status and WWW-Authenticate
+sse_get() {
+  curl -s -m 2 -o /dev/null -D - -H @- "$1" <<<"${2:-X-Smoke: no-credential}" 2>/dev/null \
+    | tr -d '\r' | awk 'NR==1 {code=$2} tolower($1)=="www-authenticate:" {auth=$2}
+                       END {if (code == "") code = "000"; print code (auth ? " " auth : "")}' \
+    || true
+}
+
 step_http() {
-  local name port code
-  # 5.1 the MCP servers answer on their SSE endpoint (the stream stays open: -m 2 cuts it)
+  local name port code token answer
+  # 5.1 each MCP server refuses a client without its credential (401, Bearer) or with a wrong
+  # one, and opens its SSE stream to an operator's tool with the credential
   for entry in "${PORTS[@]}"; do
     name="${entry%%:*}" port="${entry#*:}"
-    code="$(curl -s "http://127.0.0.1:$port/sse" -m 2 -o /dev/null -w '%{http_code}' || true)"
-    [[ "$code" == 200 ]] || fail "$name MCP server: GET :$port/sse gave '$code', want 200"
-    ok "$name MCP server: :$port/sse 200 (SSE open)"
+    answer="$(sse_get "http://127.0.0.1:$port/sse")"
+    [[ "$answer" == "401 Bearer" ]] \
+      || fail "$name MCP server: GET :$port/sse without a credential gave '$answer', want 401 Bearer"
+    answer="$(sse_get "http://127.0.0.1:$port/sse" "Authorization: Bearer smoke-wrong-credential")"
+    [[ "$answer" == "401 Bearer" ]] \
+      || fail "$name MCP server: GET :$port/sse with a wrong credential gave '$answer', want 401"
+    token="$(credential "$name")"
+    [[ -n "$token" ]] || fail "$name MCP server: no credential for it in $CREDENTIALS (run as root, or set SMOKE_CREDENTIALS)"
+    code="$(sse_get "http://127.0.0.1:$port/sse" "Authorization: Bearer $token")"
+    [[ "$code" == 200 ]] || fail "$name MCP server: GET :$port/sse with its credential gave '$code', want 200"
+    ok "$name MCP server: :$port/sse 401 without or with a wrong credential, 200 with its own (SSE open)"
   done
   # 5.2 the vision node's artifacts endpoint
   curl -sf -m 5 "$VISION/healthz" >/dev/null || fail "vision node: $VISION/healthz not ok"

@@ -6,8 +6,9 @@ the vision node on that camera topic with the offline grounder + GrabCut, skill_
 perception buffer, memory, the episodic memory recording it all, navigation driving robot-sim
 through Nav2's action, the brain on its dev preset: the keyless rules chat and the recorded
 planner replies), stores a taught process in memory, then acts as the user: one request over
-REST, everything else watched over Socket.IO like the UI. The mailroom door is closed on the
-first try (the map's failure entry), so the mission has to replan. At the end the user asks
+REST, everything else watched over Socket.IO like the UI. The mailroom's west door is closed in
+robot-sim's world: the robot sees it on the way and goes round by the east entrance (its own
+planner, on its map). At the end the user asks
 "what did you see in the last minute?" and the robot answers from its episodic memory. Every
 process is stopped by PID at the end, also on Ctrl+C.
 

@@ -14,6 +14,8 @@ command -v systemd-analyze >/dev/null 2>&1 || need_apt+=(systemd)
 command -v curl >/dev/null 2>&1 || need_apt+=(curl)
 command -v jq >/dev/null 2>&1 || need_apt+=(jq)
 command -v caddy >/dev/null 2>&1 || need_apt+=(caddy)  # deploy/Caddyfile, tests/deploy
+# robot-sim's camera renders with MuJoCo off-screen on the CPU through OSMesa (MUJOCO_GL=osmesa)
+compgen -G '/usr/lib/*/libOSMesa.so*' >/dev/null || need_apt+=(libosmesa6)
 # the memory tests start a throwaway PostgreSQL server (robot_stack_testing.postgres)
 compgen -G '/usr/lib/postgresql/*/bin/pg_ctl' >/dev/null || need_apt+=(postgresql)
 if ((${#need_apt[@]})); then
@@ -34,6 +36,9 @@ fi
 # as foreign distributions and uninstall (std_msgs, rcl_interfaces, ...).
 uv sync --all-packages --inexact --frozen --quiet
 bash scripts/build-interfaces.sh
+# The model libraries (ultralytics, timm, transformers, torch on the CPU) for the real-library
+# tests of the vision node's adapters (issue 30); skips with a note where no local torch index is.
+bash scripts/install-model-libs.sh
 
 if uv run --frozen python -c "import robot_mcp_perception.sample_scenes" 2>/dev/null \
    && [[ ! -f data/scenes/.complete ]]; then

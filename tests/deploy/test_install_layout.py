@@ -35,15 +35,42 @@ HARDENING = {
     "PrivateTmp": "yes",
     "ProtectHome": "yes",
 }
+# MCP servers: their env file and the NAME of the brain's <NAME>_MCP_TOKEN (issue 27).
+MCP_SERVERS = {
+    "mcp-skill-control": ("skill-control", "SKILL_CONTROL"),
+    "mcp-perception-buffer": ("perception-buffer", "PERCEPTION"),
+    "robot-mcp-memory": ("memory", "MEMORY"),
+    "robot-mcp-episodic": ("episodic", "EPISODIC"),
+    "robot-mcp-navigation": ("navigation", "NAVIGATION"),
+}
+
+
+def credentials_of(unit: str) -> set[str]:
+    """An MCP server's two credentials: the brain's and the operators' tools'."""
+    file, _ = MCP_SERVERS[unit]
+    return {f"MCP_AUTH_TOKEN@{file}", f"MCP_OPERATOR_TOKEN@{file}"}
+
+
 # The secrets each service needs (keys of its env files); nobody else may read them.
 SECRETS_OF = {
-    "robot-voice-chat": {"NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "ADMIN_SECRET_KEY"},
-    "robot-mcp-navigation": {"RVC_EVENT_SECRET@navigation"},
-    "mcp-perception-buffer": {"RVC_EVENT_SECRET@perception-buffer"},
+    "robot-voice-chat": {
+        "NAV_EVENT_SECRET",
+        "PERCEPTION_EVENT_SECRET",
+        "ADMIN_SECRET_KEY",
+        *(f"{name}_MCP_TOKEN" for _, name in MCP_SERVERS.values()),
+    },
+    "robot-mcp-navigation": {
+        "RVC_EVENT_SECRET@navigation",
+        *credentials_of("robot-mcp-navigation"),
+    },
+    "mcp-perception-buffer": {
+        "RVC_EVENT_SECRET@perception-buffer",
+        *credentials_of("mcp-perception-buffer"),
+    },
     "robot-mcp-perception": set(),
-    "mcp-skill-control": set(),
-    "robot-mcp-memory": set(),
-    "robot-mcp-episodic": set(),
+    "mcp-skill-control": credentials_of("mcp-skill-control"),
+    "robot-mcp-memory": credentials_of("robot-mcp-memory"),
+    "robot-mcp-episodic": credentials_of("robot-mcp-episodic"),
 }
 
 
@@ -108,6 +135,7 @@ def test_env_files_are_readable_by_root_only(installed: Path) -> None:
         "episodic.env",
         "memory.env",
         "navigation.env",
+        "operator.env",
         "perception-buffer.env",
         "ros.env",
         "skill-control.env",
@@ -142,6 +170,10 @@ def test_each_unit_runs_as_its_own_user_and_gets_only_its_own_secrets(installed:
         "RVC_EVENT_SECRET@navigation": nav["RVC_EVENT_SECRET"],
         "RVC_EVENT_SECRET@perception-buffer": buffer["RVC_EVENT_SECRET"],
     }
+    for file, _ in MCP_SERVERS.values():
+        server = env_file(etc / f"{file}.env")
+        value_of[f"MCP_AUTH_TOKEN@{file}"] = server["MCP_AUTH_TOKEN"]
+        value_of[f"MCP_OPERATOR_TOKEN@{file}"] = server["MCP_OPERATOR_TOKEN"]
     users = {}
     for name in UNITS:
         service = unit(installed / "etc/systemd/system" / f"{name}.service")["Service"]
@@ -169,6 +201,30 @@ def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) 
     assert len(set(secrets)) == 3
     assert all(len(s) >= 32 for s in secrets)
     assert brain["ADMIN_PASSWORD_HASH"] == ""  # the operator sets it (RUNBOOK step 3)
+
+
+def test_every_mcp_server_gets_its_own_credentials_shared_with_the_brain_and_the_operator(
+    installed: Path,
+) -> None:
+    """No MCP server runs open (issue 27): the brain holds each server's MCP_AUTH_TOKEN, the
+    operators' tools (operator.env, read by no unit) each server's MCP_OPERATOR_TOKEN."""
+    etc = installed / "etc/robot-stack"
+    brain, operator = env_file(etc / "brain.env"), env_file(etc / "operator.env")
+    tokens = []
+    for unit_name, (file, name) in MCP_SERVERS.items():
+        server = env_file(etc / f"{file}.env")
+        assert brain[f"{name}_MCP_TOKEN"] == server["MCP_AUTH_TOKEN"], unit_name
+        assert operator[f"{name}_MCP_OPERATOR_TOKEN"] == server["MCP_OPERATOR_TOKEN"], unit_name
+        service = installed / "etc/systemd/system" / f"{unit_name}.service"
+        assert "MCP_TRANSPORT=sse" in unit_values(service, "Environment"), unit_name
+        assert not [e for e in unit_values(service, "Environment") if e.startswith("MCP_AUTH=")]
+        tokens += [server["MCP_AUTH_TOKEN"], server["MCP_OPERATOR_TOKEN"]]
+    assert len(set(tokens)) == len(tokens)  # each token opens one server, for one principal
+    assert all(len(t) >= 32 for t in tokens)
+    for unit_name in UNITS:  # operator.env is no unit's
+        service = installed / "etc/systemd/system" / f"{unit_name}.service"
+        assert "/etc/robot-stack/operator.env" not in unit_values(service, "EnvironmentFile")
+    assert not set(operator.values()) & secrets_readable_by(installed, "robot-voice-chat")
 
 
 def test_navigation_is_installed_to_drive_the_robots_nav2_over_ros(installed: Path) -> None:
@@ -268,6 +324,8 @@ def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
         "NAV_EVENT_SECRET",
         "PERCEPTION_EVENT_SECRET",
         "ADMIN_SECRET_KEY",
+        "NAVIGATION_MCP_TOKEN",
+        "EPISODIC_MCP_TOKEN",
     ):
         assert after[key] == before[key]
     assert list(after) == list(before)  # nothing appended twice

@@ -5,23 +5,33 @@ The recorded (replay) planner plays one mission per brain process, so the brain 
 between the taught mission and the repeat; on a robot the steps run back to back. The memory
 and navigation servers keep running, so the taught process survives the restart. The brain
 comes back with operator login on, so the second part also runs smoke.sh's login checks and
-its Socket.IO connect with a session cookie."""
+its Socket.IO connect with a session cookie.
+
+With the software stop latched at the end, another local process tries to drive through the
+navigation server without and with a wrong credential (issue 27): 401, and robot-sim's
+``/amcl_pose`` does not move."""
 
 from __future__ import annotations
 
+import asyncio
 import dataclasses
+import math
 import os
 import re
 import secrets
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
 
-from robot_stack_testing.mission_driver import RunningStack, mailroom_stack
+from robot_stack_testing import fresh_token, wait_until
+from robot_stack_testing.mission_driver import RunningStack, call_mcp, mailroom_stack
 from robot_stack_testing.stack import free_port_overrides
 from robot_voice_chat.api.auth import hash_password
 
@@ -57,6 +67,7 @@ def run_smoke(
         "SMOKE_LOG_CMD": f"cat {tmp_path}/var/brain-*.log",
         "SMOKE_PYTHON": sys.executable,
         "SMOKE_STATE": str(tmp_path / "smoke-state"),
+        "SMOKE_CREDENTIALS": str(stack.write_operator_credentials(tmp_path / "operator.env")),
         "SMOKE_TIMEOUT": "90",
         **extra,
     }
@@ -124,6 +135,52 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
     assert "FAIL the software stop is latched (since " in refused.stdout
     assert "(Clear stop)" in refused.stdout
     assert "--- http" not in refused.stdout
+    assert "200 with its own" in first
+    # the stop is latched: another local process tries to drive the robot, without the
+    # navigation server's credential and with a wrong one — refused, and the robot stays
+    navigation = stack.url("navigation", "/sse")
+    with amcl_poses() as poses:
+        wait_until(lambda: poses, 30, "robot-sim's /amcl_pose")
+        for token in (None, fresh_token()):
+            with pytest.raises(BaseException) as refused_call:
+                asyncio.run(
+                    call_mcp(navigation, "navigate_to", {"location": "reception"}, token=token)
+                )
+            assert "401" in str(leaves(refused_call.value))
+        seen = len(poses)
+        wait_until(lambda: len(poses) >= seen + 40, 30, "two more seconds of /amcl_pose")
+    first_pose = poses[0]
+    assert all(math.dist(first_pose, pose) < 0.01 for pose in poses), poses[-1]
+    nav_log = " ".join(p.read_text() for p in (tmp_path / "var").glob("navigation-*.log"))
+    assert '"event": "mcp_auth_rejected"' in nav_log
+    assert stack.credentials["navigation"] not in nav_log
+
+
+def leaves(error: BaseException) -> list[str]:
+    if isinstance(error, BaseExceptionGroup):
+        return [text for inner in error.exceptions for text in leaves(inner)]
+    return [str(error)]
+
+
+@contextmanager
+def amcl_poses() -> Iterator[list[tuple[float, float]]]:
+    """robot-sim's pose as a robot publishes it (x, y of each /amcl_pose message)."""
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    from robot_ros_bridge import RosBridge
+    from robot_sim.node import AMCL_QOS
+
+    poses: list[tuple[float, float]] = []
+    lock = threading.Lock()
+
+    def heard(message: Any) -> None:
+        with lock:
+            position = message.pose.pose.position
+            poses.append((position.x, position.y))
+
+    with RosBridge("smoke_test_amcl_listener") as bridge:
+        bridge.create_subscription(PoseWithCovarianceStamped, "/amcl_pose", heard, AMCL_QOS)
+        yield poses
 
 
 @pytest.mark.timeout(300)

@@ -70,6 +70,7 @@ async def test_kill_9_of_the_brain_mid_drive_closes_the_mission_and_stops_the_ro
         overrides=placeholders,
         only={"robot_sim", "memory", "navigation", "brain"},
     ) as services:
+        nav_token = services.credentials["navigation"]
         async with httpx.AsyncClient(base_url=brain_url, timeout=30.0) as http:
 
             async def navigation_connected() -> bool:
@@ -118,11 +119,13 @@ async def test_kill_9_of_the_brain_mid_drive_closes_the_mission_and_stops_the_ro
             assert (await http.get("/api/agent/missions")).json()["active"] is None
 
             async def drive_cancelled() -> bool:
-                task = await call_mcp(nav_sse, "get_task", {"task_id": task_id})
+                task = await call_mcp(nav_sse, "get_task", {"task_id": task_id}, token=nav_token)
                 return bool(task.get("state") == "cancelled")
 
             await async_wait_until(drive_cancelled, 60, "the drive cancelled", interval_s=0.5)
-            running = await call_mcp(nav_sse, "list_tasks", {"states": ["running"]})
+            running = await call_mcp(
+                nav_sse, "list_tasks", {"states": ["running"]}, token=nav_token
+            )
             assert running["tasks"] == [], running
 
             # the late events of the dead mission reach the new brain and are acknowledged,

@@ -3,9 +3,10 @@ Messages API (planner) and the OpenAI-compatible API (Groq fast path): every req
 brain sends must pass the checks the real APIs make. A stand-in model (the rules planner and
 rules chat behind the wire) answers as a model would.
 
-    mailroom mission through PlannerChain → AnthropicLLM → fake API (door failure, detour,
-    found; no rejected request; cost from the price table) → then the fake API goes down mid
-    mission → the mission finishes on the rules planner, readyz reports degraded
+    mailroom mission through PlannerChain → AnthropicLLM → fake API (the robot goes round
+    the closed door by itself, found; no rejected request; cost from the price table) → then
+    the fake API goes down mid mission → the mission finishes on the rules planner, readyz
+    reports degraded
 """
 
 from __future__ import annotations
@@ -84,11 +85,11 @@ async def test_the_robot_preset_runs_the_mailroom_mission_through_strict_fake_ap
     assert not anthropic.rejections, anthropic.rejections
     assert not openai.rejections, openai.rejections
     assert len(openai.requests) >= 1  # the fast path handed off through the fake Groq
-    assert len(anthropic.requests) >= 8  # every planner step went through the fake API
+    assert len(anthropic.requests) >= 4  # every planner step went through the fake API
     tools = {t["name"] for t in anthropic.requests[0]["tools"]}
     assert "navigation__navigate_to" in tools
     statuses = {s["id"]: s["status"] for s in record.snapshot["steps"]}
-    assert statuses["s1"] == "failed"
+    assert statuses["s1"] == "succeeded"  # one drive: robot-sim went round the closed door
     assert statuses["s5"] == "succeeded"
     assert {f.label for f in record.findings()} == {"yellow package"}
     usage = record.of("mission_finished")[0]["usage"]

@@ -100,7 +100,8 @@ async def test_the_annotations_alone_would_ask_before_any_motion_or_free_configu
     }
     assert decisions["navigation.navigate_to"] == "confirm"
     assert decisions["skill_control.instantiate_raw_skill"] == "confirm"
-    assert decisions["navigation.get_pose"] == "allow"
+    # a motion server's own annotations never allow anything: the policy file does (issue 27)
+    assert decisions["navigation.get_pose"] == "confirm"
     assert decisions["perception.what_do_you_see"] == "allow"
     assert decisions["memory.save_process"] == "allow"
     assert decisions["episodic.last_seen"] == "allow"

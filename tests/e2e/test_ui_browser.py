@@ -1,9 +1,10 @@
 """The operator UI in a real browser (Debian's chromium, launched by path) against real processes.
 
 One local stack (deploy/local-stack.yaml on free ports) per scenario, because a replay
-recording and the map's once-failure belong to one process life: the mailroom scenario runs on
-recorded planner replies, the stop/continue scenario on the dev preset as shipped (the offline
-rules planner, which replans from where the robot stopped). The test is the operator: it
+recording and robot-sim's world (what the robot has seen of its doors) belong to one process
+life: the mailroom scenario runs on recorded planner replies, the stop/continue scenario on
+the dev preset as shipped (the offline rules planner, which replans from where the robot
+stopped). The test is the operator: it
 clicks and types by role and name (the UI's test contract) and reads what the page shows.
 Screenshots of each state land in build/ui-screenshots/.
 """
@@ -122,7 +123,7 @@ def wait_servers_connected(stack: RunningStack, timeout_s: float = 60.0) -> None
 def camera_room(page: Page, stack: RunningStack) -> str:
     """The place whose robot-sim frame the Camera panel shows: the panel's image (fetched as
     the page fetches it; the live view draws the skills' overlays on the frame) compared with
-    every frame robot-sim saved — the closest one, by a clear margin."""
+    the frames robot-sim keeps — the closest one, by a clear margin over other places'."""
     import cv2
     import numpy as np
 
@@ -145,9 +146,10 @@ def camera_room(page: Page, stack: RunningStack) -> str:
         ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0]) for f in index.frames),
         reverse=True,
     )
-    (best, room), (second, _) = scores[0], scores[1]
+    best, room = scores[0]
+    elsewhere = max((score for score, name in scores if name != room), default=0.0)
     assert best > 0.8, scores[:3]
-    assert best - second > 0.15, scores[:3]
+    assert best - elsewhere > 0.15, scores[:3]  # frames on the way in look alike; rooms do not
     return room
 
 
@@ -194,7 +196,7 @@ def stack(tmp_path: Path) -> Iterator[RunningStack]:
         yield running
 
 
-def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
+def test_the_operator_watches_the_robot_go_round_the_closed_door_and_finish(
     browser: Browser, stack: RunningStack
 ) -> None:
     page, errors = open_ui(browser, stack.brain_url)
@@ -208,7 +210,12 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
         20.0,
         "a camera frame",
     )
-    expect(page.get_by_role("region", name="Map").locator("[data-testid=robot]")).to_be_attached()
+    map_region = page.get_by_role("region", name="Map")
+    expect(map_region.locator("[data-testid=robot]")).to_be_attached()
+    expect(map_region.get_by_test_id("floor-plan")).to_be_attached(timeout=20_000)  # /map
+    expect(map_region).not_to_contain_text("desk_alice")  # places by the names people use
+    expect(map_region.get_by_role("button", name="Go to Alice's desk")).to_be_attached()
+    expect(map_region.get_by_test_id("blocked")).to_have_count(0)  # no door seen closed yet
     for p in (page, tablet):
         shoot(p, "01-idle")
 
@@ -221,8 +228,8 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     expect(page.get_by_text("Teaching next mission")).to_be_hidden()
 
     # Clicking a place fills the message box, without sending.
-    page.get_by_role("button", name="Go to kitchen").click()
-    expect(page.get_by_role("textbox", name="Message")).to_have_value("Go to kitchen")
+    page.get_by_role("button", name="Go to Kitchen").click()
+    expect(page.get_by_role("textbox", name="Message")).to_have_value("Go to Kitchen")
 
     start = robot_xy(page)
     send(page, MAILROOM_REQUEST)
@@ -230,39 +237,34 @@ def test_the_operator_watches_the_mailroom_mission_replan_and_finish(
     expect(step(page, "s1")).to_be_visible(timeout=STEP_TIMEOUT_MS)
     expect(page.get_by_role("region", name="Mission")).to_contain_text("Fetch the package")
     wait_until(lambda: robot_xy(page) != start, 30.0, "the robot marker to move")
+    plan = map_region.get_by_test_id("plan")  # /plan, drawn while the robot drives
+    expect(plan).to_be_attached(timeout=20_000)
     shoot(page, "03-driving")
     shoot(tablet, "03-driving")
 
-    expect(step(page, "s1")).to_have_attribute("data-status", "failed", timeout=STEP_TIMEOUT_MS)
-    expect(step(page, "s1")).to_contain_text("NO_PATH")  # Nav2's NO_VALID_PATH at the door
-    expect(step(page, "s1b")).to_be_visible(timeout=STEP_TIMEOUT_MS)
-    expect(step(page, "s1c")).to_be_visible()
-    shoot(page, "04-replanned")
+    # The robot sees the mailroom's west door closed (its costmap): the map marks the way
+    # blocked and the plan swings round by the east corridor.
+    expect(map_region.get_by_test_id("blocked")).to_have_count(1, timeout=STEP_TIMEOUT_MS)
+    wait_until(lambda: robot_xy(page)[0] > 17.5, 60.0, "the robot in the east corridor")
+    shoot(page, "04-detour")
+    shoot(tablet, "04-detour")
 
     # A reload mid-mission rehydrates from REST (the instruction is not in any snapshot).
     tablet.reload()
     expect(tablet.get_by_role("region", name="Mission")).to_contain_text("Fetch the package")
-    expect(step(tablet, "s1")).to_have_attribute("data-status", "failed")
-    expect(tablet.get_by_role("region", name="Activity")).to_contain_text("task")
+    expect(step(tablet, "s1")).to_be_visible()
     shoot(tablet, "05-rehydrated")
 
     summary = page.get_by_role("article", name="Mission summary")
     expect(summary.first).to_be_visible(timeout=STEP_TIMEOUT_MS)
     expect(summary.first).to_contain_text("succeeded")
-    page.get_by_text("7 steps").click()
+    page.get_by_text("5 steps").click()
     final = {
         li.get_attribute("data-step-id"): li.get_attribute("data-status")
         for li in summary.first.get_by_role("listitem").all()
     }
-    assert final == {
-        "s1": "failed",
-        "s1b": "succeeded",
-        "s1c": "succeeded",
-        "s2": "succeeded",
-        "s3": "succeeded",
-        "s4": "succeeded",
-        "s5": "succeeded",
-    }
+    assert final == {f"s{i}": "succeeded" for i in range(1, 6)}
+    expect(plan).to_have_count(0)  # standing: no plan drawn
     expect(page.get_by_role("region", name="Mission")).to_contain_text("No mission running")
     # The camera panel shows robot-sim's view of the room the robot stands in.
     assert camera_room(page, stack) == "mailroom"
@@ -347,10 +349,12 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
     browser: Browser, rules_stack: RunningStack
 ) -> None:
     """Stop robot mid-drive → paused, latched banner; continuing or a new instruction moves
-    nothing while latched; Clear stop (with why) resumes nothing; then the robot drives."""
+    nothing while latched; Clear stop (with why) resumes nothing; then continue drives on. The
+    requests are typed as speech-to-text writes them (issue 32), and a negated place is never
+    driven to."""
     stack = rules_stack
     page, errors = open_ui(browser, stack.brain_url)
-    send(page, "go to the kitchen")
+    send(page, "uh can u go 2 the kichen pls")  # speech-style: filler, texting, a typo
     expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
     start = robot_xy(page)
     wait_until(lambda: robot_xy(page) != start, 30.0, "the robot to drive")
@@ -371,16 +375,14 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
     )
     shoot(page, "07-stopped-latched")
 
-    # Continue while latched: the planner's drive is refused, never sent; it reports that.
+    # Continue while latched (issue 32): answered (an operator must clear it), never sent on;
+    # the mission stays paused and nothing moves. A new instruction gets the same answer.
     page.get_by_role("button", name="Continue").click()
-    summary = page.get_by_role("log", name="Conversation").get_by_role("article")
-    expect(summary.last).to_contain_text("failed", timeout=STEP_TIMEOUT_MS)
-    expect(summary.last).to_contain_text("latched")
-    # A new instruction is refused with the reason, and nothing moves.
-    send(page, "go to the kitchen")
     conversation = page.get_by_role("log", name="Conversation")
+    expect(conversation).to_contain_text("An operator must press Clear stop", timeout=20_000)
+    send(page, "go to the kitchen")
     expect(conversation).to_contain_text("software stop is latched", timeout=20_000)
-    expect(page.get_by_role("region", name="Mission")).to_contain_text("No mission running")
+    expect(banner).to_be_visible()
     assert robot_xy(page) == (pose["x"], pose["y"])
     shoot(page, "08-refused-while-latched")
 
@@ -394,12 +396,24 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
     page.wait_for_timeout(1500)
     assert robot_xy(page) == (pose["x"], pose["y"])  # clearing moved nothing
 
-    send(page, "go to the kitchen")
-    expect(step(page, "s1")).to_have_attribute("data-status", "running", timeout=STEP_TIMEOUT_MS)
+    page.get_by_role("button", name="Continue").click()  # now the paused drive goes on
     wait_until(lambda: robot_xy(page) != (pose["x"], pose["y"]), 30.0, "the robot to drive")
     shoot(page, "10-driving-after-clear")
+    summary = conversation.get_by_role("article")
     expect(summary.last).to_contain_text("I'm in the kitchen.", timeout=STEP_TIMEOUT_MS)
     expect(summary.last).to_contain_text("succeeded")
+
+    # A negation (issue 32): the place ruled out is never the destination; the world shows it.
+    send(page, "dont go to the mailroom, go to reception instead")
+    destinations: set[str] = set()
+
+    def arrived() -> bool:
+        now = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()
+        destinations.add(str(now.get("destination")))
+        return bool(now.get("at_location") == "reception" and not now.get("moving"))
+
+    wait_until(arrived, 60.0, "the robot at reception")
+    assert "mailroom" not in destinations, destinations
     assert errors == [], errors
 
 
@@ -407,9 +421,15 @@ def test_stop_robot_latches_until_clear_stop_then_it_drives(
 def approval_stack(tmp_path: Path) -> Iterator[RunningStack]:
     """The dev preset with a site policy that wants an operator's yes for every drive."""
     policy = tmp_path / "policy.yaml"
+    # navigation's reads listed as allowed: a motion server's unlisted tool asks (issue 27);
+    # the map panel reads the pose, places, map and plan, the brain its tasks, all the time
+    reads = "".join(
+        f"  navigation.{tool}: allow\n"
+        for tool in ("get_pose", "list_locations", "get_map", "get_plan", "get_task", "list_tasks")
+    )
     policy.write_text(
         "version: 1\ntools:\n  navigation.navigate_to:\n    decision: confirm\n"
-        "    reason: every drive needs a yes at this site\n"
+        "    reason: every drive needs a yes at this site\n" + reads
     )
     overrides = {
         **free_port_overrides(STACK_FILE),

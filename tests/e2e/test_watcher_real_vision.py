@@ -32,11 +32,14 @@ from robot_stack_testing import (
     ProcessLauncher,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
 )
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SECRET = "e2e-watch-secret"
 CONDITION = "a red mug is visible"
 
@@ -106,7 +109,7 @@ def _start_stack(
         },
     )
     ports = free_tcp_port(), free_tcp_port()
-    common = {"MCP_TRANSPORT": "streamable-http", "VISION_NODE_NAME": node}
+    common = {"MCP_TRANSPORT": "streamable-http", "MCP_AUTH_TOKEN": TOKEN, "VISION_NODE_NAME": node}
     launcher.start(
         "skill-control",
         [sys.executable, "-m", "mcp_skill_control"],
@@ -151,7 +154,10 @@ async def test_a_watch_for_skill_on_the_real_vision_node_posts_one_signed_event_
         except TimeoutError:
             raise AssertionError(f"vision node did not come up:\n{vision.log()[-3000:]}") from None
 
-        async with Client(skills_url) as skills, Client(perception_url) as perception:
+        async with (
+            Client(mcp_transport(skills_url, TOKEN)) as skills,
+            Client(mcp_transport(perception_url, TOKEN)) as perception,
+        ):
             # skill_control's own ROS node discovers the vision node on its own schedule (seconds
             # on a loaded machine): wait until it reaches the node before creating a skill.
             async def skill_control_sees_the_node() -> bool:

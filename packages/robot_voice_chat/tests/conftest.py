@@ -19,6 +19,25 @@ def _loopback_only(address: Any) -> None:
             raise ConnectionRefusedError(f"tests may not leave loopback (tried {host})")
 
 
+MCP_TOKEN_VARS = (
+    "NAVIGATION_MCP_TOKEN",
+    "MEMORY_MCP_TOKEN",
+    "EPISODIC_MCP_TOKEN",
+    "SKILL_CONTROL_MCP_TOKEN",
+    "PERCEPTION_MCP_TOKEN",
+)
+
+
+@pytest.fixture
+def mcp_credentials(monkeypatch: pytest.MonkeyPatch) -> dict[str, str]:
+    """Every server's credential in the environment, as install.sh writes brain.env (the
+    robot preset refuses to start without them)."""
+    tokens = {name: f"{name.lower()}-credential-of-32-bytes-or-more" for name in MCP_TOKEN_VARS}
+    for name, value in tokens.items():
+        monkeypatch.setenv(name, value)
+    return tokens
+
+
 @pytest.fixture(autouse=True)
 def brain_state_in_tmp(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> None:
     """The brain's data dir (mission archive, traces) is per test, never the user's."""

@@ -85,7 +85,23 @@ def result_view(skill: str, result: Result, now: float, stale_after_s: float) ->
     if marks.grounding_stamp is not None:
         view["grounding_reused"] = True
         view["grounding_stamp"] = marks.grounding_stamp
+    view.update(answer_marks(result.meta))
     return view
+
+
+_ANSWER_KEYS = (
+    "grounder",
+    "grounder_fallback",
+    "fallback_reason",
+    "cannot_see",
+    "cannot_see_reason",
+)
+
+
+def answer_marks(meta: dict[str, Any]) -> dict[str, Any]:
+    """Who answered (``grounder``, ``grounder_fallback``, ``fallback_reason``) and whether the
+    node could not look at all (``cannot_see`` + ``cannot_see_reason``): never "nothing there"."""
+    return {k: meta[k] for k in _ANSWER_KEYS if k in meta}
 
 
 def output_view(

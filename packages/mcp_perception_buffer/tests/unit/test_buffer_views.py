@@ -147,3 +147,40 @@ def test_the_result_extra_is_read_when_the_message_has_one() -> None:
     assert result_extra_from_msg(marked) == {"stale": True, "stale_reason": "scene_unchanged"}
     assert result_extra_from_msg(SimpleNamespace()) == {}  # interfaces without the field
     assert result_extra_from_msg(SimpleNamespace(extra="not json")) == {"raw": "not json"}
+
+
+def test_a_result_says_who_answered_and_when_the_node_could_not_see() -> None:
+    from mcp_perception_buffer.buffer import Result
+    from mcp_perception_buffer.views import result_view
+
+    fallback = Result(
+        10.0,
+        (),
+        10.0,
+        meta={
+            "stale": False,
+            "grounder": "owlv2",
+            "grounder_fallback": True,
+            "fallback_reason": "network",
+        },
+    )
+    view = result_view("find", fallback, 10.5, 5.0)
+    assert view["grounder"] == "owlv2"
+    assert view["grounder_fallback"] is True
+    assert view["fallback_reason"] == "network"
+
+    blind = Result(
+        10.0,
+        (),
+        10.0,
+        meta={
+            "stale": True,
+            "stale_reason": "model_error",
+            "cannot_see": True,
+            "cannot_see_reason": "quota",
+        },
+    )
+    view = result_view("find", blind, 10.5, 5.0)
+    assert view["cannot_see"] is True
+    assert view["cannot_see_reason"] == "quota"
+    assert view["detections"] == []

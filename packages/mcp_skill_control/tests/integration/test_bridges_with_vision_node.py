@@ -23,14 +23,18 @@ from robot_ros_bridge import RosBridge
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
+    assert_refuses_strangers,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
 )
 from robot_stack_testing.sample_frames import frames_showing
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 REPO = Path(__file__).resolve().parents[4]
 FRAMES = REPO / "data" / "scenes"
 
@@ -63,7 +67,11 @@ def start_vision(
 
 def start_servers(launcher: ProcessLauncher, node_name: str) -> tuple[str, str]:
     ports = free_tcp_port(), free_tcp_port()
-    common = {"MCP_TRANSPORT": "streamable-http", "VISION_NODE_NAME": node_name}
+    common = {
+        "MCP_TRANSPORT": "streamable-http",
+        "MCP_AUTH_TOKEN": TOKEN,
+        "VISION_NODE_NAME": node_name,
+    }
     launcher.start(
         "skill-control",
         [sys.executable, "-m", "mcp_skill_control"],
@@ -76,7 +84,11 @@ def start_servers(launcher: ProcessLauncher, node_name: str) -> tuple[str, str]:
     )
     for port in ports:
         wait_for_tcp_port(port, 30.0)
-    return f"http://127.0.0.1:{ports[0]}/mcp", f"http://127.0.0.1:{ports[1]}/mcp"
+    urls = f"http://127.0.0.1:{ports[0]}/mcp", f"http://127.0.0.1:{ports[1]}/mcp"
+    # nobody without the server's credential gets in (issue 27)
+    assert_refuses_strangers(urls[0], "skill_control")
+    assert_refuses_strangers(urls[1], "perception")
+    return urls
 
 
 async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
@@ -88,7 +100,10 @@ async def call(client: Client, tool: str, args: dict[str, Any] | None = None) ->
 
 @asynccontextmanager
 async def clients(urls: tuple[str, str]) -> Any:
-    async with Client(urls[0]) as skills, Client(urls[1]) as perception:
+    async with (
+        Client(mcp_transport(urls[0], TOKEN)) as skills,
+        Client(mcp_transport(urls[1], TOKEN)) as perception,
+    ):
         yield skills, perception
 
 

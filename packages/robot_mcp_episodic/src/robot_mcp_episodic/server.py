@@ -7,6 +7,12 @@ or ``now``, each optionally with one offset (``3pm -5m``); the server resolves t
 are tool errors whose text is JSON ``{"error": code, "detail": sentence}`` with code
 ``invalid_time``, ``invalid_range``, ``unknown_place``, ``invalid_argument``,
 ``store_unavailable`` or ``internal_error``.
+
+``forget`` with ``dry_run=false`` deletes only for the robot's brain (over HTTP: the brain's
+credential, ``MCP_AUTH_TOKEN``; over stdio or in-process: the parent process) and only with an
+operator's approval of that exact call in the request's ``_meta``
+(:mod:`robot_mcp_kit.caller`); otherwise ``not_permitted`` or ``approval_required``, nothing
+deleted. The approving operator is written to the forget audit.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from robot_mcp_episodic.config import SERVER_NAME
 from robot_mcp_episodic.service import DIGEST_KINDS, Episodic, EpisodicError
 from robot_mcp_episodic.store.base import StoreError
 from robot_mcp_kit.annotations import DELETES, READ_ONLY, RECORDS
+from robot_mcp_kit.caller import BRAIN, LOCAL, Caller, current_caller, install_caller_context
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 
 logger = structlog.get_logger(__name__)
@@ -48,6 +55,25 @@ TimeText = Annotated[
 PlaceName = Annotated[
     str | None, Field(description="A named place on the map (e.g. kitchen); omit for anywhere")
 ]
+
+
+DELETERS = frozenset({BRAIN, LOCAL})
+
+
+def deletion_refusal(caller: Caller) -> tuple[str, str] | None:
+    """Why ``caller`` may not delete memories (code, sentence), or None when it may."""
+    if caller.principal not in DELETERS:
+        return (
+            "not_permitted",
+            f"only the robot's brain may delete memories; this client is {caller.principal!r}",
+        )
+    if caller.approval is None:
+        return (
+            "approval_required",
+            "deleting memories needs an operator's approval of this exact request: preview "
+            "with dry_run=true, ask the person, then call again once it is approved",
+        )
+    return None
 
 
 def _jsonable(answer: dict[str, Any]) -> dict[str, Any]:
@@ -151,7 +177,16 @@ def build_server(memory: Episodic) -> MCPServer:
         it returns what would be deleted ({"would_delete": counts}); ask the person to confirm,
         then call again with dry_run=false to delete it from the index and the recordings.
         Every deletion is audited (see memory_status)."""
-        return await _answer("forget", lambda: memory.forget(start, end, label, place, dry_run))
+        caller = current_caller()
+        approved_by = caller.approval.by if caller.approval is not None else None
+        if not dry_run:
+            refusal = deletion_refusal(caller)
+            if refusal is not None:
+                logger.warning("forget_refused", principal=caller.principal, error=refusal[0])
+                raise tool_error(*refusal)
+        return await _answer(
+            "forget", lambda: memory.forget(start, end, label, place, dry_run, approved_by)
+        )
 
     @server.tool(annotations=RECORDS)
     async def record_note(
@@ -170,4 +205,4 @@ def build_server(memory: Episodic) -> MCPServer:
         Returns {"id", "time", "kind", "place"}."""
         return await _answer("record_note", lambda: memory.record_note(kind, text, mission_id))
 
-    return install_json_tool_errors(server)
+    return install_caller_context(install_json_tool_errors(server))

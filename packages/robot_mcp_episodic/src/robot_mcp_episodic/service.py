@@ -446,7 +446,9 @@ class Episodic:
         label: str | None = None,
         place: str | None = None,
         dry_run: bool = True,
+        approved_by: str | None = None,
     ) -> dict[str, Any]:
+        """``approved_by``: the operator who approved the deletion (kept in the audit)."""
         now = self._clock()
         begin, finish = self._range(start, end, now)
         where = self._place(place)
@@ -475,7 +477,7 @@ class Episodic:
             "sightings": deleted.sightings, "notes": deleted.notes, "poses": deleted.poses,
             "visits": deleted.visits, "recorded_messages": recordings,
         }  # fmt: skip
-        self.store.record_audit(now, request, result)
+        self.store.record_audit(now, {**request, "approved_by": approved_by}, result)
         logger.info("episodic_forgot", robot_id=self.store.robot_id, **request, **result)
         return {**request, "deleted": result, "answer": "Deleted and audited."}
 

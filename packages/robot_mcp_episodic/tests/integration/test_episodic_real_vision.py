@@ -28,11 +28,14 @@ from robot_stack_testing import (
     ProcessLauncher,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
 )
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 KITCHEN = (9.0, -3.0)
 
 
@@ -97,6 +100,7 @@ def start_server(
         [sys.executable, "-m", "robot_mcp_episodic"],
         env={
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),
             "EPISODIC_DIR": str(data_dir),
             "EPISODIC_POSE_TOPIC": pose_topic,
@@ -148,7 +152,7 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
         -2000:
     ]
 
-    async with Client(url) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
 
         async def the_skills_sighting(label: str) -> dict[str, Any] | None:
             # the scene describer's objects are sightings too: this test's skill's own
@@ -197,7 +201,7 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
     server, url = start_server(launcher, data_dir, pose_topic)
     before_kill = len(received)
     await async_wait_until(lambda: _more(received, before_kill + 4), 30.0, "more frames")
-    async with Client(url) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
 
         async def pose_flushed() -> bool:
             poses.publish(*KITCHEN)
@@ -210,7 +214,7 @@ async def test_the_real_vision_node_is_recorded_into_index_and_mcap_and_survives
     server.popen.wait(timeout=10)
     server, url = start_server(launcher, data_dir, pose_topic)
     assert "episodic_bag_repaired" in server.log()
-    async with Client(url) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
         answer = await tool_answer(client, "last_seen", {"query": label})
         assert answer["found"]
     launcher.stop(server)

@@ -1,8 +1,10 @@
-"""The real ``robot-mcp-episodic`` process over each transport, on SQLite and PostgreSQL, and
-its refusals to start (exit 2, one line)."""
+"""The real ``robot-mcp-episodic`` process over each transport, on SQLite and PostgreSQL, its
+refusals to start (exit 2, one line), and ``forget`` over HTTP only for the brain's credential
+with an operator's approval (issue 27 item 3)."""
 
 from __future__ import annotations
 
+import asyncio
 import os
 import sys
 from pathlib import Path
@@ -10,21 +12,32 @@ from typing import Any
 
 import pytest
 from mcp import Client
-from mcp.client.sse import sse_client
 from mcp.client.stdio import StdioServerParameters
 
+from robot_mcp_kit.caller import approval_meta
 from robot_mcp_kit.testing_mcp import tool_answer
-from robot_stack_testing import LaunchedProcess, ProcessLauncher, free_tcp_port, wait_for_tcp_port
+from robot_stack_testing import (
+    LaunchedProcess,
+    ProcessLauncher,
+    assert_refuses_strangers,
+    free_tcp_port,
+    fresh_token,
+    mcp_transport,
+    wait_for_tcp_port,
+)
 from robot_stack_testing.processes import start_refusal
 
 pytestmark = [pytest.mark.ros]
 
 SERVER = str(Path(sys.executable).parent / "robot-mcp-episodic")
+BRAIN = fresh_token()
+OPERATOR = fresh_token()
 
 
 def start(launcher: ProcessLauncher, env: dict[str, str]) -> tuple[LaunchedProcess, int]:
     port = free_tcp_port()
-    process = launcher.start("episodic", [SERVER], env={"MCP_PORT": str(port), **env})
+    env = {"MCP_PORT": str(port), "MCP_AUTH_TOKEN": BRAIN, **env}
+    process = launcher.start("episodic", [SERVER], env=env)
     try:
         wait_for_tcp_port(port, 45.0)
     except TimeoutError:
@@ -39,25 +52,49 @@ async def note_then_find(client: Client, text: str) -> dict[str, Any]:
     return found
 
 
-async def test_notes_survive_a_restart_over_sse_on_postgres(
+async def test_notes_survive_a_restart_on_postgres_and_only_the_approved_brain_forgets(
     launcher: ProcessLauncher, tmp_path: Path, postgres_dsn: str
 ) -> None:
+    """Written over sse, read back after a restart over streamable-http; there (issue 27)
+    ``forget`` deletes only for the brain's credential with an operator's approval of that
+    exact call: the operator's credential, or no approval, deletes nothing; no credential, 401."""
     env = {
         "MCP_TRANSPORT": "sse", "EPISODIC_DIR": str(tmp_path), "EPISODIC_STORE": "postgres",
         "EPISODIC_POSTGRES_DSN": postgres_dsn, "ROBOT_ID": "robot-7",
+        "MCP_OPERATOR_TOKEN": OPERATOR,
     }  # fmt: skip
     process, port = start(launcher, env)
-    async with Client(sse_client(f"http://127.0.0.1:{port}/sse")) as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", BRAIN)) as client:
         found = await note_then_find(client, "The kettle in the kitchen is broken")
     assert [r["text"] for r in found["results"]] == ["The kettle in the kitchen is broken"]
     assert launcher.stop(process) == 0
 
-    process, port = start(launcher, env)
-    async with Client(sse_client(f"http://127.0.0.1:{port}/sse")) as client:
-        found = await tool_answer(client, "search_memory", {"query": "kettle"})
-        status = await tool_answer(client, "memory_status", {})
+    process, port = start(launcher, {**env, "MCP_TRANSPORT": "streamable-http"})
+    url = f"http://127.0.0.1:{port}/mcp"
+    await asyncio.to_thread(assert_refuses_strangers, url, "episodic")
+    everything = {"start": "-36500d", "end": "now", "dry_run": False}
+    async with Client(mcp_transport(url, BRAIN)) as brain:
+        found = await tool_answer(brain, "search_memory", {"query": "kettle"})
+        status = await tool_answer(brain, "memory_status", {})
+        unapproved = await tool_answer(brain, "forget", everything)
+    async with Client(mcp_transport(url, OPERATOR)) as operator:  # the Inspector, say
+        approved_anyway = approval_meta("forget", everything, "ap-123456789abc", "mallory")
+        not_brain = await tool_answer(operator, "forget", everything, approved_anyway)
+        kept = await tool_answer(operator, "search_memory", {"query": "kettle"})
     assert found["found"] is True
     assert status["robot_id"] == "robot-7"
+    assert unapproved["_error"]["error"] == "approval_required"
+    assert not_brain["_error"]["error"] == "not_permitted"
+    assert kept["found"] is True  # nothing was deleted
+
+    async with Client(mcp_transport(url, BRAIN)) as brain:
+        meta = approval_meta("forget", everything, "ap-123456789abc", "alice")
+        done = await tool_answer(brain, "forget", everything, meta)
+        status = await tool_answer(brain, "memory_status", {})
+    assert done["deleted"]["notes"] == 1
+    assert status["forget_audit"][0]["request"]["approved_by"] == "alice"
+    assert BRAIN not in process.log()
+    assert OPERATOR not in process.log()
     assert launcher.stop(process) == 0
 
 
@@ -95,6 +132,8 @@ async def test_the_stdio_transport_serves_the_tools(tmp_path: Path) -> None:
 def test_a_bad_setting_refuses_to_start_with_one_line(
     tmp_path: Path, env: dict[str, str], says: str
 ) -> None:
-    line = start_refusal("robot_mcp_episodic", tmp_path, {"MCP_TRANSPORT": "sse", **env})
+    line = start_refusal(
+        "robot_mcp_episodic", tmp_path, {"MCP_TRANSPORT": "sse", "MCP_AUTH_TOKEN": BRAIN, **env}
+    )
     assert line.startswith("robot-mcp-episodic: cannot start:")
     assert says in line

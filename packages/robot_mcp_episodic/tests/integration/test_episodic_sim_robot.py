@@ -31,12 +31,15 @@ from robot_stack_testing import (
     ProcessLauncher,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
     wait_until,
 )
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SKILL = "everything"
 META = f"/vision/{SKILL}/detections_meta"
 KITCHEN_OBJECTS = {"red mug", "green bottle", "white plate"}  # robot_sim's office world
@@ -80,6 +83,7 @@ def start_stack(
         [sys.executable, "-m", "robot_mcp_episodic"],
         env={
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),
             "EPISODIC_DIR": str(data_dir),
             "EPISODIC_FLUSH_S": "0.2",
@@ -144,7 +148,7 @@ async def test_the_sim_robot_driving_to_the_kitchen_is_recorded_with_its_pose_an
     dock, kitchen = places.position("dock"), places.position("kitchen")
     server, url, node, data_dir = start_stack(launcher, tmp_path)
 
-    async with Client(url) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
 
         async def at_the_dock() -> bool:
             answer = await tool_answer(client, "pose_at", {"time": "now"})

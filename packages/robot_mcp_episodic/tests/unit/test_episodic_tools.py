@@ -13,6 +13,7 @@ from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import ManualClock
 from robot_mcp_episodic.timeparse import iso
+from robot_mcp_kit.caller import approval_meta
 from robot_mcp_kit.testing_mcp import tool_answer
 
 T = 1_790_000_000.0
@@ -33,6 +34,14 @@ def app(tmp_path: Path) -> Iterator[EpisodicApp]:
 async def call(app: EpisodicApp, tool: str, **args: Any) -> dict[str, Any]:
     async with Client(app.server) as client:
         answer: dict[str, Any] = await tool_answer(client, tool, args)
+        return answer
+
+
+async def forget_approved(app: EpisodicApp, by: str = "alice", **args: Any) -> dict[str, Any]:
+    """forget as the brain sends it after an operator approved exactly this call."""
+    async with Client(app.server) as client:
+        meta = approval_meta("forget", args, "ap-0123456789ab", by)
+        answer: dict[str, Any] = await tool_answer(client, "forget", args, meta)
         return answer
 
 
@@ -138,7 +147,7 @@ async def test_forget_previews_then_deletes_and_audits(app: EpisodicApp) -> None
     }  # fmt: skip
     assert (await call(app, "last_seen", query="toothbrush"))["found"] is True  # preview only
 
-    done = await call(app, "forget", start="-5m", end="now", label="toothbrush", dry_run=False)
+    done = await forget_approved(app, start="-5m", end="now", label="toothbrush", dry_run=False)
     assert done["deleted"]["sightings"] == 1
     assert (await call(app, "last_seen", query="toothbrush"))["found"] is False
     assert (await call(app, "search_memory", query="toothbrush"))["found"] is False
@@ -146,6 +155,24 @@ async def test_forget_previews_then_deletes_and_audits(app: EpisodicApp) -> None
     status = await call(app, "memory_status")
     assert status["forget_audit"][0]["request"]["label"] == "toothbrush"
     assert status["forget_audit"][0]["result"]["sightings"] == 1
+    assert status["forget_audit"][0]["request"]["approved_by"] == "alice"
+
+
+async def test_forget_deletes_nothing_without_an_approval_of_that_exact_call(
+    app: EpisodicApp,
+) -> None:
+    app.memory.indexer.on_detections("detect", T - 90, [{"label": "mug", "score": 0.9}])
+    everything = {"start": "-36500d", "end": "now", "dry_run": False}
+    refused = await call(app, "forget", **everything)
+    assert refused["_error"]["error"] == "approval_required"
+    async with Client(app.server) as client:  # an approval for another call does not count
+        meta = approval_meta("forget", {**everything, "label": "mug"}, "ap-1", "alice")
+        other = await tool_answer(client, "forget", everything, meta)
+    assert other["_error"]["error"] == "approval_required"
+    assert (await call(app, "last_seen", query="mug"))["found"] is True
+    assert (await call(app, "memory_status"))["forget_audit"] == []
+    preview = await call(app, "forget", start="-5m", end="now")  # a preview needs no approval
+    assert preview["would_delete"]["sightings"] == 1
 
 
 async def test_forget_a_whole_window_removes_every_kind(app: EpisodicApp) -> None:
@@ -153,7 +180,7 @@ async def test_forget_a_whole_window_removes_every_kind(app: EpisodicApp) -> Non
     indexer.on_pose(T - 100, 9.0, -3.0, 0.0)
     indexer.on_detections("detect", T - 90, [{"label": "mug", "score": 0.9}])
     indexer.note("user", "a secret", t=T - 80)
-    done = await call(app, "forget", start="-5m", end="now", dry_run=False)
+    done = await forget_approved(app, start="-5m", end="now", dry_run=False)
     assert done["deleted"] == {
         "sightings": 1, "notes": 1, "poses": 1, "visits": 1, "recorded_messages": 0,
     }  # fmt: skip
@@ -184,7 +211,7 @@ async def test_forget_removes_the_label_from_index_and_recordings(tmp_path: Path
                                   serialize_message(msg), int(stamp * 1e9))  # fmt: skip
         preview = await call(app, "forget", start="-5m", end="now", label="toothbrush")
         assert preview["would_delete"]["recorded_messages"] == 3
-        done = await call(app, "forget", start="-5m", end="now", label="toothbrush", dry_run=False)
+        done = await forget_approved(app, start="-5m", end="now", label="toothbrush", dry_run=False)
         assert done["deleted"]["recorded_messages"] == 3
         status = await call(app, "memory_status")
         assert status["recordings"]["messages"] == 3

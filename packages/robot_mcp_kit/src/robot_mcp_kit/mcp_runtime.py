@@ -7,6 +7,10 @@ strips that prefix, so the client reads exactly ``{"error": code, "detail": deta
 tool failures (bad arguments, crashes) become ``{"error": "tool_error", "detail": <text>}``.
 :func:`parse_tool_error` reads either form on the client side.
 
+Credentials: over sse / streamable-http every request must carry the server's credential
+(:mod:`robot_mcp_kit.service_auth`, ``MCP_AUTH_TOKEN``); :func:`transport_settings` reads and
+checks it with the transport, :func:`serve_mcp` puts the check in front of the whole app.
+
 Stdio: :func:`reserve_stdout` keeps the process's standard output for JSON-RPC alone, for
 the whole life of the process — native libraries (rcl, Fast DDS) that write to fd 1 at start-up
 or shutdown, outside the SDK's own serving window, land on stderr.
@@ -24,18 +28,24 @@ from dataclasses import dataclass
 from typing import Any, BinaryIO, Literal, get_args
 
 import anyio
+import structlog
+import uvicorn
 from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.stdio import stdio_server
 
+from robot_mcp_kit.caller import install_caller_context
 from robot_mcp_kit.correlation import install_mission_correlation
+from robot_mcp_kit.service_auth import BearerAuthMiddleware, ServiceAuth, service_auth
+from robot_mcp_kit.startup import refuse_to_start
 
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
 DEFAULT_HOST = "127.0.0.1"
 GENERIC_TOOL_ERROR = "tool_error"
 
+logger = structlog.get_logger("robot_mcp_kit.mcp_runtime")
 _SDK_PREFIX = re.compile(r"^Error executing tool [^:]*: ", re.DOTALL)
 
 
@@ -111,11 +121,16 @@ class TransportSettings:
     transport: Transport
     host: str
     port: int
+    auth: ServiceAuth | None = None
+    """The credentials an HTTP transport demands; None = read them from the environment
+    when serving (:func:`robot_mcp_kit.service_auth.service_auth`)."""
 
 
 def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSettings:
     """Read ``MCP_TRANSPORT`` (stdio | sse | streamable-http, default stdio), ``MCP_HOST``
-    (default 127.0.0.1) and ``MCP_PORT`` (default ``default_port``)."""
+    (default 127.0.0.1), ``MCP_PORT`` (default ``default_port``) and, for the HTTP
+    transports, the credentials (``MCP_AUTH_TOKEN``, ``MCP_OPERATOR_TOKEN``, ``MCP_AUTH``).
+    Raises ``ValueError`` (one readable sentence) for anything unusable."""
     transport = env.get("MCP_TRANSPORT", "stdio").strip().lower() or "stdio"
     if transport not in TRANSPORTS:
         raise ValueError(f"MCP_TRANSPORT must be one of {', '.join(TRANSPORTS)}; got {transport!r}")
@@ -127,7 +142,7 @@ def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSe
         raise ValueError(f"MCP_PORT must be an integer, got {port_text!r}") from None
     if not 0 < port < 65536:
         raise ValueError(f"MCP_PORT must be in 1..65535, got {port}")
-    return TransportSettings(transport, host, port)
+    return TransportSettings(transport, host, port, service_auth(env, transport))
 
 
 def reserve_stdout() -> BinaryIO:
@@ -155,20 +170,54 @@ async def serve_mcp(
 ) -> None:
     """Serve ``server`` on ``settings``' transport until it stops (for servers that need to
     run their own start-up and shutdown around the transport, inside one event loop).
-    ``wire``: the stdout reserved by :func:`reserve_stdout` (stdio only)."""
+    ``wire``: the stdout reserved by :func:`reserve_stdout` (stdio only). Over sse and
+    streamable-http every request must present ``settings.auth``'s credential."""
     install_json_tool_errors(server)
     install_mission_correlation(server)
+    install_caller_context(server)
     if settings.transport == "stdio" and wire is not None:
         await _serve_stdio(server, wire)
     elif settings.transport == "stdio":
         await server.run_stdio_async()
-    elif settings.transport == "sse":
-        await server.run_sse_async(host=settings.host, port=settings.port)
     else:
-        await server.run_streamable_http_async(host=settings.host, port=settings.port)
+        await _serve_http(server, settings)
+
+
+def http_app(server: MCPServer, settings: TransportSettings) -> Any:
+    """The ASGI app of ``server`` on an HTTP transport, behind its credential check."""
+    if settings.transport == "sse":
+        app: Any = server.sse_app(host=settings.host)
+    else:
+        app = server.streamable_http_app(host=settings.host)
+    auth = settings.auth
+    if auth is None:
+        auth = service_auth(os.environ, settings.transport)
+    if not auth.enabled:
+        logger.warning(
+            "mcp_auth_disabled",
+            server=server.name,
+            detail="MCP_AUTH=off: any local process may call this server's tools",
+        )
+        return app
+    return BearerAuthMiddleware(app, auth, server.name)
+
+
+async def _serve_http(server: MCPServer, settings: TransportSettings) -> None:
+    # what MCPServer.run_sse_async / run_streamable_http_async do, with the check in front
+    config = uvicorn.Config(
+        http_app(server, settings),
+        host=settings.host,
+        port=settings.port,
+        log_level=server.settings.log_level.lower(),
+    )
+    await uvicorn.Server(config).serve()
 
 
 def run_server(server: MCPServer, default_port: int, wire: BinaryIO | None = None) -> None:
-    """Run ``server`` on the transport chosen by the environment (blocks until it stops)."""
-    settings = transport_settings(os.environ, default_port)
+    """Run ``server`` on the transport chosen by the environment (blocks until it stops);
+    unusable transport or credential settings exit 2 with one line, never a traceback."""
+    try:
+        settings = transport_settings(os.environ, default_port)
+    except ValueError as error:
+        refuse_to_start(server.name, error)
     anyio.run(serve_mcp, server, settings, wire)

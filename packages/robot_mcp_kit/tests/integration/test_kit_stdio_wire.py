@@ -39,4 +39,4 @@ def test_without_the_reservation_the_same_output_pollutes_stdout(tmp_path: Path)
 def test_both_ways_the_session_itself_answers(tmp_path: Path, reserve: str) -> None:
     transcript = stdio_session([sys.executable, str(PROC)], env(KIT_PROC_RESERVE=reserve), tmp_path)
     tools = next(m for m in transcript.messages() if m.get("id") == 2)["result"]["tools"]
-    assert {t["name"] for t in tools} == {"fail", "echo"}
+    assert {t["name"] for t in tools} == {"fail", "echo", "whoami"}

@@ -98,13 +98,20 @@ def test_transport_settings_default_to_stdio_on_loopback() -> None:
 
 
 def test_transport_settings_read_the_environment() -> None:
-    env = {"MCP_TRANSPORT": "Streamable-HTTP", "MCP_HOST": "0.0.0.0", "MCP_PORT": "9300"}
+    env = {
+        "MCP_TRANSPORT": "Streamable-HTTP",
+        "MCP_HOST": "0.0.0.0",
+        "MCP_PORT": "9300",
+        "MCP_AUTH_TOKEN": "t" * 32,
+    }
     settings = transport_settings(env, 9101)
     assert (settings.transport, settings.host, settings.port) == (
         "streamable-http",
         "0.0.0.0",
         9300,
     )
+    assert settings.auth is not None
+    assert settings.auth.identify("t" * 32) == "brain"
 
 
 @pytest.mark.parametrize(
@@ -113,6 +120,7 @@ def test_transport_settings_read_the_environment() -> None:
         ({"MCP_TRANSPORT": "websocket"}, "MCP_TRANSPORT"),
         ({"MCP_PORT": "http"}, "integer"),
         ({"MCP_PORT": "70000"}, "1..65535"),
+        ({"MCP_TRANSPORT": "sse"}, "MCP_AUTH_TOKEN is not set"),
     ],
 )
 def test_transport_settings_reject_bad_values_clearly(env: dict[str, str], message: str) -> None:

@@ -9,8 +9,16 @@ import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 
-from robot_stack_testing import LaunchedProcess, ProcessLauncher, free_tcp_port, wait_for_tcp_port
+from robot_stack_testing import (
+    LaunchedProcess,
+    ProcessLauncher,
+    free_tcp_port,
+    fresh_token,
+    mcp_transport,
+    wait_for_tcp_port,
+)
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SERVER = str(Path(sys.executable).parent / "robot-mcp-memory")
 QUERY = "fetch the package from the mailroom"
 MAILROOM = "fetch-package-from-mailroom"
@@ -24,6 +32,7 @@ def start_robot(launcher: ProcessLauncher, dsn: str, robot_id: str) -> tuple[Lau
         [SERVER],
         env={
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),
             "MEMORY_STORE": "postgres",
             "MEMORY_POSTGRES_DSN": dsn,
@@ -57,18 +66,18 @@ async def test_robot_b_finds_what_robot_a_saved_and_its_outcomes_rerank_b(
     west = docs.mailroom.replace("id: fetch-package-from-mailroom", f"id: {WEST}")
     robot_a, url_a = start_robot(launcher, postgres_dsn, "robot-a")
     robot_b, url_b = start_robot(launcher, postgres_dsn, "robot-b")
-    async with Client(url_a, read_timeout_seconds=30) as client_a:
+    async with Client(mcp_transport(url_a, TOKEN), read_timeout_seconds=30) as client_a:
         for markdown in [*docs.all(), west]:
             await call(client_a, "save_process", markdown=markdown)
-    async with Client(url_b, read_timeout_seconds=30) as client_b:
+    async with Client(mcp_transport(url_b, TOKEN), read_timeout_seconds=30) as client_b:
         before = await ranked(client_b)
         await call(client_b, "record_outcome", process_id=WEST, success=True, note="ok")
         after = await ranked(client_b)
         seen_by_b = await call(client_b, "get_process", id=WEST)
-    async with Client(url_a, read_timeout_seconds=30) as client_a:
+    async with Client(mcp_transport(url_a, TOKEN), read_timeout_seconds=30) as client_a:
         await call(client_a, "record_outcome", process_id=MAILROOM, success=True, note="ok")
         on_a = await ranked(client_a)
-    async with Client(url_b, read_timeout_seconds=30) as client_b:
+    async with Client(mcp_transport(url_b, TOKEN), read_timeout_seconds=30) as client_b:
         still_on_b = await ranked(client_b)
 
     assert before[:2] == [MAILROOM, WEST]  # equal text: id order
@@ -81,7 +90,7 @@ async def test_robot_b_finds_what_robot_a_saved_and_its_outcomes_rerank_b(
     launcher.stop(robot_a)
     launcher.stop(robot_b)
     _, url_a = start_robot(launcher, postgres_dsn, "robot-a")
-    async with Client(url_a, read_timeout_seconds=30) as client_a:
+    async with Client(mcp_transport(url_a, TOKEN), read_timeout_seconds=30) as client_a:
         listed = await call(client_a, "list_processes")
         reloaded = await call(client_a, "get_process", id=WEST)
 

@@ -1,5 +1,6 @@
 """The real ``robot-mcp-memory`` process, driven by a real MCP client over each transport."""
 
+import asyncio
 import json
 import sys
 from pathlib import Path
@@ -7,11 +8,18 @@ from typing import Any
 
 import pytest
 from mcp import Client
-from mcp.client.sse import sse_client
 from mcp.client.stdio import StdioServerParameters
 
-from robot_stack_testing import LaunchedProcess, ProcessLauncher, wait_for_tcp_port
+from robot_stack_testing import (
+    LaunchedProcess,
+    ProcessLauncher,
+    assert_refuses_strangers,
+    fresh_token,
+    mcp_transport,
+    wait_for_tcp_port,
+)
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SERVER = str(Path(sys.executable).parent / "robot-mcp-memory")
 QUERY = "could someone bring me the parcel that arrived"
 
@@ -24,6 +32,7 @@ def start_server(
         [SERVER],
         env={
             "MCP_TRANSPORT": transport,
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),
             "MEMORY_DB": str(db),
             "ROBOT_ID": robot_id,
@@ -53,8 +62,12 @@ async def test_save_find_outcome_and_rejection_over_streamable_http(
     launcher: ProcessLauncher, tcp_port: int, tmp_path: Path, docs: Any
 ) -> None:
     start_server(launcher, tmp_path / "memory.sqlite3", "streamable-http", tcp_port)
+    # nobody without the server's credential gets in (issue 27)
+    await asyncio.to_thread(assert_refuses_strangers, f"http://127.0.0.1:{tcp_port}/mcp", "memory")
 
-    async with Client(f"http://127.0.0.1:{tcp_port}/mcp", read_timeout_seconds=30) as client:
+    async with Client(
+        mcp_transport(f"http://127.0.0.1:{tcp_port}/mcp", TOKEN), read_timeout_seconds=30
+    ) as client:
         for markdown in docs.all():
             error, saved = await call(client, "save_process", markdown=markdown)
             assert not error, saved
@@ -92,7 +105,7 @@ async def test_versions_and_outcomes_survive_a_restart_over_sse(
 ) -> None:
     db = tmp_path / "memory.sqlite3"
     first = start_server(launcher, db, "sse", tcp_port)
-    async with Client(sse_client(f"http://127.0.0.1:{tcp_port}/sse")) as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{tcp_port}/sse", TOKEN)) as client:
         await call(client, "save_process", markdown=docs.mailroom)
         error, second = await call(
             client, "save_process", markdown=docs.mailroom.replace("desk 4", "desk 6")
@@ -109,7 +122,7 @@ async def test_versions_and_outcomes_survive_a_restart_over_sse(
     launcher.stop(first)
 
     start_server(launcher, db, "sse", tcp_port)
-    async with Client(sse_client(f"http://127.0.0.1:{tcp_port}/sse")) as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{tcp_port}/sse", TOKEN)) as client:
         _, current = await call(client, "get_process", id="fetch-package-from-mailroom")
         _, old = await call(client, "get_process", id="fetch-package-from-mailroom", version=1)
         found = await ranked_ids(client, "parcel in the post room")

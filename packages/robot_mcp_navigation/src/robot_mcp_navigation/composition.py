@@ -23,6 +23,7 @@ from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.events.log_only import LogOnlyEventSink
 from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.map import NavMap, load_map
+from robot_mcp_navigation.mapview.base import MapView, NoMapView
 from robot_mcp_navigation.motion.base import MotionBase
 from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase
 from robot_mcp_navigation.motion.nav2.port import Nav2Action
@@ -129,13 +130,14 @@ def build_motion_base(
 
 def build_nav2_action(
     settings: NavigationSettings, supervision: Supervision | None = None
-) -> tuple[Nav2Action, Callable[[], None]]:
-    """The rclpy NavigateToPose client and pose subscription — and, with ``supervision``, the
-    dead-man lock on ``NAV_LOCK_TOPIC`` — and how to close them.
+) -> tuple[Nav2Action, MapView, Callable[[], None]]:
+    """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions — and,
+    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` — and how to close them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
     """
     try:
+        from robot_mcp_navigation.mapview.rclpy_view import RclpyMapView
         from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
         from robot_ros_bridge import RosBridge
         from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
@@ -147,6 +149,7 @@ def build_nav2_action(
     bridge = RosBridge("robot_mcp_navigation").start()
     try:
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
+        view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
         lock = None
         if supervision is not None:
             lock = SupervisorLockPublisher(
@@ -155,7 +158,7 @@ def build_nav2_action(
     except BaseException:
         bridge.close()
         raise
-    return action, RosSide(bridge, lock).close
+    return action, view, RosSide(bridge, lock).close
 
 
 @dataclass
@@ -176,6 +179,7 @@ def build_app(
     *,
     base: MotionBase | None = None,
     events: EventSink | None = None,
+    map_view: MapView | None = None,
 ) -> NavigationApp:
     nav_map = load_map(settings.map_path)
     if not settings.failures_enabled:
@@ -184,12 +188,13 @@ def build_app(
     supervision = Supervision(
         required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
     )
+    view: MapView = map_view or NoMapView()
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
             # the lock only where it means something: a robot's twist_mux (or robot-sim)
             locking = supervision if supervision.required else None
-            nav2_action, close = build_nav2_action(settings, locking)
+            nav2_action, view, close = build_nav2_action(settings, locking)
             closers.append(close)
         base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
@@ -212,7 +217,7 @@ def build_app(
         base,
         events,
         navigator,
-        build_mcp_server(navigator, settings.log_level, confirmer),
+        build_mcp_server(navigator, settings.log_level, confirmer, view),
         closers,
         supervision,
     )

@@ -43,6 +43,9 @@ class NavigationSettings(BaseModel):
     motion: Literal["simulated", "nav2"] = Field(default="simulated", alias="NAV_MOTION")
     nav2_action: str = Field(default="/navigate_to_pose", alias="NAV2_ACTION")
     pose_topic: str = Field(default="/amcl_pose", alias="NAV_POSE_TOPIC")
+    map_topic: str = Field(default="/map", alias="NAV_MAP_TOPIC")
+    costmap_topic: str = Field(default="/global_costmap/costmap", alias="NAV_COSTMAP_TOPIC")
+    plan_topic: str = Field(default="/plan", alias="NAV_PLAN_TOPIC")
     nav2_server_timeout_s: float = Field(
         default=5.0, gt=0.0, le=120.0, alias="NAV2_SERVER_TIMEOUT_S"
     )
@@ -89,7 +92,9 @@ class NavigationSettings(BaseModel):
     def _lower(cls, value: object) -> object:
         return value.strip().lower() if isinstance(value, str) else value
 
-    @field_validator("nav2_action", "pose_topic", "lock_topic")
+    @field_validator(
+        "nav2_action", "pose_topic", "map_topic", "costmap_topic", "plan_topic", "lock_topic"
+    )
     @classmethod
     def _ros_name(cls, value: str) -> str:
         if not _ROS_NAME.match(value):

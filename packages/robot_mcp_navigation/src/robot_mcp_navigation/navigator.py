@@ -87,6 +87,7 @@ class _Drive:
     latest: dict[str, Any] | None = None
     cancel_reason: str | None = None
     runner: asyncio.Task[TaskInfo] | None = None
+    started: float = field(default_factory=time.monotonic)
 
 
 class Navigator:
@@ -157,6 +158,11 @@ class Navigator:
             "destination": active.goal.name if active else None,
             **status.as_dict(),
         }
+
+    def drive_started_at(self) -> float | None:
+        """When the running drive began (``time.monotonic()``), None when not driving."""
+        active = self._active
+        return active.started if active is not None else None
 
     def get_task(self, task_id: str) -> TaskInfo:
         info = self._tasks.get(task_id)

@@ -13,6 +13,8 @@ from robot_mcp_kit.models import TaskState
 from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.errors import NavigationError
+from robot_mcp_navigation.mapview.base import MapView, NoMapView
+from robot_mcp_navigation.mapview.render import floor_view, plan_points
 from robot_mcp_navigation.navigator import Navigator
 from robot_mcp_navigation.triggers import Trigger
 
@@ -42,9 +44,14 @@ async def _refused_now(navigator: Navigator) -> None:
 
 
 def build_mcp_server(
-    navigator: Navigator, log_level: LogLevel = "INFO", confirmer: MotionConfirmer | None = None
+    navigator: Navigator,
+    log_level: LogLevel = "INFO",
+    confirmer: MotionConfirmer | None = None,
+    map_view: MapView | None = None,
 ) -> MCPServer:
-    """``confirmer``: ask the client's person before each drive (NAV_CONFIRM_MOTION=elicit)."""
+    """``confirmer``: ask the client's person before each drive (NAV_CONFIRM_MOTION=elicit);
+    ``map_view``: the robot's map, costmap and plan (Nav2's topics)."""
+    view = map_view or NoMapView()
     server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
     install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
     if navigator.supervision is not None:
@@ -99,6 +106,33 @@ def build_mcp_server(
         """The named locations of the map, with description, aliases, distance from the
         robot and estimated driving time in seconds."""
         return navigator.locations()
+
+    @server.tool(annotations=READ_ONLY)
+    async def get_map() -> dict[str, Any]:
+        """The robot's own map, for a display (missions need list_locations, not this):
+        walls and unmapped area as small PNG masks (base64, top row = largest y), the grid's
+        resolution, origin and bounds in the map frame, and the rectangles the robot's costmap
+        blocks where the map is free (a closed door or an obstacle it saw). {"available":
+        false} when the base publishes no map."""
+        grid = view.map()
+        if grid is None:
+            return {"available": False, "detail": "the robot publishes no map (/map)"}
+        return floor_view(grid, view.costmap())
+
+    @server.tool(annotations=READ_ONLY)
+    async def get_plan() -> dict[str, Any]:
+        """The path the base is following now (its global plan, map frame, at most 200
+        points), or no points when it is not driving."""
+        plan = view.plan()
+        since = navigator.drive_started_at()
+        pose = navigator.pose()
+        if plan is None or since is None or plan.received_at < since or not plan.points:
+            return {"frame": pose["frame"], "points": [], "destination": pose["destination"]}
+        return {
+            "frame": plan.frame,
+            "points": plan_points(plan),
+            "destination": pose["destination"],
+        }
 
     @server.tool(annotations=READ_ONLY)
     async def get_task(task_id: str) -> dict[str, Any]:

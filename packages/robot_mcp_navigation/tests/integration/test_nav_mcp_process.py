@@ -3,6 +3,7 @@ events to a local receiver that verifies every HMAC."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import os
@@ -14,18 +15,21 @@ from typing import Any
 
 import pytest
 from mcp import Client
-from mcp.client.sse import sse_client
 from mcp_types import CallToolResult, TextContent
 
 from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
+    assert_refuses_strangers,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
 )
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SECRET = "integration-test-secret"
 
 
@@ -33,6 +37,10 @@ SECRET = "integration-test-secret"
 def receiver(tcp_port: int) -> Iterator[EventReceiver]:
     with running_receiver(tcp_port, SECRET) as recv:
         yield recv
+
+
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
+"""The office places with a scripted closed mailroom door (the in-process simulated base)."""
 
 
 def start_navigation(
@@ -43,8 +51,10 @@ def start_navigation(
     transport: str,
     **extra_env: str,
 ) -> LaunchedProcess:
+
     env = {
         "MCP_TRANSPORT": transport,
+        "MCP_AUTH_TOKEN": TOKEN,
         "MCP_PORT": str(port),
         "RVC_EVENTS_URL": receiver.url,
         "RVC_EVENT_SECRET": SECRET,
@@ -83,8 +93,10 @@ async def test_navigation_over_streamable_http_posts_signed_ordered_events_and_f
 ) -> None:
     port = free_tcp_port()
     start_navigation(launcher, receiver, port, tmp_path, "streamable-http")
+    # nobody without the server's credential gets in (issue 27)
+    await asyncio.to_thread(assert_refuses_strangers, f"http://127.0.0.1:{port}/mcp", "navigation")
 
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = payload(
             await client.call_tool(
                 "navigate_to",
@@ -116,9 +128,9 @@ async def test_the_closed_mailroom_door_fails_the_task_with_suggestions_over_sse
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = free_tcp_port()
-    start_navigation(launcher, receiver, port, tmp_path, "sse")
+    start_navigation(launcher, receiver, port, tmp_path, "sse", NAV_MAP=str(CLOSED_DOOR_MAP))
 
-    async with Client(sse_client(f"http://127.0.0.1:{port}/sse")) as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", TOKEN)) as client:
         first = payload(await client.call_tool("navigate_to", {"location": "mailroom"}))
         await async_wait_until(lambda: receiver.terminal(first["task_id"]), 30, "task_failed")
         failed = payload(await client.call_tool("get_task", {"task_id": first["task_id"]}))
@@ -155,7 +167,7 @@ async def test_stop_navigation_mid_drive_cancels_the_task_and_ends_its_events(
         NAV_FAILURES="off",
     )
 
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = payload(await client.call_tool("navigate_to", {"location": "meeting_room"}))
         task_id = info["task_id"]
         await async_wait_until(
@@ -194,7 +206,7 @@ async def test_a_navigation_server_killed_mid_drive_restarts_where_the_robot_was
     process = start_navigation(
         launcher, receiver, port, tmp_path, "streamable-http", NAV_TIME_SCALE="2"
     )
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         dock = payload(await client.call_tool("get_pose", {}))
         assert dock["at_location"] == "dock"
         await client.call_tool("navigate_to", {"location": "kitchen"})
@@ -208,7 +220,7 @@ async def test_a_navigation_server_killed_mid_drive_restarts_where_the_robot_was
     process.popen.wait(timeout=10)
 
     start_navigation(launcher, receiver, port, tmp_path, "streamable-http")
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         pose = payload(await client.call_tool("get_pose", {}))
     assert pose["at_location"] is None, pose  # neither the dock nor the kitchen
     assert math.hypot(pose["x"] - dock["x"], pose["y"] - dock["y"]) > 0.5, pose

@@ -21,14 +21,18 @@ from robot_stack_testing import (
     ProcessLauncher,
     async_wait_until,
     free_tcp_port,
+    fresh_token,
+    mcp_transport,
     wait_for_tcp_port,
     wait_until,
 )
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
+TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SECRET = "nav2-integration-secret"
 DOOR = "17,3,208,The mailroom door is closed."  # the office map's mailroom
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
 
 
 @pytest.fixture
@@ -56,6 +60,7 @@ def start_navigation(
             "NAV_MOTION": "nav2",
             "NAV_SUPERVISION": "off",  # no brain here to hold a lease
             "MCP_TRANSPORT": "streamable-http",
+            "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),
             "RVC_EVENTS_URL": receiver.url,
             "RVC_EVENT_SECRET": SECRET,
@@ -86,7 +91,7 @@ async def test_arrival_posts_progress_triggers_and_task_done_in_order(
 ) -> None:
     start_nav2(launcher, "--speed", "3")
     port = start_navigation(launcher, receiver, tmp_path)
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = answer(
             await client.call_tool(
                 "navigate_to",
@@ -117,8 +122,9 @@ async def test_abort_is_task_failed_with_the_mapped_code_and_the_maps_detour(
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     start_nav2(launcher, "--speed", "6", "--abort", DOOR)
-    port = start_navigation(launcher, receiver, tmp_path)
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    # a map whose failures: entry names the detour (the shipped office map has none)
+    port = start_navigation(launcher, receiver, tmp_path, NAV_MAP=str(CLOSED_DOOR_MAP))
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = answer(await client.call_tool("navigate_to", {"location": "mailroom"}))
         await async_wait_until(lambda: receiver.terminal(info["task_id"]), 60, "task_failed")
         task = answer(await client.call_tool("get_task", {"task_id": info["task_id"]}))
@@ -139,7 +145,7 @@ async def test_stop_mid_drive_cancels_the_goal_at_the_server_with_one_terminal_e
 ) -> None:
     nav2 = start_nav2(launcher, "--speed", "0.5")
     port = start_navigation(launcher, receiver, tmp_path)
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         info = answer(await client.call_tool("navigate_to", {"location": "meeting_room"}))
         task_id = info["task_id"]
         await async_wait_until(lambda: "progress" in receiver.types(task_id), 30, "progress")
@@ -165,7 +171,7 @@ async def test_absent_action_server_is_a_clean_error_then_recovers_when_nav2_sta
     launcher: ProcessLauncher, receiver: EventReceiver, tmp_path: Path
 ) -> None:
     port = start_navigation(launcher, receiver, tmp_path, NAV2_SERVER_TIMEOUT_S="1")
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         loop = asyncio.get_running_loop()
         started = loop.time()
         refused = answer(await client.call_tool("navigate_to", {"location": "kitchen"}))
@@ -195,7 +201,7 @@ async def test_pose_comes_from_amcl_pose(
 ) -> None:
     start_nav2(launcher, "--start", "4,1.5")  # standing at reception
     port = start_navigation(launcher, receiver, tmp_path)
-    async with Client(f"http://127.0.0.1:{port}/mcp") as client:
+    async with Client(mcp_transport(f"http://127.0.0.1:{port}/mcp", TOKEN)) as client:
         pose: dict[str, Any] = {}
 
         async def at_reception() -> bool:

@@ -5,17 +5,27 @@ import pytest
 from robot_mcp_navigation.config import default_map_path
 from robot_mcp_navigation.map import MapError, load_map, normalize_name, parse_map
 
+CLOSED_DOOR_MAP = Path(__file__).parents[1] / "maps" / "office_closed_door.yaml"
+"""The office places with a scripted closed mailroom door (the in-process simulated base)."""
+
+
 MINIMAL = {
     "start": "dock",
     "locations": {"dock": {"x": 0, "y": 0}, "kitchen": {"x": 3, "y": 4, "aliases": ["Tea Room"]}},
 }
 
 
-def test_office_map_has_the_mailroom_scenario_locations_and_a_once_door_failure() -> None:
+def test_office_map_has_the_mailroom_scenario_locations_and_no_scripted_failure() -> None:
     nav_map = load_map(default_map_path())
 
     assert {"dock", "kitchen", "mailroom", "reception", "corridor_b"} <= set(nav_map.locations)
     assert nav_map.start == "dock"
+    assert nav_map.failures == []
+
+
+def test_the_test_map_scripts_a_once_door_failure_for_the_simulated_base() -> None:
+    nav_map = load_map(CLOSED_DOOR_MAP)
+
     (door,) = nav_map.failures
     assert (door.location, door.error_code, door.mode) == ("mailroom", "DOOR_CLOSED", "once")
     assert door.recoverable
@@ -88,7 +98,7 @@ def test_locations_resolve_case_insensitively_and_by_alias() -> None:
 
 
 def test_without_failures_keeps_locations_and_drops_failures() -> None:
-    nav_map = load_map(default_map_path())
+    nav_map = load_map(CLOSED_DOOR_MAP)
 
     plain = nav_map.without_failures()
 

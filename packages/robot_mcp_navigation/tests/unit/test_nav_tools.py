@@ -71,6 +71,8 @@ async def test_the_server_offers_the_navigation_and_task_tools(
             "get_task",
             "cancel_task",
             "list_tasks",
+            "get_map",
+            "get_plan",
         }
         assert "eta_below" in json.dumps(tools["navigate_to"].input_schema)
         assert "NAVIGATION_BUSY" in (tools["navigate_to"].description or "")

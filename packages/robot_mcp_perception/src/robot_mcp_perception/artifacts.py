@@ -14,11 +14,13 @@ Routes (all GET, bound to 127.0.0.1):
 - ``/masks/{skill}/{stamp_ns}/{index}.png`` — one mask (mono8 PNG);
 - ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``;
 - ``/frames/latest.jpg`` — the newest camera frame with the newest overlay of every kept
-  skill drawn on it (the operator UI's camera view, proxied by the brain).
+  skill drawn on it (the operator UI's camera view, proxied by the brain): masks, boxes and
+  labels, never the semantic outputs' text (the UI shows scene descriptions beside the image).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import socket
 import threading
@@ -179,7 +181,7 @@ class ArtifactStore:
         image = frame.image
         if self.renderer is not None:
             for result in latest:
-                image = self.renderer(image, result)
+                image = self.renderer(image, dataclasses.replace(result, outputs={}))
         return _jpeg(np.asarray(image, dtype=np.uint8))
 
     def approx_bytes(self) -> int:

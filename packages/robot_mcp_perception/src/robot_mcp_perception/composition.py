@@ -18,7 +18,7 @@ from typing import Any
 
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
-from hydra.errors import HydraException
+from hydra.errors import HydraException, InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
@@ -26,7 +26,8 @@ from pydantic import ValidationError
 
 from robot_mcp_perception.frames import FolderFrameSource, FrameSource, FrameSourceError
 from robot_mcp_perception.logging_setup import configure_logging
-from robot_mcp_perception.models.base import Grounder, Segmenter
+from robot_mcp_perception.models.base import Grounder, ModelUnavailableError, Segmenter
+from robot_mcp_perception.models.chain import FallbackGrounder
 from robot_mcp_perception.pipelines.common import PipelineSettings
 from robot_mcp_perception.runtime import Runtime
 from robot_mcp_perception.settings import PerceptionSettings, StartupError
@@ -34,7 +35,7 @@ from robot_mcp_perception.settings import PerceptionSettings, StartupError
 OVERRIDES_ENV = "PERCEPTION_CONFIG_OVERRIDES"
 DEPLOYMENT_ENV = "PERCEPTION_DEPLOYMENT"
 CONFIG_DIR_ENV = "PERCEPTION_CONFIG_DIR"
-PORT_GROUPS = ("grounder", "segmenter", "frame_source")
+PORT_GROUPS = ("grounder", "fallback_grounder", "segmenter", "frame_source")
 _SECRET_KEY = re.compile(r"(api_key|token|secret|password)", re.IGNORECASE)
 _ENV_INTERPOLATION = re.compile(r"^\$\{oc\.env:([A-Za-z_][A-Za-z0-9_]*)(,[^}]*)?\}$")
 
@@ -117,20 +118,40 @@ def check_job_timeout(settings: PerceptionSettings, grounder: Grounder) -> None:
         )
 
 
-def instantiate_adapter(block: DictConfig, port: Any) -> Any:
-    """Build one adapter; ``cost_class`` from its YAML is set on the instance, not passed in."""
+def instantiate_adapter(block: DictConfig, port: Any, group: str = "") -> Any:
+    """Build one adapter; ``cost_class`` and ``name`` from its YAML are set on the instance,
+    not passed in (``name``: how results name a grounder, default its class name)."""
     params = OmegaConf.to_container(block, resolve=True)
     assert isinstance(params, dict)
     cost_class = params.pop("cost_class", "local")
+    name = str(params.pop("name", "") or "")
     try:
         adapter = instantiate(params, _convert_="all")
     except Exception as error:  # start-up boundary: any adapter constructor failure
-        raise ConfigError(f"cannot build {params.get('_target_')!s}: {error}") from error
+        where = f"{group}: " if group else ""
+        cause = error.__cause__ if isinstance(error, InstantiationException) else None
+        if isinstance(cause, ModelUnavailableError):  # already says what to set
+            raise ConfigError(f"{where}{cause}") from error
+        raise ConfigError(
+            f"{where}cannot build {params.get('_target_')!s}: {cause or error}"
+        ) from error
     if not isinstance(adapter, port):
         raise ConfigError(f"{params.get('_target_')!s} is not a {port.__name__}")
     if isinstance(adapter, Grounder | Segmenter):
         adapter.cost_class = cost_class
+    if isinstance(adapter, Grounder):
+        adapter.name = name or type(adapter).__name__
     return adapter
+
+
+def build_grounder(cfg: DictConfig, settings: PerceptionSettings) -> Grounder:
+    """The ``grounder``, behind a :class:`FallbackGrounder` when ``fallback_grounder`` is set."""
+    primary: Grounder = instantiate_adapter(cfg.grounder, Grounder, "grounder")
+    if cfg.get("fallback_grounder") is None:
+        return primary
+    fallback: Grounder = instantiate_adapter(cfg.fallback_grounder, Grounder, "fallback_grounder")
+    chain = settings.grounder_chain
+    return FallbackGrounder(primary, fallback, chain.retry_after_s, chain.max_retry_after_s)
 
 
 def build_runtime(overrides: Sequence[str] = (), config_dir: Path | None = None) -> Runtime:
@@ -143,9 +164,9 @@ def build_runtime(overrides: Sequence[str] = (), config_dir: Path | None = None)
             frame_source.check()
         except FrameSourceError as error:
             raise ConfigError(str(error)) from error
-    grounder: Grounder = instantiate_adapter(cfg.grounder, Grounder)
+    grounder = build_grounder(cfg, settings)
     check_job_timeout(settings, grounder)
-    segmenter: Segmenter = instantiate_adapter(cfg.segmenter, Segmenter)
+    segmenter: Segmenter = instantiate_adapter(cfg.segmenter, Segmenter, "segmenter")
     pipeline = settings.pipeline.model_dump()
     return Runtime(
         settings=settings,

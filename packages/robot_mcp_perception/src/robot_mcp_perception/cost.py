@@ -41,7 +41,7 @@ SKIP_BUDGET = "max_cloud_calls_per_min"
 class CloudDecision:
     allowed: bool
     reason: str = ""
-    meter: RunMeter | None = None
+    meter: RunMeter | RefusingMeter | None = None
     """The run's reservation (allowed decisions only); charge each request to it."""
 
 
@@ -127,6 +127,17 @@ class RunMeter:
             unused = max(0, self.reserved - self.charged)
         if unused and self._at is not None:
             self._policy.release(self.skill, self._at, unused)
+
+
+class RefusingMeter:
+    """A run's meter when the budget is spent but a local fallback can answer: every cloud
+    charge is refused (nothing is sent or counted), so a grounder chain answers locally."""
+
+    def charge(self) -> bool:
+        return False
+
+    def close(self) -> None:
+        return None
 
 
 class CostPolicy:

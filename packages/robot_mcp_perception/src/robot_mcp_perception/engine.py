@@ -17,7 +17,12 @@ work goes through the :class:`~robot_mcp_perception.scheduler.Scheduler`. Rules:
 - a new or re-enabled skill's first run waits (at most ``fresh_frame_wait_s``) for a frame
   stamped after the engine took the skill up: "look now" is answered from a frame taken now;
 - ``once`` publishes once then disables; ``prewarm`` grounds once into the prewarm cache;
-- a failed or timed-out run leaves the skill running and republishes its last result stale.
+- a failed or timed-out run leaves the skill running and republishes its last result stale;
+  a skill that never had a result publishes an empty one saying the node *cannot see*
+  (``cannot_see_reason``: the failure), never an empty "nothing found";
+- behind a grounder chain with a local fallback (``models.chain``), a run refused by the
+  cloud budget still runs: every cloud charge is refused, so the fallback answers and nothing
+  is sent; each result says who answered (``grounder``, ``grounder_fallback``).
 """
 
 from __future__ import annotations
@@ -35,12 +40,21 @@ from typing import Literal, Protocol
 
 import structlog
 
-from robot_mcp_perception.cost import SKIP_BUDGET, SKIP_GATE, CostPolicy, PrewarmCache, RunMeter
+from robot_mcp_perception.cost import (
+    SKIP_BUDGET,
+    SKIP_GATE,
+    CostPolicy,
+    PrewarmCache,
+    RefusingMeter,
+    RunMeter,
+)
 from robot_mcp_perception.frames import Frame
-from robot_mcp_perception.models.base import GroundingResult, Image
+from robot_mcp_perception.models import answers
+from robot_mcp_perception.models.base import GroundingResult, Image, ModelError
+from robot_mcp_perception.models.chain import FallbackGrounder
 from robot_mcp_perception.models.metering import CloudBudgetExhaustedError, metered
 from robot_mcp_perception.pipelines.common import PipelineContext, SkillResult
-from robot_mcp_perception.provenance import FRESH, Provenance
+from robot_mcp_perception.provenance import Provenance
 from robot_mcp_perception.registry import Gate, GroundingSource, SkillRegistry, SkillState
 from robot_mcp_perception.scheduler import JobTimeoutError, Scheduler
 from robot_mcp_perception.skills import Skill
@@ -71,7 +85,7 @@ class TickPlan:
     reuse: GroundingSource | None = None
     reason: str = ""
     cloud_skipped: bool = False
-    meter: RunMeter | None = None
+    meter: RunMeter | RefusingMeter | None = None
 
 
 class SkillEngine:
@@ -110,6 +124,11 @@ class SkillEngine:
         self.grounder_requests = grounder_requests
         self.lock = threading.RLock()
         self.grounder_cloud = context.grounder.cost_class == "cloud"
+        chain = context.grounder
+        self.local_fallback = (
+            isinstance(chain, FallbackGrounder) and chain.fallback.cost_class == "local"
+        )
+        """A run the cloud budget refuses can still be answered on board."""
         self.segmenter_cloud = context.segmenter.cost_class == "cloud"
         self.out_of_order_dropped = 0
         self._phases = itertools.count()
@@ -237,6 +256,9 @@ class SkillEngine:
         if not cloud:
             return TickPlan("run")
         decision = self.policy.reserve(skill, self.cloud_requests(skill))
+        if not decision.allowed and decision.reason == SKIP_BUDGET and self.local_fallback:
+            logger.warning("cloud_call_skipped", skill=skill.name, reason=SKIP_BUDGET)
+            return TickPlan("run", meter=RefusingMeter())
         if not decision.allowed:
             if gated and gate is not None:
                 gate.reset()  # the change the gate saw still has to be grounded
@@ -265,8 +287,10 @@ class SkillEngine:
         reuse = plan.reuse.grounding if plan.reuse is not None else None
 
         async def run() -> SkillResult:
-            with metered(meter):
-                return await runner(to_run, frame.image, context, reuse)
+            with metered(meter), answers.recording() as notes:
+                result = await runner(to_run, frame.image, context, reuse)
+            result.grounded_by = answers.marks(notes)
+            return result
 
         future = self.scheduler.submit(skill.name, run)
         if future is None:
@@ -321,7 +345,27 @@ class SkillEngine:
             error=str(error) or type(error).__name__,
             error_type=type(error).__name__,
         )
+        if state.last_result is None:
+            self._cannot_see(state, reason, error, frame)
+            return
         self._republish_stale(state, reason, frame)
+
+    def _cannot_see(
+        self, state: SkillState, reason: str, error: BaseException, frame: Frame
+    ) -> None:
+        """No result to fall back on: say the node could not look, with the failure's kind
+        (a model error's ``kind``; ``timeout`` for a job past its limit)."""
+        if isinstance(error, ModelError):
+            kind: str = error.kind
+        elif isinstance(error, JobTimeoutError):
+            kind = "timeout"
+        else:
+            kind = "error"
+        provenance = Provenance(
+            stale_reason=reason, checked_stamp_ns=frame.stamp_ns, cannot_see=kind
+        )
+        logger.warning("skill_cannot_see", skill=state.skill.name, reason=kind)
+        self.sink.publish(state, frame, SkillResult(), provenance)
 
     def _on_result(
         self, state: SkillState, frame: Frame, reuse: GroundingSource | None, result: SkillResult
@@ -330,10 +374,14 @@ class SkillEngine:
         state.runs += 1
         state.consecutive_failures = 0
         if result.grounding is not None and reuse is None:
-            state.grounding = GroundingSource(result.grounding, frame.stamp_ns, frame.frame_id)
+            state.grounding = GroundingSource(
+                result.grounding, frame.stamp_ns, frame.frame_id, result.grounded_by
+            )
         if skill.prewarm:
             if result.grounding is not None:
-                source = GroundingSource(result.grounding, frame.stamp_ns, frame.frame_id)
+                source = GroundingSource(
+                    result.grounding, frame.stamp_ns, frame.frame_id, result.grounded_by
+                )
                 self.prewarm.put(skill, source, self._scene_of(frame))
             state.enabled = False
             state.once_pending = False
@@ -343,9 +391,13 @@ class SkillEngine:
             self.out_of_order_dropped += 1
             return
         provenance = (
-            FRESH
+            Provenance(grounded_by=result.grounded_by)
             if reuse is None
-            else Provenance(grounding_stamp_ns=reuse.stamp_ns, grounding_frame_id=reuse.frame_id)
+            else Provenance(
+                grounding_stamp_ns=reuse.stamp_ns,
+                grounding_frame_id=reuse.frame_id,
+                grounded_by=reuse.grounded_by,
+            )
         )
         state.last_result, state.last_frame, state.last_provenance = result, frame, provenance
         self.sink.publish(state, frame, result, provenance)

@@ -61,6 +61,9 @@ _MODE_TASK = {
 class BadModelAnswerError(ModelError):
     """The model's answer holds no usable JSON (the result stays stale)."""
 
+    def __init__(self, message: str = "") -> None:
+        super().__init__(message, "bad_answer")
+
 
 def semantic_requests(outputs: Iterable[SkillOutput]) -> list[SemanticRequest]:
     return [SemanticRequest(o.name, o.type, o.description) for o in outputs]

@@ -13,11 +13,19 @@ Nothing re-used or skipped passes as fresh:
 The same markers go, per result, into ``VisionDetectionArray.extra`` (JSON) so that a result
 with no detections (describe, ambient_scene) still says it is stale and why, plus
 ``checked_stamp``: ns of the newest frame the node looked at when it republished.
+
+Who answered (additive, issue 30): ``grounder`` (+ ``grounder_fallback`` and
+``fallback_reason`` behind a grounder chain, :mod:`.models.answers`) in every detection's
+``extra`` and in the result's. A run that failed before the skill ever had a result publishes
+an empty result saying the node **cannot see** — ``cannot_see: true`` + ``cannot_see_reason``
+(the failure: ``network``, ``server_error``, ``quota``, ``timeout``, ``budget``, ``auth``,
+``bad_answer``, ``error``) — so a reader never takes "the model could not look" for
+"nothing there".
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 
@@ -30,6 +38,10 @@ class Provenance:
     grounding_stamp_ns: int | None = None
     """The frame the (re-used) grounding was made on; None when grounded on this frame."""
     grounding_frame_id: str = ""
+    grounded_by: dict[str, Any] = field(default_factory=dict)
+    """Who answered the grounding (``grounder``, ``grounder_fallback``, ``fallback_reason``)."""
+    cannot_see: str | None = None
+    """The failure that left the skill without any result (an empty "cannot see" result)."""
 
     @property
     def stale(self) -> bool:
@@ -38,12 +50,16 @@ class Provenance:
     def stale_copy(self, reason: str, checked_stamp_ns: int | None) -> Provenance:
         """These markers on a republish of the same result."""
         return Provenance(
-            reason, checked_stamp_ns, self.grounding_stamp_ns, self.grounding_frame_id
+            reason,
+            checked_stamp_ns,
+            self.grounding_stamp_ns,
+            self.grounding_frame_id,
+            self.grounded_by,
         )
 
     def detection_marks(self) -> dict[str, Any]:
         """Keys merged into every detection's ``extra``."""
-        marks: dict[str, Any] = {}
+        marks: dict[str, Any] = dict(self.grounded_by)
         if self.grounding_stamp_ns is not None:
             marks["grounding_reused"] = True
             marks["grounding_stamp"] = self.grounding_stamp_ns
@@ -63,6 +79,10 @@ class Provenance:
         if self.grounding_stamp_ns is not None:
             extra["grounding_reused"] = True
             extra["grounding_stamp"] = self.grounding_stamp_ns
+        extra.update(self.grounded_by)
+        if self.cannot_see is not None:
+            extra["cannot_see"] = True
+            extra["cannot_see_reason"] = self.cannot_see
         return extra
 
 

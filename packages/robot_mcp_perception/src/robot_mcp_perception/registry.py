@@ -29,6 +29,8 @@ class GroundingSource:
     grounding: GroundingResult
     stamp_ns: int
     frame_id: str = ""
+    grounded_by: dict[str, Any] = field(default_factory=dict)
+    """Who answered it (``models.answers.marks``)."""
 
 
 @dataclass(frozen=True)

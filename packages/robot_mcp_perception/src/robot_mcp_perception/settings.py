@@ -26,7 +26,12 @@ ROS_PARAMETERS = (
 
 
 class StartupError(RuntimeError):
-    """The node cannot start as configured; the message names the problem (exit code 2)."""
+    """The node cannot start as configured; the message names the problem (exit code 2).
+
+    The message is one line: causes that span lines (Hydra's errors do) are joined."""
+
+    def __init__(self, message: object = "") -> None:
+        super().__init__(" ".join(str(message).split()))
 
 
 class _Strict(BaseModel):
@@ -38,6 +43,16 @@ class AdapterSettings(BaseModel):
 
     target: str = Field(alias="_target_", min_length=1)
     cost_class: Literal["local", "cloud"] = "local"
+    name: str = ""
+    """The adapter's name in results (``grounder`` marker); default: the config choice."""
+
+
+class GrounderChainSettings(_Strict):
+    """How the fallback grounder (``fallback_grounder`` group) stands in for the primary."""
+
+    retry_after_s: float = Field(10.0, gt=0)
+    """After an outage the primary is left alone this long (doubling per further outage)."""
+    max_retry_after_s: float = Field(300.0, gt=0)
 
 
 class NodeSettings(_Strict):
@@ -137,6 +152,10 @@ class PerceptionSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     grounder: AdapterSettings
+    fallback_grounder: AdapterSettings | None = None
+    """Answers when the grounder has an outage (issue 30); None: no fallback, the node
+    publishes "cannot see" instead."""
+    grounder_chain: GrounderChainSettings = Field(default_factory=GrounderChainSettings)
     segmenter: AdapterSettings
     frame_source: AdapterSettings
     node: NodeSettings = Field(default_factory=NodeSettings)

@@ -70,3 +70,22 @@ async def test_no_frame_yet_is_a_503_json() -> None:
         response = await _get(app, "/frames/latest.jpg")
         assert response.status_code == 503
         assert response.json()["error"] == "no_frame"
+
+
+async def test_the_live_view_draws_no_semantic_output_text() -> None:
+    """Scene descriptions are words the UI shows beside the camera, not text on the image."""
+    drawn: list[SkillResult] = []
+
+    def record(image: Any, result: SkillResult) -> Any:
+        drawn.append(result)
+        return image
+
+    store = ArtifactStore("http://127.0.0.1:9112", renderer=record)
+    described = SkillResult(outputs={"scene_description": "A kitchen counter."})
+    store.add("scene", "/vision/scene/detections", _frame(1), described)
+
+    response = await _get(build_app(store, dict, lambda: _frame(2)), "/frames/latest.jpg")
+
+    assert response.status_code == 200
+    assert [r.outputs for r in drawn] == [{}]
+    assert described.outputs == {"scene_description": "A kitchen counter."}  # kept for the API

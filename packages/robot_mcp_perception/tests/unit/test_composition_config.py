@@ -179,3 +179,23 @@ def test_a_job_timeout_shorter_than_the_grounders_retries_refuses_to_start(
     overrides = ["grounder=gemini_er", *_overrides(frames_dir)[1:], "grounder.timeout_s=30"]
     with pytest.raises(ConfigError, match=r"node\.model_timeout_s .* grounder's worst case"):
         build_runtime(overrides, config_dir)
+
+
+@pytest.mark.parametrize("segmenter", ["sam", "hf_sam"])
+def test_a_segmenter_without_its_weights_refuses_in_one_line_naming_the_setting(
+    config_dir: Path, frames_dir: Path, monkeypatch: pytest.MonkeyPatch, segmenter: str
+) -> None:
+    monkeypatch.delenv("SAM_CHECKPOINT", raising=False)
+    overrides = [*_overrides(frames_dir)[:1], f"segmenter={segmenter}", *_overrides(frames_dir)[2:]]
+    with pytest.raises(ConfigError) as refused:
+        build_runtime(overrides, config_dir)
+    message = str(refused.value)
+    assert message.startswith("segmenter: no ")  # the adapter's sentence, not Hydra's wrapper
+    assert "SAM_CHECKPOINT" in message
+    assert "\n" not in message
+
+
+def test_a_multi_line_cause_becomes_one_line() -> None:
+    assert str(ConfigError("cannot compose:\nError in call\nfull_key: x")) == (
+        "cannot compose: Error in call full_key: x"
+    )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 from pathlib import Path
@@ -302,3 +303,22 @@ def test_a_half_written_frame_is_skipped_until_its_image_is_there(tmp_path: Path
     # Make sure the folder's mtime moved even on a coarse-timestamp file system.
     os.utime(tmp_path, ns=(1, tmp_path.stat().st_mtime_ns + 1_000_000))
     assert grounder.index.refresh() == 1
+
+
+def test_a_frame_its_producer_deleted_is_dropped_from_the_index(tmp_path: Path) -> None:
+    """robot-sim keeps a bounded folder (a new frame whenever the robot moves): frames it
+    deleted leave the index too, so the grounder's memory stays bounded."""
+    generate_scenes(tmp_path, count=3, seed=0, size=SIZE)
+    grounder = AnnotationGrounder(str(tmp_path))
+    assert len(grounder.index.frames) == 3
+    first = sorted(tmp_path.glob("*.json"))[0]
+    doc = json.loads(first.read_text())
+    image = cv2.cvtColor(cv2.imread(str(tmp_path / doc["image"]["file_name"])), cv2.COLOR_BGR2RGB)
+    assert asyncio.run(grounder.ground(image, labels_of(doc)[0])).targets
+    first.unlink()  # JSON first, as robot-sim deletes
+    (tmp_path / doc["image"]["file_name"]).unlink()
+    os.utime(tmp_path, ns=(1, tmp_path.stat().st_mtime_ns + 1_000_000))
+    assert grounder.index.refresh() == 0
+    assert len(grounder.index.frames) == 2
+    assert first not in {f.annotation for f in grounder.index.frames}
+    assert not asyncio.run(grounder.ground(image, labels_of(doc)[0])).targets

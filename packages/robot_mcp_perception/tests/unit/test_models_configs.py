@@ -34,6 +34,7 @@ def build(group: str, name: str, **env: str) -> object:
     params = OmegaConf.to_container(cfg, resolve=True)
     assert isinstance(params, dict)
     params.pop("cost_class")
+    params.pop("name", None)  # set on the instance by the composition root, like cost_class
     return instantiate(params, _convert_="all")
 
 

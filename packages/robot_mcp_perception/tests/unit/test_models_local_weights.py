@@ -82,7 +82,7 @@ async def test_grounded_sam_detects_the_query_and_answers_outputs(
     assert result.outputs["q"]["yaw"] == 0.0
     assert result.outputs["t"].startswith("detected:")
     model = grounder._model
-    assert model.vocabularies == [["the red mug"]]
+    assert model.vocabularies == [["mug", "box"], ["the red mug"]]  # start-up: text encoder check
     await grounder.point(IMAGE, "every object")
     assert model.vocabularies[-1] == ["mug", "box"]
     described = await grounder.ground(IMAGE, "describe", mode="describe")

@@ -90,6 +90,7 @@ def test_a_result_segmented_on_a_reused_grounding_says_so_and_its_outputs_keep_t
             "stale": False,
             "grounding_reused": True,
             "grounding_stamp": grounded_ns,
+            "grounder": "FakeGrounder",  # who answered the re-used grounding
         }
         assert msg.detections[0].mask.data  # segmented on its own frame
     assert harness.grounder.ground_calls == 1
@@ -113,7 +114,7 @@ def test_a_stale_result_without_detections_says_stale_and_why_in_the_result_extr
 
     fresh = meta[0]
     stale = next(m for m in meta if _extra(m).get("stale"))
-    assert _extra(fresh) == {"stale": False}
+    assert _extra(fresh) == {"stale": False, "grounder": "FakeGrounder"}
     assert stale.header.stamp == fresh.header.stamp
     assert stale.detections == []
     assert _extra(stale)["stale_reason"] == "scene_unchanged"

@@ -35,6 +35,10 @@ class SimSettings(BaseModel):
     failures_enabled: bool = Field(default=True, alias="SIM_FAILURES")
     action_name: str = Field(default="/navigate_to_pose", alias="SIM_ACTION")
     camera_topic: str = Field(default="/camera/image_raw", alias="SIM_CAMERA_TOPIC")
+    camera_info_topic: str = Field(default="/camera/camera_info", alias="SIM_CAMERA_INFO_TOPIC")
+    depth_topic: str = Field(default="/camera/depth/image_raw", alias="SIM_DEPTH_TOPIC")
+    scenes_keep: int = Field(default=64, ge=4, le=10_000, alias="SIM_SCENES_KEEP")
+    moving_render_scale: float = Field(default=0.5, ge=0.1, le=1.0, alias="SIM_RENDER_SCALE_MOVING")
     camera_frame_id: str = Field(default="camera_optical_frame", alias="SIM_CAMERA_FRAME")
     camera_fps: float = Field(default=5.0, gt=0.0, le=30.0, alias="SIM_CAMERA_FPS")
     pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")
@@ -79,7 +83,7 @@ class SimSettings(BaseModel):
             raise ValueError("must be an absolute path (the working directory is not state)")
         return value
 
-    @field_validator("action_name", "camera_topic")
+    @field_validator("action_name", "camera_topic", "camera_info_topic", "depth_topic")
     @classmethod
     def _ros_name(cls, value: str) -> str:
         if not value.startswith("/") or " " in value:

@@ -13,8 +13,10 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
 from robot_sim.camera import Camera
 from robot_sim.config import ConfigError, SimSettings, load_settings
+from robot_sim.costmap import RobotMap
 from robot_sim.drive import DriveSim
 from robot_sim.logging_setup import configure_logging
+from robot_sim.render.renderer import MujocoRenderer
 from robot_sim.store import SceneStore
 from robot_sim.world import WorldError, load_world
 
@@ -22,11 +24,16 @@ logger = structlog.get_logger(__name__)
 
 
 def build(settings: SimSettings) -> tuple[DriveSim, Camera]:
-    """The composition root: the world, the drive and the camera (scenes saved up front)."""
+    """The composition root: the world, what the robot knows of it, the drive and the camera
+    (the first frame saved before the node is up, so the grounder's folder is never empty)."""
     world = load_world(settings.world_path, settings.map_path)
-    drive = DriveSim(world.map, settings.time_scale, settings.failures_enabled)
-    camera = Camera(world, SceneStore(settings.scenes_dir))
-    camera.prepare()
+    robot_map = RobotMap(world.floor, world.closed_doors)
+    drive = DriveSim(world.map, settings.time_scale, settings.failures_enabled, robot_map)
+    store = SceneStore(settings.scenes_dir, settings.scenes_keep)
+    removed = store.clear_stale()
+    camera = Camera(world, store, MujocoRenderer(world), moving_scale=settings.moving_render_scale)
+    camera.shot(drive.state(0.0).pose)
+    logger.info("scenes_ready", removed_stale=removed, directory=str(settings.scenes_dir))
     return drive, camera
 
 
@@ -62,6 +69,7 @@ def main(args: list[str] | None = None) -> None:
         executor.shutdown(timeout_sec=2.0)  # no callback runs on the node once it is destroyed
         if node is not None:
             node.destroy_node()
+        camera.renderer.close()
         rclpy.try_shutdown()
 
 

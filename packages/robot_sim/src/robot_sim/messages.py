@@ -6,8 +6,12 @@
 
 from __future__ import annotations
 
+import array
 import math
+from collections.abc import Sequence
 
+import numpy as np
+import numpy.typing as npt
 from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import Pose as PoseMsg
 from geometry_msgs.msg import (
@@ -15,11 +19,12 @@ from geometry_msgs.msg import (
     PoseWithCovarianceStamped,
     Quaternion,
 )
-from nav_msgs.msg import Odometry
-from sensor_msgs.msg import Image
+from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry, Path
+from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 
 from robot_mcp_navigation.motion.base import Pose
+from robot_sim.floor.grid import Grid
 from robot_sim.store import StoredFrame
 
 MAP_FRAME = "map"
@@ -83,4 +88,64 @@ def image(frame: StoredFrame, stamp: Time, frame_id: str) -> Image:
         step=frame.width * 3,
     )
     msg.data = frame.data
+    return msg
+
+
+def occupancy_grid(grid: Grid, stamp: Time, frame: str = MAP_FRAME) -> OccupancyGrid:
+    """The grid as map_server publishes it (row-major from the map's lower-left cell)."""
+    info = MapMetaData(
+        map_load_time=stamp,
+        resolution=float(grid.resolution),
+        width=grid.width,
+        height=grid.height,
+    )
+    info.origin.position.x, info.origin.position.y = float(grid.origin[0]), float(grid.origin[1])
+    info.origin.orientation.w = 1.0
+    msg = OccupancyGrid(header=Header(stamp=stamp, frame_id=frame), info=info)
+    msg.data = array.array("b", grid.cells.tobytes())
+    return msg
+
+
+def path(points: Sequence[tuple[float, float]], stamp: Time, frame: str = MAP_FRAME) -> Path:
+    """A nav_msgs/Path of waypoints, each facing the next (the last keeps its predecessor's)."""
+    msg = Path(header=Header(stamp=stamp, frame_id=frame))
+    poses = []
+    for i, (x, y) in enumerate(points):
+        ahead = points[i + 1] if i + 1 < len(points) else None
+        behind = points[i - 1] if i > 0 else None
+        if ahead is not None:
+            yaw = math.atan2(ahead[1] - y, ahead[0] - x)
+        elif behind is not None:
+            yaw = math.atan2(y - behind[1], x - behind[0])
+        else:
+            yaw = 0.0
+        poses.append(pose_stamped(Pose(x, y, yaw), stamp, frame))
+    msg.poses = poses
+    return msg
+
+
+def camera_info(
+    width: int, height: int, fx: float, fy: float, cx: float, cy: float, stamp: Time, frame_id: str
+) -> CameraInfo:
+    """An ideal pinhole camera (no distortion), as ``camera_info_manager`` publishes one."""
+    msg = CameraInfo(header=Header(stamp=stamp, frame_id=frame_id), width=width, height=height)
+    msg.distortion_model = "plumb_bob"
+    msg.d = [0.0] * 5
+    msg.k = [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0]
+    msg.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    msg.p = [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    return msg
+
+
+def depth_image(metres: npt.NDArray[np.float32], stamp: Time, frame_id: str) -> Image:
+    """32FC1 depth in metres (REP 118)."""
+    height, width = metres.shape
+    msg = Image(
+        header=Header(stamp=stamp, frame_id=frame_id),
+        height=height,
+        width=width,
+        encoding="32FC1",
+        step=width * 4,
+    )
+    msg.data = np.ascontiguousarray(metres, np.float32).tobytes()
     return msg

@@ -15,10 +15,10 @@
   before the goal's result is sent, so the camera frame of where the robot now stands is on
   the wire before any client learns the robot stopped (a skill started on arrival never sees
   the corridor view of the drive).
-- **failures**: a map ``failures:`` entry for the goal's location (the closed mailroom door)
-  stops the robot at ``at_fraction`` and aborts with ``NO_VALID_PATH`` (208, the code Nav2's
-  planner gives when an obstacle closes the only way) and the entry's message as
-  ``error_msg``.
+- **no way through**: the drive plans on the robot's costmap and replans when the robot sees
+  a door closed (``drive.py``); when no path is left the goal ends ABORTED with the planner's
+  code (``NO_VALID_PATH`` 208, as bt_navigator passes ComputePathToPose's code on) where the
+  robot stands. A scripted ``failures:`` entry of a map (unit tests) aborts the same way.
 """
 
 from __future__ import annotations
@@ -194,11 +194,11 @@ class NavigateToPoseServer:
                 return self._cancel(run, started)
             handle.publish_feedback(self._feedback(state))
             if state.status == "arrived":
-                return self._finish(run, started)
+                return self._finish(run, started, state.replans)
             if state.status == "failed":
-                message = state.failure.message if state.failure else "no valid path"
                 self._stopped()
-                return self._abort(run, NO_VALID_PATH, message)
+                code = state.error_code or NO_VALID_PATH
+                return self._abort(run, code, state.error_msg or "no valid path")
             if state.status == "halted":  # the supervisor lock stopped the base
                 self._stopped()
                 return self._abort(run, FAILED_TO_MAKE_PROGRESS, HELD_MESSAGE)
@@ -225,12 +225,13 @@ class NavigateToPoseServer:
         if self._on_stopped is not None:
             self._on_stopped()
 
-    def _finish(self, run: _Run, started: float) -> Any:
+    def _finish(self, run: _Run, started: float, replans: int = 0) -> Any:
         self._stopped()
         run.handle.succeed()
         logger.info(
             "goal_succeeded",
             location=run.location,
+            replans=replans,
             duration_ms=round(1000 * (self._clock() - started), 1),
         )
         return NavigateToPose.Result(error_code=NavigateToPose.Result.NONE)

@@ -17,8 +17,11 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from robot_mcp_navigation.map import MapError, NavMap, load_map
+from robot_sim.floor.floor import Floor, load_floor
+from robot_sim.floor.plan import FloorError
 
-Shape = Literal["mug", "bottle", "parcel", "box", "scissors", "plate"]
+Shape = Literal["mug", "bottle", "parcel", "box", "scissors", "plate", "folder"]
+DoorState = Literal["open", "closed"]
 RGB = tuple[int, int, int]
 
 
@@ -34,7 +37,7 @@ class ObjectLook(BaseModel):
 
 
 MAX_OBJECTS_PER_PLACE = 6
-"""The camera frame has six slots (3 × 2); objects never overlap."""
+"""A place's furniture top has six slots (3 across × 2 deep); objects never overlap."""
 
 
 class PlaceSpec(BaseModel):
@@ -45,20 +48,16 @@ class PlaceSpec(BaseModel):
     objects: list[str] = Field(default_factory=list, max_length=MAX_OBJECTS_PER_PLACE)
 
 
-class CorridorSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    surface: RGB = (118, 118, 122)
-    description: str = "A corridor seen from the moving robot; no objects in view."
-
-
 class WorldSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     map: Path
+    floor: Path
+    """The floor plan (walls, doors, furniture; ``robot_sim.floor``), relative to the file."""
     objects: dict[str, ObjectLook] = Field(min_length=1)
-    corridor: CorridorSpec = Field(default_factory=CorridorSpec)
     places: dict[str, PlaceSpec] = Field(default_factory=dict)
+    doors: dict[str, DoorState] = Field(default_factory=dict)
+    """The doors' state at start (a door not listed is open)."""
 
     @model_validator(mode="after")
     def _known_labels(self) -> WorldSpec:
@@ -96,25 +95,53 @@ def load_world(path: Path, map_path: Path | None = None) -> World:
     resolved = map_path or (path.parent / spec.map)
     try:
         nav_map = load_map(resolved.resolve())
-    except MapError as exc:
+        floor = load_floor((path.parent / spec.floor).resolve())
+    except (MapError, FloorError) as exc:
         raise WorldError(f"{path}: {exc}") from exc
     strangers = sorted(set(spec.places) - set(nav_map.locations))
     if strangers:
         raise WorldError(f"{path}: places {strangers} are not locations of the map {resolved}")
-    return World(spec, nav_map)
+    unknown_doors = sorted(set(spec.doors) - set(floor.plan.doors))
+    if unknown_doors:
+        raise WorldError(f"{path}: doors {unknown_doors} are not doors of the floor plan")
+    furnished = {f.place for f in floor.plan.furniture.values() if f.place is not None}
+    strangers = sorted(furnished - set(nav_map.locations))
+    if strangers:
+        raise WorldError(f"{path}: furniture stands at {strangers}, not locations of the map")
+    return World(spec, nav_map, floor)
 
 
 class World:
     """The map, the catalogue and what stands at each place now (thread-safe)."""
 
-    def __init__(self, spec: WorldSpec, nav_map: NavMap) -> None:
+    def __init__(self, spec: WorldSpec, nav_map: NavMap, floor: Floor) -> None:
         self.spec = spec
         self.map = nav_map
+        self.floor = floor
         self._lock = threading.Lock()
         self._objects = {
             name: list(spec.places[name].objects) if name in spec.places else []
             for name in nav_map.locations
         }
+        self._closed = frozenset(d for d, state in spec.doors.items() if state == "closed")
+        self.version = 0
+        """Grows with every change of contents or doors (the camera renders anew)."""
+
+    @property
+    def doors(self) -> list[str]:
+        return list(self.floor.plan.doors)
+
+    def closed_doors(self) -> frozenset[str]:
+        with self._lock:
+            return self._closed
+
+    def set_door(self, door: str, closed: bool) -> None:
+        """Close or open ``door`` (a door of the floor plan; WorldError otherwise)."""
+        if door not in self.floor.plan.doors:
+            raise WorldError(f"unknown door {door!r}; doors: {', '.join(self.doors)}")
+        with self._lock:
+            self._closed = self._closed | {door} if closed else self._closed - {door}
+            self.version += 1
 
     @property
     def places(self) -> list[str]:
@@ -134,6 +161,7 @@ class World:
         self.check(place, labels)
         with self._lock:
             self._objects[place] = list(labels)
+            self.version += 1
 
     def check(self, place: str, labels: list[str]) -> None:
         """Raise WorldError unless ``labels`` may stand at ``place``."""

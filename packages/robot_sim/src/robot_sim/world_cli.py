@@ -3,8 +3,10 @@
     robot-sim-world kitchen "green bottle" "white plate"   # someone took the mug
     robot-sim-world kitchen                                 # the kitchen is empty
     robot-sim-world --active false                          # the navigator rejects goals
+    robot-sim-world --door mailroom_west_door=open          # open (or close) a door
 
-It sets the node's parameters (``places.<place>.objects``, ``active``) through the standard
+It sets the node's parameters (``places.<place>.objects``, ``doors.<door>.closed``,
+``active``) through the standard
 parameter service, like ``ros2 param set /robot_sim …``. Exit 0 when the node accepted the
 change, 1 when it refused it (the reason is printed), 2 when no robot-sim answered in time.
 """
@@ -24,11 +26,20 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
 from robot_sim.node import NODE_NAME
-from robot_sim.world_params import ACTIVE, objects_parameter
+from robot_sim.world_params import ACTIVE, door_parameter, objects_parameter
+
+
+def _door(text: str) -> tuple[str, bool]:
+    door, _, state = text.partition("=")
+    if not door or state not in ("open", "closed"):
+        raise argparse.ArgumentTypeError(f"{text!r}: write DOOR=open or DOOR=closed")
+    return door, state == "closed"
 
 
 def parameters_from(args: argparse.Namespace) -> list[Parameter[Any]]:
     changes: list[Parameter[Any]] = []
+    for door, closed in args.door or []:
+        changes.append(Parameter(door_parameter(door), Parameter.Type.BOOL, closed))
     if args.place is not None:
         changes.append(
             Parameter(objects_parameter(args.place), Parameter.Type.STRING_ARRAY, args.objects)
@@ -43,12 +54,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("place", nargs="?", help="a map location, e.g. kitchen")
     parser.add_argument("objects", nargs="*", help="catalogue labels standing there now")
     parser.add_argument("--active", choices=["true", "false"], help="accept navigation goals")
+    parser.add_argument(
+        "--door",
+        action="append",
+        type=_door,
+        metavar="DOOR=open|closed",
+        help="open or close a door",
+    )
     parser.add_argument("--node", default=NODE_NAME, help="the robot-sim node's name")
     parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for it")
     args = parser.parse_args(argv)
     changes = parameters_from(args)
     if not changes:
-        parser.error("name a place (and its objects) and/or --active")
+        parser.error("name a place (and its objects), --door and/or --active")
     context = Context()
     rclpy.init(context=context)
     node = rclpy.create_node("robot_sim_world", context=context)

@@ -1,10 +1,12 @@
 """Changing the world at run time through the node's ROS parameters.
 
-One ``string[]`` parameter per place, ``places.<place>.objects`` (catalogue labels), and a
-``bool`` parameter ``active`` (false: the navigator rejects goals, like a Nav2 whose lifecycle
-is not active). Any ROS tool sets them — ``ros2 param set /robot_sim
-places.kitchen.objects "['green bottle']"`` (someone took the mug) — and the camera shows the
-change from its next frame. A bad value is refused with a reason naming it; nothing changes.
+One ``string[]`` parameter per place, ``places.<place>.objects`` (catalogue labels), one
+``bool`` per door, ``doors.<door>.closed``, and a ``bool`` parameter ``active`` (false: the
+navigator rejects goals, like a Nav2 whose lifecycle is not active). Any ROS tool sets them —
+``ros2 param set /robot_sim places.kitchen.objects "['green bottle']"`` (someone took the mug),
+``ros2 param set /robot_sim doors.mailroom_west_door.closed false`` — and the camera shows the
+change from its next frame; the robot learns of a door when it sees it. A bad value is refused
+with a reason naming it; nothing changes.
 """
 
 from __future__ import annotations
@@ -31,6 +33,10 @@ def objects_parameter(place: str) -> str:
     return f"places.{place}.objects"
 
 
+def door_parameter(door: str) -> str:
+    return f"doors.{door}.closed"
+
+
 class WorldParameters:
     """Declares the parameters and applies every accepted change to ``world``."""
 
@@ -48,6 +54,15 @@ class WorldParameters:
                     dynamic_typing=True,
                 ),
             )
+        self._doors = {door_parameter(door): door for door in world.doors}
+        closed = world.closed_doors()
+        for name, door in self._doors.items():
+            label = world.floor.plan.doors[door].label
+            node.declare_parameter(
+                name,
+                door in closed,
+                ParameterDescriptor(description=f"whether the {label} is closed"),
+            )
         node.declare_parameter(
             ACTIVE, True, ParameterDescriptor(description="false: reject navigation goals")
         )
@@ -55,10 +70,15 @@ class WorldParameters:
 
     def _on_set(self, parameters: list[Parameter[Any]]) -> SetParametersResult:
         changes: list[tuple[str, list[str]]] = []
+        doors: list[tuple[str, bool]] = []
         for parameter in parameters:
-            if parameter.name == ACTIVE:
+            if parameter.name == ACTIVE or parameter.name in self._doors:
                 if parameter.type_ != Parameter.Type.BOOL:
-                    return SetParametersResult(successful=False, reason="active must be a bool")
+                    return SetParametersResult(
+                        successful=False, reason=f"{parameter.name} must be a bool"
+                    )
+                if parameter.name in self._doors:
+                    doors.append((self._doors[parameter.name], bool(parameter.value)))
                 continue
             place = self._places.get(parameter.name)
             if place is None:
@@ -78,6 +98,9 @@ class WorldParameters:
         for place, labels in changes:
             self._world.set_objects(place, labels)
             logger.info("world_changed", place=place, objects=labels)
+        for door, closed in doors:
+            self._world.set_door(door, closed)
+            logger.info("door_changed", door=door, closed=closed)
         for parameter in parameters:
             if parameter.name == ACTIVE:
                 self._on_active(bool(parameter.value))

@@ -52,6 +52,9 @@ class Sim:
     amcl: Received
     odom: Received
     images: Received
+    plans: Received
+    infos: Received
+    costmaps: Received
 
     def send_goal(
         self,
@@ -60,6 +63,7 @@ class Sim:
         frame: str = "map",
         behavior_tree: str = "",
         feedback: Received | None = None,
+        theta: float = 0.0,
     ) -> Any:
         """Send a goal; the goal handle once the server answered (accepted or not)."""
         from nav2_msgs.action import NavigateToPose
@@ -69,7 +73,7 @@ class Sim:
 
         goal = NavigateToPose.Goal(behavior_tree=behavior_tree)
         goal.pose = messages.pose_stamped(
-            Pose(x, y, 0.0), self.client.get_clock().now().to_msg(), frame
+            Pose(x, y, theta), self.client.get_clock().now().to_msg(), frame
         )
         assert self.action.wait_for_server(timeout_sec=10.0), "no NavigateToPose server"
         sink = feedback
@@ -89,7 +93,7 @@ class Sim:
 
     def go_to(self, place: str, timeout_s: float = 20.0) -> Any:
         location = self.node.camera.world.map.locations[place]
-        handle = self.send_goal(location.x, location.y)
+        handle = self.send_goal(location.x, location.y, theta=location.theta)
         assert handle.accepted
         return self.result(handle, timeout_s)
 
@@ -102,12 +106,20 @@ def distance(a: Any, x: float, y: float) -> float:
 def sim(settings: SimSettings) -> Iterator[Sim]:
     from geometry_msgs.msg import PoseWithCovarianceStamped
     from nav2_msgs.action import NavigateToPose
-    from nav_msgs.msg import Odometry
+    from nav_msgs.msg import OccupancyGrid, Odometry, Path
     from rclpy.action.client import ActionClient
     from rclpy.node import Node
-    from sensor_msgs.msg import Image
+    from sensor_msgs.msg import CameraInfo, Image
 
-    from robot_sim.node import AMCL_QOS, CAMERA_QOS, SimNode
+    from robot_sim.node import (
+        AMCL_QOS,
+        CAMERA_QOS,
+        COSTMAP_TOPIC,
+        LATCHED_QOS,
+        PLAN_QOS,
+        PLAN_TOPIC,
+        SimNode,
+    )  # fmt: skip
 
     context = Context()
     import rclpy
@@ -118,6 +130,14 @@ def sim(settings: SimSettings) -> Iterator[Sim]:
     node = SimNode(settings, drive, camera, context=context)
     client = Node("robot_sim_test_client", context=context)
     amcl, odom, images = Received(), Received(), Received()
+    plans, infos, costmaps = Received(), Received(), Received()
+    client.create_subscription(Path, PLAN_TOPIC, lambda m: plans.add(m, time.monotonic()), PLAN_QOS)
+    client.create_subscription(
+        CameraInfo, settings.camera_info_topic, lambda m: infos.add(m, time.monotonic()), CAMERA_QOS
+    )
+    client.create_subscription(
+        OccupancyGrid, COSTMAP_TOPIC, lambda m: costmaps.add(m, time.monotonic()), LATCHED_QOS
+    )
     client.create_subscription(
         PoseWithCovarianceStamped, "/amcl_pose", lambda m: amcl.add(m, time.monotonic()), AMCL_QOS
     )
@@ -141,7 +161,7 @@ def sim(settings: SimSettings) -> Iterator[Sim]:
     spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
-        yield Sim(node, client, context, action, amcl, odom, images)
+        yield Sim(node, client, context, action, amcl, odom, images, plans, infos, costmaps)
     finally:
         # stop spinning before anything is destroyed: a callback still running on a destroyed
         # action client or server raises in the spin thread ("destruction was requested")

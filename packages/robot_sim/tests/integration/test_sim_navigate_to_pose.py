@@ -5,6 +5,7 @@ from __future__ import annotations
 import statistics
 import time
 
+import numpy as np
 import pytest
 from action_msgs.msg import GoalStatus
 from nav2_msgs.action import NavigateToPose
@@ -81,17 +82,45 @@ def test_a_new_goal_preempts_the_running_one(sim: Sim) -> None:
     assert sim.node.drive.state(time.monotonic()).pose == world["reception"].pose()
 
 
-def test_the_closed_mailroom_door_aborts_with_nav2_no_valid_path_once(sim: Sim) -> None:
+def test_the_robot_sees_the_closed_door_and_goes_round_publishing_each_plan(sim: Sim) -> None:
     mailroom = sim.node.camera.world.map.locations["mailroom"]
-    first = sim.send_goal(mailroom.x, mailroom.y)
-    outcome = sim.result(first)
+    start = time.monotonic()
+    outcome = sim.result(sim.send_goal(mailroom.x, mailroom.y), timeout_s=40.0)
+    assert outcome.status == GoalStatus.STATUS_SUCCEEDED
+    assert sim.node.drive.state(time.monotonic()).pose.distance_to(mailroom.pose()) < 0.01
+    wait_until(lambda: sim.plans.last() is not None and not sim.plans.last().poses, 10.0, "end")
+    plans = [p for p in sim.plans.since(start) if p.poses]
+    assert all(p.header.frame_id == "map" for p in plans)
+    first, detour = plans[0], plans[-1]
+    assert max(p.pose.position.x for p in first.poses) < 17.5  # through the west door
+    assert max(p.pose.position.x for p in detour.poses) > 19.5  # round by the east entrance
+    ends = {
+        (round(p.poses[-1].pose.position.x, 2), round(p.poses[-1].pose.position.y, 2))
+        for p in plans
+    }
+    assert ends == {(17.0, 3.0)}
+    wait_until(lambda: sim.costmaps.last() is not None, 10.0, "the costmap")
+    door = sim.node.camera.world.floor.door_cells["mailroom_west_door"]
+    grid = np.asarray(sim.costmaps.last().data, np.int8).reshape(door.shape)
+    assert (grid[door] == 100).all()  # the door the robot saw closed
+
+
+def test_with_both_doors_closed_the_goal_aborts_with_no_valid_path(sim: Sim) -> None:
+    from rclpy.parameter import Parameter
+
+    closed = Parameter("doors.mailroom_east_entrance.closed", Parameter.Type.BOOL, True)
+    assert sim.node.set_parameters([closed])[0].successful
+    mailroom = sim.node.camera.world.map.locations["mailroom"]
+    outcome = sim.result(sim.send_goal(mailroom.x, mailroom.y), timeout_s=40.0)
     assert outcome.status == GoalStatus.STATUS_ABORTED
     assert outcome.result.error_code == 208  # ComputePathToPose NO_VALID_PATH
-    assert outcome.result.error_msg == "The mailroom door is closed."
-    short = sim.node.drive.state(time.monotonic()).pose
-    assert short.distance_to(mailroom.pose()) > 0.5  # stopped in front of the door
-    again = sim.result(sim.send_goal(mailroom.x, mailroom.y))
-    assert again.status == GoalStatus.STATUS_SUCCEEDED  # mode: once
+    assert "no valid path" in outcome.result.error_msg
+    stopped = sim.node.drive.state(time.monotonic()).pose
+    assert stopped.distance_to(mailroom.pose()) > 1.0  # outside the mailroom
+    opened = Parameter("doors.mailroom_east_entrance.closed", Parameter.Type.BOOL, False)
+    assert sim.node.set_parameters([opened])[0].successful
+    again = sim.result(sim.send_goal(mailroom.x, mailroom.y), timeout_s=40.0)
+    assert again.status == GoalStatus.STATUS_SUCCEEDED  # it sees the entrance open, goes in
 
 
 def test_goals_nav2_cannot_run_end_aborted_with_its_codes(sim: Sim) -> None:

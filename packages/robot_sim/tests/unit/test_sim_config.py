@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from robot_mcp_navigation.motion.base import Pose
@@ -69,10 +70,35 @@ def test_messages_carry_their_frames_and_the_image_its_bytes() -> None:
     assert (odom.header.frame_id, odom.child_frame_id, odom.twist.twist.linear.x) == (
         "odom", "base_link", pytest.approx(0.8),
     )  # fmt: skip
-    frame = StoredFrame("x", bytes(640 * 480 * 3))
+    frame = StoredFrame("x", bytes(640 * 480 * 3), 640, 480)
     image = messages.image(frame, messages.Time(sec=5), "camera_optical_frame")
     assert (image.encoding, image.step, image.width, image.height) == ("rgb8", 1920, 640, 480)
     assert len(image.data) == len(frame.data)
     duration = messages.seconds_to_duration(2.5)
     assert (duration.sec, duration.nanosec) == (2, 500_000_000)
     assert (stamp.sec, stamp.nanosec) == (0, 0)
+
+
+def test_the_map_the_plan_and_the_camera_info_are_nav2s_messages() -> None:
+    from robot_sim.floor.grid import Grid
+
+    cells = np.array([[0, 100, -1], [0, 0, 100]], np.int8)
+    grid = messages.occupancy_grid(Grid(cells, 0.05, (-2.5, -6.5)), messages.Time(sec=5))
+    assert (grid.header.frame_id, grid.info.width, grid.info.height) == ("map", 3, 2)
+    assert (grid.info.origin.position.x, grid.info.resolution) == (-2.5, pytest.approx(0.05))
+    assert list(grid.data) == [0, 100, -1, 0, 0, 100]
+    path = messages.path([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], messages.Time(sec=5))
+    assert path.header.frame_id == "map"
+    assert len(path.poses) == 3
+    yaws = [messages.quaternion_to_yaw(p.pose.orientation) for p in path.poses]
+    assert yaws == pytest.approx([0.0, math.pi / 2, math.pi / 2])
+    assert messages.path([], messages.Time(sec=5)).poses == []
+    info = messages.camera_info(640, 480, 400.0, 400.0, 320.0, 240.0, messages.Time(), "cam")
+    assert (info.k[0], info.k[2], info.k[5], info.distortion_model) == (
+        400.0,
+        320.0,
+        240.0,
+        "plumb_bob",
+    )
+    depth = messages.depth_image(np.ones((2, 3), np.float32), messages.Time(), "cam")
+    assert (depth.encoding, depth.step, len(depth.data)) == ("32FC1", 12, 24)

@@ -22,8 +22,8 @@ from typing import Any
 import httpx
 import socketio
 from mcp import Client
-from mcp.client.sse import sse_client
 
+from robot_stack_testing.mcp_auth import mcp_transport
 from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
 from robot_stack_testing.waiting import async_wait_until
 
@@ -41,7 +41,8 @@ tags: [mailroom, package, fetch]
 2. instantiate_skill(find_object, query = the package), then perception.wait_for_result
 3. stop_skill when done, tell the user
 ## Pitfalls & fixes
-- The mailroom door may be closed (DOOR_CLOSED): use the east entrance via corridor_b.
+- The mailroom's west door may be closed: the robot goes round by the east entrance itself;
+  if both are closed (NO_PATH), ask someone to open a door.
 ## Operator notes
 - none
 """
@@ -63,10 +64,16 @@ def stack_env(secret: str) -> dict[str, str]:
 
 
 async def call_mcp(
-    url: str, tool: str, arguments: Mapping[str, Any], timeout_s: float = 20.0
+    url: str,
+    tool: str,
+    arguments: Mapping[str, Any],
+    timeout_s: float = 20.0,
+    *,
+    token: str | None = None,
 ) -> Any:
-    """One MCP tool call over SSE; the decoded JSON answer (``{"_error": ...}`` if it failed)."""
-    async with asyncio.timeout(timeout_s), Client(sse_client(url)) as client:
+    """One MCP tool call (``…/sse``: SSE, else streamable-http) presenting ``token``, the
+    server's credential; the decoded JSON answer (``{"_error": ...}`` if it failed)."""
+    async with asyncio.timeout(timeout_s), Client(mcp_transport(url, token)) as client:
         result = await client.call_tool(tool, dict(arguments))
     text = "".join(getattr(block, "text", "") for block in result.content)
     try:
@@ -99,6 +106,27 @@ class RunningStack:
         return f"http://127.0.0.1:{self.placeholders[f'{service}_port']}{path}"
 
     @property
+    def credentials(self) -> dict[str, str]:
+        """This run's MCP credential of each server (``deploy/local-stack.yaml``)."""
+        return self.services.credentials
+
+    def write_operator_credentials(self, path: Path) -> Path:
+        """The operators' credentials as install.sh writes ``operator.env`` (for smoke.sh)."""
+        lines = [
+            f"{name.upper()}_MCP_OPERATOR_TOKEN={token}\n"
+            for name, token in self.services.operator_credentials.items()
+        ]
+        path.write_text("".join(lines))
+        path.chmod(0o600)
+        return path
+
+    async def call(self, service: str, tool: str, arguments: Mapping[str, Any]) -> Any:
+        """One tool call to an MCP server of the stack over SSE, with its credential."""
+        return await call_mcp(
+            self.url(service, "/sse"), tool, arguments, token=self.credentials[service]
+        )
+
+    @property
     def brain_url(self) -> str:
         return self.url("brain")
 
@@ -123,7 +151,7 @@ def mailroom_stack(
 
 async def seed_memory(stack: RunningStack, markdown: str = MAILROOM_PROCESS) -> Any:
     """Store a process document, as a past teaching would have (spec 002 §8)."""
-    return await call_mcp(stack.url("memory", "/sse"), "save_process", {"markdown": markdown})
+    return await stack.call("memory", "save_process", {"markdown": markdown})
 
 
 @dataclass

@@ -4,6 +4,12 @@ Used by ``make demo`` and the cross-package end-to-end tests. Services start in 
 each one's readiness check (a TCP port, an HTTP 200, or a PID file naming the process — for
 a ROS node with no port) must pass before the next starts, so
 a broken service fails fast with its log tail instead of a hang further down.
+
+MCP credentials: for every name under the file's ``credentials:`` the runner draws two fresh
+tokens per run and expands ``{mcp_token_<name>}`` (the brain's: the server's
+``MCP_AUTH_TOKEN`` and the brain's ``<NAME>_MCP_TOKEN``) and ``{mcp_operator_token_<name>}``
+(an operator's tool's: the server's ``MCP_OPERATOR_TOKEN``); :attr:`LocalStack.credentials`
+and :attr:`LocalStack.operator_credentials` hand them to the test.
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from robot_stack_testing.mcp_auth import fresh_token
 from robot_stack_testing.ports import free_tcp_port, tcp_port_free, wait_for_tcp_port
 from robot_stack_testing.processes import LaunchedProcess, ProcessLauncher
 from robot_stack_testing.waiting import wait_until
@@ -66,6 +73,23 @@ def _defaults(document: dict[str, Any]) -> dict[str, str]:
     return {str(k): str(v) for k, v in (document.get("defaults") or {}).items()}
 
 
+def stack_credentials(path: Path) -> list[str]:
+    """The servers the file wants a per-run MCP credential for (its ``credentials:`` list)."""
+    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    return [str(name) for name in document.get("credentials") or []]
+
+
+def credential_placeholders(
+    credentials: Mapping[str, str], operator_credentials: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """``{mcp_token_<name>}`` for each credential, ``{mcp_operator_token_<name>}`` for each
+    operator's one."""
+    return {
+        **{f"mcp_token_{name}": token for name, token in credentials.items()},
+        **{f"mcp_operator_token_{n}": t for n, t in (operator_credentials or {}).items()},
+    }
+
+
 def port_placeholders(path: Path) -> list[str]:
     """The names of the ``*_port`` placeholders under ``defaults:``."""
     return [name for name in stack_defaults(path) if name.endswith("_port")]
@@ -91,7 +115,12 @@ def load_stack(
         placeholders[name] = (overrides or {}).get(name, value).format_map(substitutions)
 
     def expand(value: object) -> str:
-        return str(value).format_map(placeholders)
+        try:
+            return str(value).format_map(placeholders)
+        except KeyError as missing:
+            raise StackError(
+                f"{path}: no value for the placeholder {{{missing.args[0]}}}"
+            ) from None
 
     services = []
     for entry in document.get("services", []):
@@ -182,25 +211,36 @@ def local_stack(
     stack_file: Path | None = None,
     only: set[str] | None = None,
     overrides: Mapping[str, str] | None = None,
+    credentials: Mapping[str, str] | None = None,
 ) -> Iterator[LocalStack]:
     """Run the stack (or the services named in ``only``) until the block exits; refuses to
-    start (:class:`PortsBusyError`) when any of their ports is already held.
+    start (:class:`PortsBusyError`) when any of their ports is already held. ``credentials``
+    (server → token; default: a fresh one for each name the file lists) fill the
+    ``{mcp_token_<name>}`` placeholders.
 
     The yielded :class:`LocalStack` maps service names to their processes and can stop and
     restart one of them (same argv and environment)."""
     var_dir.mkdir(parents=True, exist_ok=True)
-    substitutions = {"python": sys.executable, "root": str(root), "var": str(var_dir)}
+    path = stack_file or root / "deploy" / "local-stack.yaml"
+    names = stack_credentials(path)
+    if credentials is None:
+        credentials = {name: fresh_token() for name in names}
+    operators = {name: fresh_token() for name in names}
+    substitutions = {
+        "python": sys.executable,
+        "root": str(root),
+        "var": str(var_dir),
+        **credential_placeholders(credentials, operators),
+    }
     services = [
         service
-        for service in load_stack(
-            stack_file or root / "deploy" / "local-stack.yaml", substitutions, overrides
-        )
+        for service in load_stack(path, substitutions, overrides)
         if only is None or service.name in only
     ]
     busy = busy_ports(services)
     if busy:
         raise PortsBusyError(busy)
-    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env))
+    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env), dict(credentials), operators)
     try:
         for service in services:
             stack.start(service)
@@ -212,11 +252,22 @@ def local_stack(
 class LocalStack(dict[str, LaunchedProcess]):
     """The running services by name (file order)."""
 
-    def __init__(self, launcher: ProcessLauncher, root: Path, env: dict[str, str]) -> None:
+    def __init__(
+        self,
+        launcher: ProcessLauncher,
+        root: Path,
+        env: dict[str, str],
+        credentials: dict[str, str] | None = None,
+        operator_credentials: dict[str, str] | None = None,
+    ) -> None:
         super().__init__()
         self.launcher = launcher
         self.root = root
         self.env = env
+        self.credentials = credentials or {}
+        """This run's MCP credential of each server for the brain."""
+        self.operator_credentials = operator_credentials or {}
+        """This run's MCP credential of each server for an operator's tool."""
         self.specs: dict[str, ServiceSpec] = {}
 
     def start(self, service: ServiceSpec) -> LaunchedProcess:

@@ -165,13 +165,19 @@ def _is_one_of(line: str, protocol: set[str]) -> bool:
         return False
 
 
-def inspector_tools_list(
-    argv: Sequence[str], env: Mapping[str, str], cwd: Path, timeout_s: float = 90.0
-) -> dict[str, Any]:
-    """``mcp-inspector --cli <argv> -e K=V ... --method tools/list``; its decoded answer.
+def run_inspector(
+    argv: Sequence[str],
+    env: Mapping[str, str],
+    cwd: Path,
+    method: str = "tools/list",
+    headers: Mapping[str, str] | None = None,
+    timeout_s: float = 90.0,
+) -> subprocess.CompletedProcess[str]:
+    """``mcp-inspector --cli <argv> [-e K=V ...] [--header "K: V" ...] --method <method>``.
 
-    The inspector starts the server with only the variables passed as ``-e``.
-    """
+    ``argv`` is a server command (stdio: the inspector starts it with only the ``-e``
+    variables) or an ``http(s)://…/sse`` / ``…/mcp`` URL, reached with ``headers`` (e.g. the
+    server's credential: ``{"Authorization": "Bearer <token>"}``)."""
     if not INSPECTOR_BIN.is_file():
         raise AssertionError(
             f"{INSPECTOR_BIN} is missing: run `make setup` (npm ci in tools/mcp-inspector)"
@@ -179,8 +185,10 @@ def inspector_tools_list(
     command = [str(INSPECTOR_BIN), "--cli", *argv]
     for key, value in env.items():
         command += ["-e", f"{key}={value}"]
-    command += ["--method", "tools/list"]
-    done = subprocess.run(  # noqa: S603 - argv list, no shell
+    for name, value in (headers or {}).items():
+        command += ["--header", f"{name}: {value}"]
+    command += ["--method", method]
+    return subprocess.run(  # noqa: S603 - argv list, no shell
         command,
         capture_output=True,
         text=True,
@@ -189,6 +197,17 @@ def inspector_tools_list(
         timeout=timeout_s,
         check=False,
     )
+
+
+def inspector_tools_list(
+    argv: Sequence[str],
+    env: Mapping[str, str],
+    cwd: Path,
+    timeout_s: float = 90.0,
+    headers: Mapping[str, str] | None = None,
+) -> dict[str, Any]:
+    """The decoded answer of :func:`run_inspector`'s ``tools/list`` (fails when it fails)."""
+    done = run_inspector(argv, env, cwd, headers=headers, timeout_s=timeout_s)
     if done.returncode != 0:
         raise AssertionError(f"the inspector failed ({done.returncode}):\n{done.stderr[-3000:]}")
     answer: dict[str, Any] = json.loads(done.stdout)

@@ -14,9 +14,11 @@ from robot_stack_testing.stack import (
     PortsBusyError,
     StackError,
     busy_ports,
+    credential_placeholders,
     free_port_overrides,
     load_stack,
     local_stack,
+    stack_credentials,
     stack_defaults,
 )
 
@@ -116,9 +118,12 @@ def test_a_service_that_never_gets_ready_times_out_with_its_log(tmp_path: Path) 
 
 def test_the_repository_stack_file_names_every_server() -> None:
     root = Path(__file__).resolve().parents[4]
-    services = load_stack(
-        root / "deploy" / "local-stack.yaml", {"python": sys.executable, "root": "/r", "var": "/v"}
-    )
+    path = root / "deploy" / "local-stack.yaml"
+    with pytest.raises(StackError, match="no value for the placeholder"):
+        load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v"})
+    names = stack_credentials(path)
+    tokens = credential_placeholders(dict.fromkeys(names, "t"), dict.fromkeys(names, "o"))
+    services = load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v", **tokens})
     assert [s.name for s in services] == [
         "robot_sim",
         "vision_node",
@@ -244,3 +249,41 @@ def test_a_pid_file_service_is_ready_when_the_file_names_its_own_pid(tmp_path: P
     )
     with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack) as running:
         assert pid_file.read_text() == str(running["node"].pid)
+
+
+def test_each_listed_server_gets_a_fresh_credential_per_run_on_both_sides(tmp_path: Path) -> None:
+    echo_env = (
+        "import os, sys, time; print(os.environ['MCP_AUTH_TOKEN'], flush=True); time.sleep(60)"
+    )
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "credentials: [web]\n"
+        "services:\n"
+        f'  - name: web\n    argv: ["{{python}}", "-c", {echo_env!r}]\n'
+        '    env: {MCP_AUTH_TOKEN: "{mcp_token_web}", BRAIN_SIDE: "{mcp_token_web}"}\n',
+    )
+    with local_stack(tmp_path, tmp_path / "a", {}, stack_file=stack) as first:
+        token = first.credentials["web"]
+        assert first.specs["web"].env == {"MCP_AUTH_TOKEN": token, "BRAIN_SIDE": token}
+        assert first.operator_credentials["web"] not in (token, "")
+    with local_stack(tmp_path, tmp_path / "b", {}, stack_file=stack) as second:
+        assert second.credentials["web"] != token
+    assert len(token) >= 32
+
+
+def test_the_shipped_stack_gives_every_mcp_server_and_the_brain_the_same_credential() -> None:
+    root = Path(__file__).resolve().parents[4]
+    path = root / "deploy" / "local-stack.yaml"
+    names = stack_credentials(path)
+    tokens = {name: f"token-of-{name}" for name in names}
+    operators = {name: f"operator-token-of-{name}" for name in names}
+    placeholders = credential_placeholders(tokens, operators)
+    substitutions = {"python": "py", "root": "r", "var": "v", **placeholders}
+    services = {s.name: s for s in load_stack(path, substitutions)}
+    for name in names:
+        assert services[name].env["MCP_AUTH_TOKEN"] == tokens[name], name
+        assert services[name].env["MCP_OPERATOR_TOKEN"] == operators[name], name
+        assert services["brain"].env[f"{name.upper()}_MCP_TOKEN"] == tokens[name], name
+    assert not set(operators.values()) & set(services["brain"].env.values())
+    http_servers = {s for s, spec in services.items() if spec.env.get("MCP_TRANSPORT") == "sse"}
+    assert http_servers == set(names)  # no MCP server of the stack runs open

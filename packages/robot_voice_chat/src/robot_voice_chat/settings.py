@@ -66,6 +66,25 @@ class McpToolsConfig(BaseModel):
     # A robot refuses to start while a server that posts events has no secret (its events
     # would all be rejected with 401): every entry with an event_secret key must have a value.
     require_event_secrets: bool = False
+    # A robot never talks to a server over HTTP without that server's credential (the server
+    # would answer 401 anyway): every sse / streamable_http entry must have its auth_token.
+    require_mcp_credentials: bool = False
+
+    @model_validator(mode="after")
+    def _credentials_present(self) -> McpToolsConfig:
+        if self.require_mcp_credentials:
+            missing = self.servers_without_credential()
+            if missing:
+                raise ValueError(
+                    f"MCP servers without a credential: {', '.join(missing)}; set the "
+                    "variables their auth_token names in config/tools/mcp.yaml "
+                    "(e.g. NAVIGATION_MCP_TOKEN = that server's MCP_AUTH_TOKEN) in .env"
+                )
+        return self
+
+    def servers_without_credential(self) -> list[str]:
+        """HTTP servers the brain has no credential for (they will refuse it with 401)."""
+        return [s.name for s in self.servers if s.needs_credential and s.auth_token is None]
 
     @model_validator(mode="after")
     def _secrets_present(self) -> McpToolsConfig:

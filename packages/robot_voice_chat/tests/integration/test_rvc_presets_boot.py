@@ -26,6 +26,11 @@ KEYS = {
     "PERCEPTION_EVENT_SECRET": "dummy-perception-event-secret-of-32-bytes",
     "ADMIN_PASSWORD_HASH": hash_password("dummy operator password"),
     "ADMIN_SECRET_KEY": "dummy-session-signing-key-of-32-bytes",
+    # each MCP server's credential (install.sh writes them into brain.env)
+    **{
+        f"{server}_MCP_TOKEN": f"dummy-{server.lower()}-mcp-credential-of-32-bytes"
+        for server in ("NAVIGATION", "MEMORY", "EPISODIC", "SKILL_CONTROL", "PERCEPTION")
+    },
 }
 PLANNERS = {
     "dev": "rules",

@@ -12,6 +12,8 @@ export interface Detections {
   ts: number;
   mode: string | null;
   scene: string | null;
+  /** how old the scene description is (the describer runs at its own rate) */
+  scene_age_s?: number | null;
   detections: DetectionRow[];
 }
 

@@ -61,6 +61,15 @@ export function CameraView() {
         )}
       </div>
       <div className="px-3 py-2">
+        {detections?.scene && (
+          <p className="mb-2 text-sm" aria-label="Scene description">
+            <span className="text-xs font-semibold text-muted">Scene </span>
+            {detections.scene}
+            {detections.scene_age_s != null && detections.scene_age_s >= 2 && (
+              <span className="text-xs text-muted"> · {Math.round(detections.scene_age_s)} s ago</span>
+            )}
+          </p>
+        )}
         <h3 className="text-xs font-semibold text-muted">Detections</h3>
         {detections && detections.detections.length > 0 ? (
           <table className="mt-1 w-full text-xs">

@@ -2,18 +2,35 @@ import { render, screen, waitFor, within } from '@testing-library/react';
 import userEvent from '@testing-library/user-event';
 import { afterEach, describe, expect, it, vi } from 'vitest';
 import { localClock, type Sighting } from '@/features/history/api/history';
+import { useChatStore } from '@/stores/chatStore';
 import { useHistoryStore } from '@/stores/historyStore';
 import { MapView } from './MapView';
 
 const LOCATIONS = {
   map: 'office',
   locations: [
-    { name: 'dock', description: '', x: 0, y: 0 },
-    { name: 'kitchen', description: '', x: 6, y: 4 },
-    { name: 'mailroom', description: '', x: 9, y: -3 },
+    { name: 'dock', label: 'Charging dock', description: '', x: 0, y: 0 },
+    { name: 'kitchen', label: 'Kitchen', description: '', x: 6, y: 4 },
+    { name: 'mailroom', label: 'Mailroom', description: '', x: 9, y: -3 },
   ],
 };
 const POSE = { x: 0, y: 0, theta: 0, at_location: 'dock', moving: false, destination: null };
+const DRIVING = { ...POSE, x: 2, y: 1, at_location: null, moving: true, destination: 'mailroom' };
+// a 1×1 white PNG: the masks' content is the browser's business
+const PIXEL = 'iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAAAAAA6fptVAAAACklEQVR4nGP4DwABAQEAG7buVgAAAABJRU5ErkJggg==';
+const FLOOR = {
+  available: true,
+  resolution: 0.5,
+  origin: { x: -1, y: -4 },
+  width: 24,
+  height: 20,
+  bounds: { x0: -1, y0: -4, x1: 11, y1: 6 },
+  walls_png: PIXEL,
+  unknown_png: PIXEL,
+  blocked: [{ x0: 7, y0: -3.5, x1: 7.2, y1: -2.5 }],
+  version: 'v1',
+};
+const PLAN = { frame: 'map', points: [[2, 1], [5, 5], [9, -3]], destination: 'mailroom' };
 const parcel: Sighting = {
   id: 's-2',
   label: 'yellow package',
@@ -29,10 +46,11 @@ const parcel: Sighting = {
   count: 3,
 };
 
-function serveMap() {
+function serveMap(pose: object = POSE, floor: object = { available: false }) {
+  const answers: Record<string, object> = { locations: LOCATIONS, pose, floor, plan: PLAN };
   vi.stubGlobal(
     'fetch',
-    vi.fn(async (url: string) => new Response(JSON.stringify(url.endsWith('/locations') ? LOCATIONS : POSE), { status: 200 })),
+    vi.fn(async (url: string) => new Response(JSON.stringify(answers[url.split('/').pop() ?? ''] ?? {}), { status: 200 })),
   );
 }
 
@@ -80,13 +98,42 @@ describe('map: where the robot was when it saw something', () => {
   });
 });
 
+describe('map: the robot\'s own map', () => {
+  it('names places as people do and a click fills "Go to" with that name', async () => {
+    serveMap();
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    const kitchen = await within(map).findByRole('button', { name: 'Go to Kitchen' });
+    expect(map).not.toHaveTextContent('desk_alice');
+    expect(within(map).queryByRole('button', { name: 'Go to kitchen' })).toBeNull();
+    await userEvent.click(kitchen);
+    expect(useChatStore.getState().draft).toBe('Go to Kitchen');
+    await waitFor(() => expect(map).toHaveTextContent('At Charging dock'));
+  });
+
+  it('draws the floor plan, the way the robot saw blocked and the plan it follows', async () => {
+    serveMap(DRIVING, FLOOR);
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    await within(map).findByTestId('floor-plan');
+    expect(within(map).getAllByRole('img', { name: /Blocked/ })).toHaveLength(1);
+    const plan = await within(map).findByTestId('plan');
+    expect(plan).toHaveAttribute('data-points', '3');
+    expect(map).toHaveTextContent('Driving to Mailroom');
+    expect(within(map).getByTestId('robot')).toHaveAccessibleName('Robot at 2.0, 1.0 driving to Mailroom');
+  });
+
+  it('shows no plan while the robot stands', async () => {
+    serveMap(POSE, FLOOR);
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    await within(map).findByTestId('floor-plan');
+    expect(within(map).queryByTestId('plan')).toBeNull();
+  });
+});
+
 describe('map: a robot base that is lost or came back', () => {
-  function servePose(pose: object) {
-    vi.stubGlobal(
-      'fetch',
-      vi.fn(async (url: string) => new Response(JSON.stringify(url.endsWith('/locations') ? LOCATIONS : pose), { status: 200 })),
-    );
-  }
+  const servePose = (pose: object) => serveMap(pose);
 
   it('dims the marker and says the position is not live while the base sends none', async () => {
     servePose({ ...POSE, at_location: null, x: 3, stale: true, pose_note: 'no pose from the robot base since it stopped answering 4 s ago' });

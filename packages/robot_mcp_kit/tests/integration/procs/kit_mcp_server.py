@@ -11,6 +11,7 @@ import os
 
 from mcp.server.mcpserver import MCPServer
 
+from robot_mcp_kit.caller import current_caller
 from robot_mcp_kit.logging import configure_logging
 from robot_mcp_kit.mcp_runtime import reserve_stdout, run_server, tool_error
 
@@ -35,6 +36,11 @@ def build() -> MCPServer:
         """Returns its input."""
         native_print("in a tool")
         return text
+
+    @server.tool()
+    async def whoami() -> str:
+        """The principal the transport proved for this call."""
+        return current_caller().principal
 
     return server
 

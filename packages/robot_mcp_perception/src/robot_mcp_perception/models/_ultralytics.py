@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import PIL.Image
 
+from robot_mcp_perception.models import _torch_env
 from robot_mcp_perception.models.base import ModelUnavailableError
 
 INSTALL_HINT = (
@@ -17,11 +20,30 @@ INSTALL_HINT = (
 
 
 def import_ultralytics() -> Any:
-    """The ``ultralytics`` module, imported on first use; a clear error when it is absent."""
+    """The ``ultralytics`` module, imported on first use (offline, :mod:`._torch_env`); a
+    clear error when it is absent."""
+    if "ultralytics" not in sys.modules:
+        _torch_env.prepare()
     try:
-        return importlib.import_module("ultralytics")
+        module = importlib.import_module("ultralytics")
     except ImportError as exc:
         raise ModelUnavailableError(f"ultralytics is not installed; {INSTALL_HINT}") from exc
+    restore_pillow()
+    return module
+
+
+def restore_pillow() -> None:
+    """Put Pillow's own ``Image.open`` back after importing ultralytics.
+
+    ultralytics replaces ``PIL.Image.open`` process-wide (``ultralytics.utils.patches``) with
+    a wrapper that, on the first file Pillow cannot identify, installs ``pi-heif`` from the
+    network and imports it. The node reads its frames with Pillow: one corrupt frame would
+    then try a download at run time and, offline, end the frame thread with
+    ``ModuleNotFoundError`` instead of skipping the file."""
+    patches = sys.modules.get("ultralytics.utils.patches")
+    original = getattr(patches, "_image_open", None)
+    if original is not None and PIL.Image.open is not original:
+        PIL.Image.open = original
 
 
 def checked_weights(path: str, config_key: str, env_var: str) -> Path:
@@ -44,6 +66,8 @@ def to_numpy(value: Any) -> Any:
     """A torch tensor (or anything array-like) as a numpy array."""
     if hasattr(value, "detach"):
         value = value.detach()
+    if getattr(value, "is_floating_point", lambda: False)():
+        value = value.float()  # bf16 / fp16 results (numpy has no bfloat16)
     if hasattr(value, "cpu"):
         value = value.cpu()
     if hasattr(value, "numpy"):
@@ -51,7 +75,7 @@ def to_numpy(value: Any) -> Any:
     return np.asarray(value)
 
 
-def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
+def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int, half: bool = False) -> Any:
     """The prompt predictor of a loaded ``ultralytics.SAM``, set up on its weights.
 
     The class is the one the model's ``task_map`` names (SAM, SAM 2 or SAM 3 predictor) and the
@@ -69,6 +93,7 @@ def sam_predictor(model: Any, checkpoint: str, device: str, imgsz: int) -> Any:
             "conf": 0.25,
             "imgsz": imgsz,
             "device": device,
+            "quantize": 16 if half else None,  # ultralytics' half-precision model (CUDA)
             "save": False,
             "verbose": False,
         }

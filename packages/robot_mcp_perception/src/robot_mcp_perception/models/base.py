@@ -30,8 +30,26 @@ CostClass = Literal["local", "cloud"]
 TargetKind = Literal["object", "region"]
 
 
+FailureKind = Literal[
+    "network", "server_error", "quota", "timeout", "budget", "auth", "bad_answer", "error"
+]
+"""Why a model call failed. The first six say the model could not be reached or refused to
+serve (a cloud outage, :data:`OUTAGES`); ``bad_answer`` is an answer that could not be used."""
+
+OUTAGES: frozenset[str] = frozenset(
+    ("network", "server_error", "quota", "timeout", "budget", "auth")
+)
+"""Failures a grounder chain answers with its fallback (``models.chain``)."""
+
+
 class ModelError(Exception):
-    """A model call failed in a way the caller should log and survive (retry, stale result)."""
+    """A model call failed in a way the caller should log and survive (retry, stale result).
+
+    ``kind`` names the failure (:data:`FailureKind`); adapters set it where they know it."""
+
+    def __init__(self, message: str = "", kind: FailureKind = "error") -> None:
+        super().__init__(message)
+        self.kind: FailureKind = kind
 
 
 class ModelUnavailableError(ModelError):
@@ -74,6 +92,12 @@ class Grounder(ABC):
     """
 
     cost_class: CostClass = "local"
+    name: str = ""
+    """The adapter's name in results (``grounder`` in a result's ``extra``); set by the
+    composition root from the config (``name`` key, else the config group's choice)."""
+    composite: bool = False
+    """A grounder that delegates to others (``models.chain``): it charges their cloud requests
+    and notes who answered itself, instead of the pipeline doing it for it."""
 
     @property
     def worst_case_s(self) -> float | None:

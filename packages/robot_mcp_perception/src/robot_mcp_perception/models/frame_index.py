@@ -15,10 +15,12 @@ stored frame, and which window of it, is this image?":
 
 Frames added to the folder while the node runs are picked up (:meth:`FrameIndex.refresh`,
 called before every lookup): when the folder's modification time changed, annotation files
-not indexed yet are loaded. A producer (``robot-sim`` saves every frame it publishes there
-before publishing it) writes the image first and the JSON last, each by rename, so a JSON
-present means its image is complete. Only files directly in a watched folder change its
-mtime: new frames belong in the top folder, not in new subfolders.
+not indexed yet are loaded, and frames whose annotation file is gone are dropped (a producer
+that keeps a bounded folder — ``robot-sim`` renders a new frame whenever the robot moves and
+keeps the newest few dozen — bounds the index too). A producer writes the image first and the
+JSON last, each by rename, so a JSON present means its image is complete, and deletes the
+JSON first. Only files directly in a watched folder change its mtime: new frames belong in the
+top folder, not in new subfolders.
 """
 
 from __future__ import annotations
@@ -63,6 +65,8 @@ class AnnotatedFrame:
     search: FloatArray
     gray: Any
     """Full-resolution grayscale, for pixel-exact refinement of crop matches."""
+    annotation: Path | None = None
+    """The annotation file it was read from."""
 
 
 @dataclass(frozen=True)
@@ -130,6 +134,7 @@ def load_frame(json_path: Path) -> AnnotatedFrame:
         _thumb(gray),
         np.asarray(search, np.float32),
         gray,
+        json_path,
     )
 
 
@@ -180,6 +185,13 @@ class FrameIndex:
             if mtime_ns == self._mtime_ns:
                 return 0
             self._mtime_ns = mtime_ns
+            present = set(self.directory.rglob("*.json"))
+            gone = self._known - present
+            if gone:
+                self._known -= gone
+                kept = [f for f in self.frames if f.annotation not in gone]
+                self._last_hit = 0 if len(kept) != len(self.frames) else self._last_hit
+                self.frames = kept
             added = _load_new(self.directory, self._known, strict=False)
             self.frames = [*self.frames, *added]
             return len(added)
@@ -289,7 +301,7 @@ def _load_new(directory: Path, known: set[Path], strict: bool) -> list[Annotated
         try:
             frames.append(load_frame(json_path))
         except (OSError, ValueError, KeyError):
-            if strict:
+            if strict and json_path.exists():  # gone meanwhile: its producer deleted it
                 raise
             continue
         known.add(json_path)

@@ -37,6 +37,7 @@ from pydantic import SecretStr
 from robot_mcp_perception.models._checks import check_image
 from robot_mcp_perception.models.base import (
     CostClass,
+    FailureKind,
     GroundedTarget,
     Grounder,
     GroundingResult,
@@ -240,18 +241,21 @@ class GeminiERGrounder(Grounder):
                 code = int(getattr(exc, "code", 0) or 0)
                 if code in (401, 403) or "API_KEY_INVALID" in str(exc):
                     self._problem = f"Gemini refused the API key (HTTP {code})"
-                    raise ModelUnavailableError(self._problem) from exc
+                    raise ModelUnavailableError(self._problem, "auth") from exc
                 if code not in _RETRYABLE or attempt > self.retries:
                     raise ModelError(
-                        f"Gemini call failed (HTTP {code}): {exc.message or exc}"
+                        f"Gemini call failed (HTTP {code}): {exc.message or exc}",
+                        _http_failure(code),
                     ) from exc
                 reason = f"http_{code}"
             except _TRANSPORT_ERRORS as exc:
                 timed_out = isinstance(exc, TimeoutError) or "Timeout" in type(exc).__name__
                 if attempt > self.retries:
                     if timed_out:
-                        raise ModelError(f"Gemini call timed out after {self.timeout_s} s") from exc
-                    raise ModelError(f"Gemini unreachable: {exc}") from exc
+                        raise ModelError(
+                            f"Gemini call timed out after {self.timeout_s} s", "timeout"
+                        ) from exc
+                    raise ModelError(f"Gemini unreachable: {exc}", "network") from exc
                 reason = "timeout" if timed_out else "transport"
             delay = self.retry_backoff_s * 2 ** (attempt - 1)
             log.warning(
@@ -289,6 +293,17 @@ class GeminiERGrounder(Grounder):
                 )
             )
         return targets
+
+
+def _http_failure(code: int) -> FailureKind:
+    """The failure kind of an HTTP status Gemini answered (after the retries)."""
+    if code == 429:
+        return "quota"  # RESOURCE_EXHAUSTED: rate or quota
+    if code == 408:
+        return "timeout"
+    if code >= 500:
+        return "server_error"
+    return "error"
 
 
 def _scale(value: Any, size: int) -> int:

@@ -52,5 +52,6 @@ def charge_cloud_request(what: str) -> None:
     meter = _current.get()
     if meter is not None and not meter.charge():
         raise CloudBudgetExhaustedError(
-            f"{what} not sent: the cloud budget (cost.max_cloud_calls_per_min) is spent"
+            f"{what} not sent: the cloud budget (cost.max_cloud_calls_per_min) is spent",
+            "budget",
         )

@@ -17,17 +17,32 @@ the box → points fallback of ground_and_segment) decodes without encoding agai
 ultralytics drops masks scoring below ``conf`` and numbers the rest by prompt (``boxes.cls``);
 masks are matched to prompts by that number, and a prompt whose mask was dropped gets an
 empty mask (never a neighbour's).
+
+Speed settings (issue 30), chosen in config (:mod:`._sam_settings`, shared with the
+transformers segmenter :mod:`.hf_sam`):
+
+- ``imgsz``: the encoder's input size; ``null`` picks the model's native size (SAM 3: 1008,
+  SAM / SAM 2.x: 1024). A size that is not a multiple of the model's patch stride (SAM 3: 14,
+  others: 16) is refused at start-up — ultralytics would round it and warn on every call.
+- ``precision``: ``fp32``; ``bf16`` (autocast); ``fp16`` (ultralytics' own half-precision
+  model, CUDA only); ``auto`` (default): bf16 on CUDA, fp32 on the CPU. Masks keep their
+  shape and count whatever the precision.
+- ``tf32`` (default true): TensorFloat-32 for the fp32 parts on CUDA.
+- All boxes of a frame go to the decoder in one batch (above).
 """
 
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from robot_mcp_perception.models import _sam_settings
 from robot_mcp_perception.models._checks import check_image, check_points, clip_box
+from robot_mcp_perception.models._sam_settings import Precision
 from robot_mcp_perception.models._ultralytics import (
     checked_weights,
     frame_key,
@@ -46,22 +61,50 @@ from robot_mcp_perception.models.base import (
     SegmentPrompt,
 )
 
+NATIVE_IMGSZ = {"sam3": 1008, "sam": 1024}
+"""The encoder input size each model family was trained at (SAM 3: 72 × 14-px patches)."""
+PATCH_STRIDE = {"sam3": 14, "sam": 16}
+
+
+def model_family(checkpoint: str) -> str:
+    """``sam3`` for SAM 3 checkpoints (ultralytics tells them by the file name), else ``sam``."""
+    return "sam3" if "sam3" in Path(checkpoint).stem else "sam"
+
+
+def checked_imgsz(imgsz: int | None, checkpoint: str) -> int:
+    """The encoder input size: the model's native one by default; a size that is not a
+    multiple of the model's stride is refused (ultralytics would round it and warn per call)."""
+    family = model_family(checkpoint)
+    return _sam_settings.checked_imgsz(
+        imgsz, NATIVE_IMGSZ[family], PATCH_STRIDE[family], Path(checkpoint).name
+    )
+
 
 class SamSegmenter(Segmenter):
     cost_class: CostClass = "local"
 
-    def __init__(self, checkpoint: str, device: str = "cuda", imgsz: int = 1024) -> None:
+    def __init__(
+        self,
+        checkpoint: str,
+        device: str = "cuda",
+        imgsz: int | None = None,
+        precision: Precision = "auto",
+        tf32: bool = True,
+    ) -> None:
         weights = checked_weights(checkpoint, "segmenter.checkpoint", "SAM_CHECKPOINT")
+        self.imgsz = checked_imgsz(imgsz, str(weights))
+        self.precision: Precision = _sam_settings.resolved_precision(precision, device)
         ultralytics = import_ultralytics()
+        self.tf32 = _sam_settings.enable_tf32(tf32, device)
         self.checkpoint = str(weights)
         self.device = device
-        self.imgsz = imgsz
         self._encoded: bytes | None = None  # frame_key of the embedding the predictor holds
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sam")
+        half = self.precision == "fp16"  # ultralytics' own half model, not autocast
 
         def load() -> Any:
             model = ultralytics.SAM(self.checkpoint)
-            return sam_predictor(model, self.checkpoint, device, imgsz)
+            return sam_predictor(model, self.checkpoint, device, self.imgsz, half=half)
 
         try:
             self._predictor = self._pool.submit(load).result()
@@ -86,29 +129,26 @@ class SamSegmenter(Segmenter):
         height, width = check_image(image)
         if not prompts:
             return []
-        boxed = [i for i, p in enumerate(prompts) if p.box is not None]
-        pointed = [i for i, p in enumerate(prompts) if p.box is None]
-        boxes = [list(clip_box(prompts[i].box, width, height)) for i in boxed]  # type: ignore[arg-type]
-        lists = [
-            [list(pt) for pt in check_points(prompts[i].points, width, height)] for i in pointed
-        ]
-        most = max((len(pts) for pts in lists), default=0)
-        points = [pts + [pts[0]] * (most - len(pts)) for pts in lists]
-        labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in lists]
+        batches = _sam_settings.prompt_batches(prompts, width, height)
+        most = max((len(pts) for pts in batches.points), default=0)
+        points = [pts + [pts[0]] * (most - len(pts)) for pts in batches.points]
+        labels = [[1] * len(pts) + [-1] * (most - len(pts)) for pts in batches.points]
 
         decodes: list[tuple[list[int], dict[str, Any]]] = [
-            (boxed, {"bboxes": boxes}),
-            (pointed, {"points": points, "labels": labels}),
+            (batches.boxed, {"bboxes": [list(box) for box in batches.boxes]}),
+            (batches.pointed, {"points": points, "labels": labels}),
         ]
 
         def run() -> list[Mask]:
-            self._encode(image)
             masks: dict[int, Mask] = {}
-            for indices, prompt in decodes:
-                if indices:  # the prompt decoder only: the embedding is the frame's
-                    answer = self._predictor(**prompt)
-                    found = _masks_by_prompt(answer, len(indices), (height, width))
-                    masks.update(zip(indices, found, strict=True))
+            bf16: Precision = "bf16" if self.precision == "bf16" else "fp32"  # fp16: half model
+            with _sam_settings.autocast(bf16, self.device):
+                self._encode(image)
+                for indices, prompt in decodes:
+                    if indices:  # the prompt decoder only: the embedding is the frame's
+                        answer = self._predictor(**prompt)
+                        found = _masks_by_prompt(answer, len(indices), (height, width))
+                        masks.update(zip(indices, found, strict=True))
             return [masks[i] for i in range(len(prompts))]
 
         try:

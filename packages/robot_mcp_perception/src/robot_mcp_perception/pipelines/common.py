@@ -15,6 +15,7 @@ from typing import Any, TypeVar
 
 import structlog
 
+from robot_mcp_perception.models.answers import Answer, note
 from robot_mcp_perception.models.base import (
     Box,
     CostClass,
@@ -83,6 +84,9 @@ class SkillResult:
     """What the grounder said; the node caches it (prewarm, ground-once-segment-at-rate)."""
     timings_ms: dict[str, float] = field(default_factory=dict)
     """duration per stage, e.g. {"ground": 812.0, "segment": 21.4}."""
+    grounded_by: dict[str, Any] = field(default_factory=dict)
+    """Who answered the run's grounder calls (:func:`..models.answers.marks`), set by the
+    engine; empty when no grounder was called (a re-used grounding keeps its own)."""
 
 
 class SkillModeError(ValueError):
@@ -124,9 +128,11 @@ async def call_grounder(
 
     Grounder failures reach the node as :class:`ModelError` (it republishes the stale
     result): ModelError passes through, a timeout becomes ModelError. A cloud grounder's
-    request is charged to the run's meter first (refused: CloudBudgetExhaustedError).
+    request is charged to the run's meter first (refused: CloudBudgetExhaustedError), and
+    who answered is noted (:mod:`..models.answers`) — a composite grounder (the fallback
+    chain) does both itself.
     """
-    if grounder.cost_class == "cloud":
+    if grounder.cost_class == "cloud" and not grounder.composite:
         try:
             charge_cloud_request(f"{stage} request of skill {skill!r}")
         except ModelError:
@@ -134,9 +140,12 @@ async def call_grounder(
             raise
     with model_call(stage, skill, grounder.cost_class, timings):
         try:
-            return await call
+            answer = await call
         except TimeoutError as exc:
-            raise ModelError(f"{stage} call of skill {skill!r} timed out") from exc
+            raise ModelError(f"{stage} call of skill {skill!r} timed out", "timeout") from exc
+    if not grounder.composite:
+        note(Answer(grounder.name or type(grounder).__name__))
+    return answer
 
 
 async def call_segmenter(

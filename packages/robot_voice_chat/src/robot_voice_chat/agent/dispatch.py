@@ -13,6 +13,7 @@ import structlog
 
 from robot_mcp_kit.models import TaskEvent
 from robot_voice_chat.agent.output import MissionOutput
+from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
 from robot_voice_chat.agent.run import MissionRun
@@ -91,6 +92,7 @@ class TaskDispatcher:
         # tasks of missions a previous process life left live (closed at start-up)
         self.interrupted: set[str] = set()
         self.lost_servers: set[str] = set()  # servers the running mission was told are gone
+        self.fallback_notice = FallbackNotice()  # "I'm using the on-board detector", once
         self.latched = latched
         self.supervisor = supervisor
         self.stopped_orphans: set[tuple[str, str]] = set()  # (server, task) stopped while latched
@@ -158,6 +160,10 @@ class TaskDispatcher:
         logger.info(
             "tool_dispatched", tool=call.name, is_error=outcome.is_error, duration_ms=duration_ms
         )
+        if not outcome.is_error and (
+            notice := self.fallback_notice.sentence_for(call.name, outcome.text)
+        ):
+            await self.output.say(run, notice)
         info = None if outcome.is_error else parse_task_info(outcome.text)
         if info is not None:
             await self._register_task(run, call.name, step_id, info, sent_at)

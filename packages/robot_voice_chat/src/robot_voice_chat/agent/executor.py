@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import re
 import time
 from pathlib import Path
 
@@ -51,6 +52,8 @@ from robot_voice_chat.settings import AgentConfig
 from robot_voice_chat.socket_events import MissionFinished, MissionStarted
 
 logger = structlog.get_logger(__name__)
+# the answers to "Should I continue or abort?" that end a paused mission
+_ABORT = re.compile(r"\b(?:abort|cancel|give up|forget it|never ?mind|quit|no|nope|end it)\b")
 
 
 class MissionExecutor:
@@ -187,6 +190,11 @@ class MissionExecutor:
                 await self.output.log_line(run, "user_turn", text)
                 await self.output.say(run, answer)  # spoken: the person may be talking
                 return answer
+        held = self._held_by_latch(run, text)
+        if held is not None:
+            await self.output.log_line(run, "user_turn", text)
+            await self.output.say(run, held)
+            return held
         await self.output.log_line(run, "user_turn", text)
         self.trace.record(mission.id, "user_turn", text=text)
         run.awaiting_user = False
@@ -198,6 +206,22 @@ class MissionExecutor:
             f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
             f"message went to it.{stop_hint(self.supervisor)}"
         )
+
+    def _held_by_latch(self, run: MissionRun, text: str) -> str | None:
+        """While the software stop is latched a paused mission cannot go on: an answer other
+        than an abort (continue, carry on, yes) is answered here and not passed on (issue 32)."""
+        if not self.latch.latched or run.mission.state != "paused" or _ABORT.search(text.lower()):
+            return None
+        return (
+            f"{latched_sentence(self.latch.state)} Once it is cleared, say continue, or say "
+            "abort to end the mission."
+        )
+
+    def nothing_to_resume(self) -> str:
+        """ "continue" with no mission running: nothing to resume, and why (issue 32)."""
+        if self.latch.latched:
+            return f"{latched_sentence(self.latch.state)} There is no paused mission to continue."
+        return "There's nothing to continue: no mission is paused. Tell me what to do next."
 
     async def _awaiting_approval(self, request: PendingApproval, waiting: bool) -> None:
         """The mission shows ``awaiting_approval`` while one of its calls waits for a yes."""

@@ -203,7 +203,9 @@ class ApprovalBroker:
         if binding(tool, arguments, context.mission_id) != request.digest:
             logger.warning("approval_mismatch", approval_id=request.approval_id, tool=tool)
             return ApprovalAnswer(False, "its arguments changed after the approval")
-        return ApprovalAnswer(True, f"approved by {operator}")
+        return ApprovalAnswer(
+            True, f"approved by {operator}", approval_id=request.approval_id, operator=operator
+        )
 
     def resolve(
         self,

@@ -22,16 +22,19 @@ from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
+    ApprovedCall,
     ConnectionState,
     ElicitationHandler,
     McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
+    approved_call,
 )
 
 logger = structlog.get_logger(__name__)
-# tools of a motion server that stop or observe: never refused by the latch
+# tools of a motion server that stop or observe: never refused by the latch (with the
+# server's own ``read_tools`` from the brain's config; never what its annotations claim)
 TASK_READ_TOOLS = frozenset({"get_task", "list_tasks"})
 STOP_TOOLS = frozenset({"cancel_task"})
 
@@ -44,6 +47,8 @@ def refusal(code: str, detail: str, **extra: object) -> ToolOutcome:
 class ApprovalAnswer:
     approved: bool
     detail: str  # "approved by alice", "denied by bob: wrong room", "no answer within 60 s"
+    approval_id: str | None = None  # when approved: which approval, and who gave it
+    operator: str | None = None
 
 
 class ApprovalGate(Protocol):
@@ -84,15 +89,14 @@ class GuardedToolBackend(ToolBackend):
         return tool in STOP_TOOLS or (cfg is not None and tool == cfg.safety_stop_tool)
 
     def moves(self, name: str) -> bool:
-        """A call that can make the robot move: any tool of a motion server except those
-        that stop it or read from it."""
+        """A call that can make the robot move: any tool of a motion server except its stop
+        tools and the reads on the brain's own list (``read_tools`` + the task reads). A
+        motion server's annotations are not trusted here: ``readOnlyHint`` passes nothing."""
         server, _, tool = name.partition(".")
         cfg = self.inner.servers().get(server)
-        if cfg is None or not cfg.motion or self.is_stop_tool(name) or tool in TASK_READ_TOOLS:
+        if cfg is None or not cfg.motion or self.is_stop_tool(name):
             return False
-        definition = self.definition(name)
-        hints = definition.annotations if definition is not None else None
-        return not (hints or {}).get("readOnlyHint", False)
+        return tool not in TASK_READ_TOOLS and tool not in cfg.read_tools
 
     def definition(self, name: str) -> ToolDefinition | None:
         return next((t for t in self.inner.list_tools() if t.name == name), None)
@@ -155,6 +159,7 @@ class GuardedToolBackend(ToolBackend):
             )
             extra = {"bound": decision.bound} if decision.bound else {}
             return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
+        approval: ApprovedCall | None = None
         if decision.action == "confirm":
             answer = await self._ask(name, arguments, decision)
             if not answer.approved:
@@ -164,6 +169,10 @@ class GuardedToolBackend(ToolBackend):
             refused = self.latched_refusal(name)  # a stop may have come while we asked
             if refused is not None:
                 return refused
+            if answer.approval_id is not None:  # the server may ask for the proof
+                approval = ApprovedCall(
+                    name, dict(arguments), answer.approval_id, answer.operator or "operator"
+                )
         if self.supervisor is not None and self.moves(name):
             # right after a (re)connect the first lease may still be on its way: the server
             # refuses motion without one (NOT_SUPERVISED), so let it land first
@@ -171,7 +180,13 @@ class GuardedToolBackend(ToolBackend):
             refused = self.latched_refusal(name)
             if refused is not None:
                 return refused
-        return await self.inner.call_tool(name, arguments, timeout_s)
+        if approval is None:
+            return await self.inner.call_tool(name, arguments, timeout_s)
+        token = approved_call.set(approval)
+        try:
+            return await self.inner.call_tool(name, arguments, timeout_s)
+        finally:
+            approved_call.reset(token)
 
     async def _ask(
         self, name: str, arguments: dict[str, Any], decision: Decision

@@ -2,8 +2,9 @@
 
 Loaded from a versioned YAML file in the brain's config (version + sha256 digest logged and in
 readyz). A tool the file does not name gets its decision from its MCP annotations: read-only →
-allow; a motion server's tool or a destructive one → confirm; other annotated tools → allow;
-**no annotations → deny** (nothing unknown runs unasked).
+allow; a destructive one → confirm; other annotated tools → allow; **no annotations → deny**
+(nothing unknown runs unasked). A motion server is not trusted to describe itself: its unlisted
+tools are confirmed (denied without annotations) whatever ``readOnlyHint`` says (issue 27).
 """
 
 from __future__ import annotations
@@ -87,10 +88,10 @@ class Decision:
 def default_action(annotations: dict[str, Any] | None, motion_server: bool) -> tuple[Action, str]:
     if annotations is None:
         return "deny", "it is unknown to the policy and its server gives no annotations"
+    if motion_server:  # before readOnlyHint: a motion server's word does not loosen anything
+        return "confirm", "it belongs to a motion server and the policy does not name it"
     if annotations.get("readOnlyHint") is True:
         return "allow", "read-only (annotations)"
-    if motion_server:
-        return "confirm", "it belongs to a motion server"
     if annotations.get("destructiveHint", True):  # MCP default: destructive
         return "confirm", "its server marks it destructive"
     return "allow", "not destructive (annotations)"

@@ -202,6 +202,10 @@ class ChatPipeline:
         if call.name == "stop_mission":
             told = await self.stop("stop_mission (asked in chat)")
             return ToolResult(tool_call_id=call.id, content=told), None
+        if call.name == "resume_mission":  # no mission runs here: the turn would have gone to it
+            return ToolResult(
+                tool_call_id=call.id, content=self._executor.nothing_to_resume()
+            ), None
         if not self._fast_path_may_call(call.name):
             logger.warning("fast_path_motion_refused", tool=call.name)
             text = f"{call.name} moves the robot: call start_mission for physical tasks."

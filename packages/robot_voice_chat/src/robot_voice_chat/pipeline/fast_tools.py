@@ -22,4 +22,13 @@ STOP_MISSION = ToolDefinition(
     description="Call this when the user wants the robot to stop moving or stop its task.",
     parameters={"type": "object", "properties": {}},
 )
-FAST_LOCAL_TOOLS = [START_MISSION, STOP_MISSION]
+RESUME_MISSION = ToolDefinition(
+    name="resume_mission",
+    description=(
+        "Call this when the user says continue / carry on / go on / resume and no mission is "
+        "running: it answers whether there is anything to continue (or that a software stop is "
+        "latched and an operator must clear it). It never moves the robot."
+    ),
+    parameters={"type": "object", "properties": {}},
+)
+FAST_LOCAL_TOOLS = [START_MISSION, STOP_MISSION, RESUME_MISSION]

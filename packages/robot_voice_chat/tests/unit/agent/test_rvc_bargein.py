@@ -56,6 +56,7 @@ async def test_stop_word_cancels_motion_calls_safety_tool_pauses_and_asks(tmp_pa
     await asyncio.sleep(0.05)
     assert len(planner.requests) == requests_before  # stays suspended while paused
 
+    await h.latch.clear("operator", "checked")  # an operator clears the stop first
     await h.executor.on_user_turn("continue please")
     await h.executor.wait_idle(5)
     mission = h.executor.store.get(mission.id) or mission

@@ -107,4 +107,19 @@ async def test_a_delivery_to_an_unknown_place_is_asked_about_not_driven(tmp_path
     assert not o.tools.called("navigation.navigate_to")
     assert "I don't know a place called 'moon'" in mission.summary
     # what it offers to do instead leaves the unknown delivery out
-    assert "Shall I do just that (get the red mug from the kitchen)?" in mission.summary
+    assert "Do you want me to just get the red mug from the kitchen?" in mission.summary
+
+
+async def test_two_things_to_find_in_one_place_take_one_drive(tmp_path: Path) -> None:
+    """Issue 32: "look for the scissors and the red mug in the kitchen" drives there once and
+    looks twice."""
+    o = office(tmp_path)
+    starts = _record_where_each_drive_starts(o)
+    mission = await o.run("look for the scissors and the red mug in the kitchen")
+    assert mission.state == "succeeded", mission.summary
+    assert starts == [("dock", "kitchen")]
+    titles = [s.title for s in mission.steps]
+    assert titles.count("Drive to the kitchen") == 1
+    assert titles.count("Look for the scissors") == titles.count("Look for the red mug") == 1
+    assert mission.summary.startswith("I found the scissors in the kitchen")
+    assert "I found the red mug in the kitchen" in mission.summary

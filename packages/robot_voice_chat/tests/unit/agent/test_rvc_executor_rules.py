@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -138,6 +139,7 @@ async def test_stop_mid_drive_pauses_and_continue_drives_again(tmp_path: Path) -
     assert mission.state == "paused"
     assert o.tools.called("navigation.stop_navigation") == [{}]
     o.world.drive_s = 0.05
+    await o.executor.latch.clear("operator", "checked")  # an operator clears the stop first
     await o.executor.on_user_turn("continue")
     await o.executor.wait_idle(10)
     assert mission.state == "succeeded", mission.summary
@@ -391,3 +393,37 @@ async def test_a_running_vision_node_that_saw_nothing_still_says_so(tmp_path: Pa
     o.tools.add("skill_control.list_running_skills", lambda a: {"skills": []})
     mission = await o.run("find the scissors in the kitchen")
     assert mission.summary == "I couldn't see the scissors in the kitchen."
+
+
+@pytest.mark.parametrize(
+    ("reason", "why"),
+    [
+        ("network", "the cloud vision service is unreachable"),
+        ("budget", "my cloud vision budget is spent for now"),
+        ("something_new", "the vision model failed"),  # an unknown reason is not said raw
+    ],
+)
+async def test_a_find_that_cannot_see_says_so_and_never_that_the_thing_is_not_there(
+    tmp_path: Path, reason: str, why: str
+) -> None:
+    """Issue 30: the vision node could not look at all (no fallback grounder) — the buffer's
+    result carries cannot_see; the robot says it cannot see, in plain words."""
+    o = office(tmp_path)
+    answer = {"skill": "find_object", "detections": [], "stale": True,
+              "cannot_see": True, "cannot_see_reason": reason}  # fmt: skip
+    o.tools.add("perception.wait_for_result", lambda _args: answer, skill="string",
+                timeout_s="number")  # fmt: skip
+    mission = await o.run("find the stapler")
+    assert mission.state == "failed"
+    assert mission.summary == (
+        f"I can't see right now ({why}), so I don't know whether the stapler is there."
+    )
+    assert not _codes_ids_or_tool_names(mission.summary)
+    assert o.tools.called("skill_control.stop_skill")  # the skill is still stopped
+
+
+def _codes_ids_or_tool_names(said: str) -> list[str]:
+    """What the robot's words must not carry: snake_case ids and reasons, ERROR_CODES, dotted
+    tool names, task ids (nav-1a2b)."""
+    patterns = (r"\b\w+_\w+\b", r"\b[A-Z]{2,}\b", r"\b[a-z_]+\.[a-z_]+\b", r"\b[a-z]+-\w*\d\w*\b")
+    return [hit for pattern in patterns for hit in re.findall(pattern, said)]

@@ -23,14 +23,15 @@ PLAN = reply(
 WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
 
 
-async def test_a_stop_word_latches_and_motion_after_continue_is_refused_unsent(
+async def test_a_stop_word_latches_and_continue_is_answered_with_the_latch_not_sent_on(
     tmp_path: Path,
 ) -> None:
+    """Issue 32: "continue" while the stop is latched says an operator must clear it; the
+    mission stays paused (nothing is sent) and goes on once the stop is cleared."""
     again = reply("", ("navigation.navigate_to", {"step_id": "s1", "location": "mailroom"}))
-    finish = reply("", ("finish_mission", {"outcome": "failed", "summary": "Stopped."}))
-    planner = FakeLLM([PLAN, WAIT, again, finish])
+    planner = FakeLLM([PLAN, WAIT, again, WAIT])
     h = make_harness(tmp_path, planner, latch_store=FileLatchStore(tmp_path / "safety"))
-    await h.executor.start("drive to the mailroom")
+    mission = await h.executor.start("drive to the mailroom")
     await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
 
     await h.executor.on_user_turn("stop")
@@ -38,11 +39,34 @@ async def test_a_stop_word_latches_and_motion_after_continue_is_refused_unsent(
     assert h.latch.latched
     assert "stop" in (h.latch.state.reason or "")
     assert FileLatchStore(tmp_path / "safety").load().latched  # persisted before we return
-    await h.executor.on_user_turn("continue")  # the person answers; the latch still holds
-    await h.executor.wait_idle(5)
+    requests = len(planner.requests)
+    for said in ("continue", "carry on", "yes"):  # the person answers; the latch still holds
+        answer = await h.executor.on_user_turn(said)
+        assert "An operator must press Clear stop" in answer
+    assert mission.state == "paused"
+    assert len(planner.requests) == requests  # not passed on: no planner step
     assert len(h.tools.called("navigation.navigate_to")) == 1  # only the drive before the stop
-    answers = [r.content for m in planner.requests[-1][0] for r in m.tool_results]
-    assert any(json.loads(a).get("error") == SAFETY_STOP_LATCHED for a in answers if "{" in a)
+
+    await h.latch.clear("bob", "corridor checked")
+    await h.executor.on_user_turn("continue")
+    await async_wait_until(
+        lambda: len(h.tools.called("navigation.navigate_to")) == 2, 5, "drive after the clear"
+    )
+    await h.executor.shutdown()
+
+
+async def test_abort_while_latched_still_reaches_the_paused_mission(tmp_path: Path) -> None:
+    finish = reply("", ("finish_mission", {"outcome": "failed", "summary": "Aborted."}))
+    h = make_harness(tmp_path, FakeLLM([PLAN, WAIT, finish]))
+    mission = await h.executor.start("drive to the mailroom")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
+    await h.executor.on_user_turn("halt")
+
+    await h.executor.on_user_turn("abort")
+    await h.executor.wait_idle(5)
+
+    assert mission.state == "failed"
+    assert h.latch.latched  # aborting clears nothing
 
 
 async def test_stop_and_read_tools_still_pass_while_latched(tmp_path: Path) -> None:

@@ -120,6 +120,7 @@ def test_enabled_auth_without_usable_secrets_refuses_to_build(
         OperatorAuth.from_env(AuthConfig(enabled=True), secrets_)
 
 
+@pytest.mark.usefixtures("mcp_credentials")
 def test_robot_preset_enables_auth_and_needs_the_admin_secrets(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

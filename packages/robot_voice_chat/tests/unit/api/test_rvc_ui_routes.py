@@ -26,7 +26,11 @@ from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage, Mi
 JPEG = b"\xff\xd8\xff\xe0fake-jpeg"
 SCENE = {
     "mode": "warm",
-    "scene_description": {"skill": "describe", "value": "a shelf with a yellow package"},
+    "scene_description": {
+        "skill": "describe",
+        "value": "a shelf with a yellow package",
+        "age_s": 3.5,
+    },
     "skills": [
         {
             "skill": "find_object",
@@ -250,6 +254,7 @@ async def test_detections_flatten_the_perception_buffer(
     tools.add("perception.what_do_you_see", lambda a: SCENE)
     body = (await c.get("/api/camera/detections")).json()
     assert body["scene"] == "a shelf with a yellow package"
+    assert body["scene_age_s"] == 3.5
     assert body["detections"] == [
         {
             "label": "yellow package",
@@ -279,6 +284,46 @@ async def test_pose_and_locations_come_from_navigation(
     assert (await c.get("/api/map/pose")).json() == POSE
     assert (await c.get("/api/map/locations")).json()["map"] == "office"
     assert [name for name, _ in tools.calls] == ["navigation.get_pose", "navigation.list_locations"]
+
+
+async def test_places_carry_the_names_people_use_never_their_map_ids(
+    tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
+) -> None:
+    c, tools = tools_client
+    listed = [
+        {
+            "name": "desk_alice",
+            "description": "Alice's desk in the open-plan office.",
+            "x": 6,
+            "y": 8,
+        },
+        {
+            "name": "corridor_b",
+            "description": "East corridor; leads to the mailroom.",
+            "x": 1,
+            "y": 2,
+        },
+        {"name": "meeting_room", "description": 'Meeting room "Harbour".', "x": 3, "y": 4},
+        {"name": "lab_3", "description": "", "x": 0, "y": 0},
+    ]
+    tools.add("navigation.list_locations", lambda a: {"map": "office", "locations": listed})
+    body = (await c.get("/api/map/locations")).json()
+    labels = [loc["label"] for loc in body["locations"]]
+    assert labels == ["Alice's desk", "East corridor", "Meeting room Harbour", "Lab 3"]
+    assert body["locations"][0]["name"] == "desk_alice"  # ids stay for requests
+
+
+async def test_the_floor_plan_and_the_plan_come_from_navigations_map_tools(
+    tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
+) -> None:
+    c, tools = tools_client
+    floor = {"available": True, "walls_png": "iVBOR", "blocked": [], "bounds": {"x0": 0}}
+    tools.add("navigation.get_map", lambda a: floor)
+    tools.add("navigation.get_plan", lambda a: {"frame": "map", "points": [[0, 0], [1, 2]]})
+    assert (await c.get("/api/map/floor")).json() == floor
+    assert (await c.get("/api/map/plan")).json()["points"] == [[0, 0], [1, 2]]
+    tools.add("navigation.get_map", lambda a: ToolOutcome(text="down", is_error=True))
+    assert (await c.get("/api/map/floor")).status_code == 503
 
 
 @pytest.mark.parametrize(

@@ -89,8 +89,9 @@ def test_numbers_inside_the_range_pass_with_the_annotation_default(policy: ToolP
 @pytest.mark.parametrize(
     ("hints", "motion", "action"),
     [
-        (READ_ONLY, True, "allow"),
+        (READ_ONLY, True, "confirm"),  # a motion server is not trusted to describe itself
         (ADDS, True, "confirm"),  # a motion server's tool
+        (None, True, "deny"),
         ({"readOnlyHint": False, "destructiveHint": True}, False, "confirm"),
         ({"readOnlyHint": False}, False, "confirm"),  # MCP default: destructive
         (ADDS, False, "allow"),

@@ -51,6 +51,7 @@ async def test_dev_deployment_boots_without_keys_and_reports_servers_disconnecte
         assert "offline voice" in greeting["reply"]
 
 
+@pytest.mark.usefixtures("mcp_credentials")
 def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readiness(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -68,6 +69,27 @@ def test_episodic_memory_is_configured_in_every_preset_and_optional_for_readines
     assert not servers_ready({**states, "navigation": "disconnected"}, {"episodic"})
 
 
+def test_the_robot_preset_refuses_http_servers_it_has_no_credential_for(
+    monkeypatch: pytest.MonkeyPatch, mcp_credentials: dict[str, str]
+) -> None:
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):
+        monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
+    monkeypatch.delenv("NAVIGATION_MCP_TOKEN")
+    monkeypatch.setenv("EPISODIC_MCP_TOKEN", "")
+    with pytest.raises(ConfigError) as refused:
+        compose_config("robot")
+    assert "MCP servers without a credential: navigation, episodic" in str(refused.value)
+    assert mcp_credentials["MEMORY_MCP_TOKEN"] not in str(refused.value)
+    dev = {s.name: s for s in compose_config("dev").tools.servers}  # dev: the brain may go
+    assert dev["navigation"].auth_token is None  # without; the server then answers 401
+    assert dev["memory"].auth_token is not None
+    monkeypatch.setenv("EPISODIC_MCP_TOKEN", "too-short")
+    with pytest.raises(ConfigError, match="auth_token is 9 bytes") as short:
+        compose_config("robot")
+    assert "too-short" not in str(short.value)
+
+
+@pytest.mark.usefixtures("mcp_credentials")
 def test_robot_deployment_refuses_a_configured_planner_without_its_key(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -17,12 +17,15 @@ from robot_voice_chat.services.llm.understanding.scoring import (
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 DATA = Path(__file__).parent / "data"
+SPEECH_FLOOR = 0.93  # measured once at the end of issue 32 (56/60), never tuned on
 # the floors reached (issue 22); a change that lowers one is a regression. find: 20/24 until
 # issue 20 moved "where is the red mug" / "where's the green bottle" to answer:last_seen (the
 # last sighting, then an offer to look); the same 4 misses are 18/22
 FLOORS_A = {"answer": 1.0, "fetch": 0.92, "find": 0.81, "goto": 0.92, "greet": 1.0, "refuse": 0.94,
             "see": 0.9, "sequence": 1.0, "stop": 1.0, "watch": 0.9, "ask": 0.9}  # fmt: skip
-TOTAL_FLOOR = {"set_a.yaml": 0.92, "set_b.yaml": 0.77}
+TOTAL_FLOOR = {"set_a.yaml": 0.92, "set_b.yaml": 0.77,
+               # issue 32: the speech-style sets (set_speech is held out: never tuned on)
+               "set_speech_tuning.yaml": 0.95, "set_speech.yaml": SPEECH_FLOOR}  # fmt: skip
 
 
 def _reader(understanding: Understanding):  # type: ignore[no-untyped-def]
@@ -30,7 +33,7 @@ def _reader(understanding: Understanding):  # type: ignore[no-untyped-def]
     return lambda text: understanding.understand(text, places).code()
 
 
-@pytest.mark.parametrize("name", ["set_a.yaml", "set_b.yaml"])
+@pytest.mark.parametrize("name", sorted(TOTAL_FLOOR))
 def test_no_wrong_action_and_the_floor_is_kept(understanding: Understanding, name: str) -> None:
     items = load_set(DATA / name)
     result = score(items, _reader(understanding))
@@ -64,3 +67,10 @@ def test_wrong_action_definition() -> None:
     assert not is_wrong(["ask"], ["goto:kitchen"])
     assert not is_wrong(["watch:a person appears"], ["watch:person"])
     assert is_wrong(["find:mug@kitchen"], ["find:mug@mailroom"])
+
+
+def test_the_speech_set_was_written_before_and_the_grammar_alone_read_little_of_it() -> None:
+    items = load_set(DATA / "set_speech.yaml")
+    assert len(items) >= 40
+    before = score(items, grammar_reader)
+    assert before.understood / before.total < 0.4

@@ -56,9 +56,11 @@ async def detections(container: ContainerDep) -> dict[str, Any] | JSONResponse:
     except ToolUnavailableError as exc:
         return exc.response()
     description = scene.get("scene_description") or {}
+    described = isinstance(description, dict)
     return {
         "ts": time.time(),
         "mode": scene.get("mode"),
-        "scene": description.get("value") if isinstance(description, dict) else None,
+        "scene": description.get("value") if described else None,
+        "scene_age_s": description.get("age_s") if described else None,
         "detections": detection_rows(scene),
     }

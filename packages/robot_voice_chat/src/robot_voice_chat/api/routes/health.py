@@ -52,6 +52,8 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "vision": None if vision is None else {"state": vision.state, "detail": vision.detail},
             # these servers' events are refused (401) until they get a secret
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
+            # HTTP servers the brain has no credential for: they answer 401 (issue 27)
+            "servers_without_credential": container.config.tools.servers_without_credential(),
             "safety": container.executor.latch.state.model_dump(),
             "policy": container.policy_summary(),
             # the lease on every motion server (issue 27): fresh, unreachable, unsupported

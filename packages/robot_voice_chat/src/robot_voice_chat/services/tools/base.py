@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Awaitable, Callable
+from contextvars import ContextVar
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from pydantic import BaseModel, Field, SecretStr, field_validator
@@ -17,6 +19,21 @@ ElicitationAnswer = tuple[Literal["accept", "decline", "cancel"], dict[str, Any]
 # (server, message, requested JSON schema) → the person's answer: an MCP server's question
 ElicitationHandler = Callable[[str, str, dict[str, Any]], Awaitable[ElicitationAnswer]]
 MIN_EVENT_SECRET_BYTES = 32
+MIN_CREDENTIAL_BYTES = 32  # what the servers accept (robot_mcp_kit.service_auth)
+
+
+@dataclass(frozen=True)
+class ApprovedCall:
+    """An operator approved this exact call: the MCP backend tells the server (``_meta``)."""
+
+    tool: str  # server.tool
+    arguments: dict[str, Any]
+    approval_id: str
+    by: str
+
+
+# set by the guard around the one call an operator approved; read by the MCP backend
+approved_call: ContextVar[ApprovedCall | None] = ContextVar("approved_call", default=None)
 
 
 class McpServerConfig(BaseModel):
@@ -29,11 +46,37 @@ class McpServerConfig(BaseModel):
     args: list[str] = Field(default_factory=list)
     env: dict[str, str] = Field(default_factory=dict)
     event_secret: SecretStr | None = None
+    auth_token: SecretStr | None = None
+    """This server's credential (its ``MCP_AUTH_TOKEN``), sent as ``Authorization: Bearer``
+    on every HTTP request; empty = none (stdio needs none)."""
     motion: bool = False
     safety_stop_tool: str | None = None
+    read_tools: list[str] = Field(default_factory=list)
+    """A motion server's tools that only read: with the task contract's ``get_task`` /
+    ``list_tasks`` and its stop tools, the only ones that pass while the software stop is
+    latched. The brain's own list: what the server's annotations claim never counts
+    (issue 27 item 4)."""
     optional: bool = False
     """A server the stack may run without (e.g. ``episodic``): readiness does not wait for it;
     its tools are offered while it is connected."""
+
+    @field_validator("auth_token")
+    @classmethod
+    def _usable_credential(cls, token: SecretStr | None) -> SecretStr | None:
+        """Empty = no credential; anything else must be >= 32 bytes (the servers refuse less)."""
+        value = token.get_secret_value().strip() if token is not None else ""
+        if not value:
+            return None
+        if len(value.encode()) < MIN_CREDENTIAL_BYTES:
+            raise ValueError(
+                f"auth_token is {len(value.encode())} bytes; the server's MCP_AUTH_TOKEN has "
+                f"at least {MIN_CREDENTIAL_BYTES}"
+            )
+        return SecretStr(value)
+
+    @property
+    def needs_credential(self) -> bool:
+        return self.transport != "stdio"
 
     @field_validator("event_secret")
     @classmethod

@@ -5,6 +5,11 @@ the same task). It connects, lists tools, health-checks with ``list_tools`` and,
 connection fails or drops, retries every ``reconnect_interval_s`` — servers may start in any
 order and restart at any time. Every (re)connect runs the connect listeners (§5.4), every
 loss of a connected server the disconnect listeners (a mission told its server is gone).
+
+Over sse / streamable-http every request carries the server's credential
+(``Authorization: Bearer <auth_token>``); a refusal is logged ``mcp_server_unauthorized``
+naming the setting to fix. A call an operator approved carries that approval in its ``_meta``
+(``robot_mcp_kit.caller``), next to the mission id.
 """
 
 from __future__ import annotations
@@ -13,9 +18,10 @@ import asyncio
 import contextlib
 import json
 import time
-from contextlib import AsyncExitStack
+from collections.abc import AsyncIterator, Callable
+from contextlib import AsyncExitStack, asynccontextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import structlog
 from mcp import types
@@ -23,7 +29,10 @@ from mcp.client.session import ClientRequestContext, ClientSession
 from mcp.client.sse import sse_client
 from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp.client.streamable_http import streamable_http_client
+from mcp.shared._httpx_utils import create_mcp_http_client  # the SDK's own client defaults
+from mcp.types import RequestParamsMeta
 
+from robot_mcp_kit.caller import approval_meta
 from robot_mcp_kit.correlation import mission_meta
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
@@ -33,6 +42,7 @@ from robot_voice_chat.services.tools.base import (
     ServerListener,
     ToolBackend,
     ToolOutcome,
+    approved_call,
 )
 
 logger = structlog.get_logger(__name__)
@@ -46,6 +56,57 @@ class _Connection:
     tools: list[ToolDefinition] = field(default_factory=list)
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     task: asyncio.Task[None] | None = None
+    refused: bool = False  # the last attempt met a 401/403: a credential problem
+
+
+def call_meta(server: str, tool: str, arguments: dict[str, object]) -> RequestParamsMeta | None:
+    """The ``_meta`` of one ``tools/call``: the mission id (bound by the executor for its run)
+    and, when an operator approved exactly this call, the approval."""
+    meta: dict[str, Any] = dict(
+        mission_meta(structlog.contextvars.get_contextvars().get("mission_id")) or {}
+    )
+    approved = approved_call.get()
+    if (
+        approved is not None
+        and approved.tool == f"{server}.{tool}"
+        and approved.arguments == arguments
+    ):
+        meta.update(approval_meta(tool, arguments, approved.approval_id, approved.by))
+    return cast(RequestParamsMeta, meta) if meta else None
+
+
+def _headers(cfg: McpServerConfig) -> dict[str, str] | None:
+    token = cfg.auth_token
+    return {"Authorization": f"Bearer {token.get_secret_value()}"} if token is not None else None
+
+
+def _http_client_factory(conn: _Connection) -> Callable[..., Any]:
+    """The SDK's HTTP client, noting a 401/403 on ``conn`` (the transports report it as a
+    generic error, or not at all)."""
+
+    def make(headers: Any = None, timeout: Any = None, auth: Any = None) -> Any:
+        client = create_mcp_http_client(headers=headers, timeout=timeout, auth=auth)
+
+        async def note(response: Any) -> None:
+            if response.status_code in (401, 403):
+                conn.refused = True
+
+        client.event_hooks["response"].append(note)
+        return client
+
+    return make
+
+
+@asynccontextmanager
+async def _streamable_http(conn: _Connection) -> AsyncIterator[Any]:
+    cfg = conn.config
+    assert cfg.url is not None
+    make = _http_client_factory(conn)
+    async with (
+        make(headers=_headers(cfg)) as http,
+        streamable_http_client(cfg.url, http_client=http) as streams,
+    ):
+        yield streams
 
 
 def _result_text(result: Any) -> str:
@@ -139,8 +200,7 @@ class McpToolBackend(ToolBackend):
                     tool,
                     dict(arguments),
                     read_timeout_seconds=timeout,
-                    # the mission's correlation id, bound by the executor for its whole run
-                    meta=mission_meta(structlog.contextvars.get_contextvars().get("mission_id")),
+                    meta=call_meta(server, tool, arguments),
                 )
         except TimeoutError:
             outcome = ToolOutcome(
@@ -180,25 +240,31 @@ class McpToolBackend(ToolBackend):
             await asyncio.sleep(0.05)
 
     # --- supervisor ---------------------------------------------------------------------
-    def _transport(self, cfg: McpServerConfig) -> Any:
+    def _transport(self, conn: _Connection) -> Any:
+        cfg = conn.config
         if cfg.transport == "stdio":
             assert cfg.command is not None
             params = StdioServerParameters(command=cfg.command, args=cfg.args, env=cfg.env or None)
             return stdio_client(params)
         assert cfg.url is not None
         if cfg.transport == "sse":
-            return sse_client(cfg.url, timeout=self._connect_timeout_s)
-        return streamable_http_client(cfg.url)
+            return sse_client(
+                cfg.url,
+                headers=_headers(cfg),
+                timeout=self._connect_timeout_s,
+                httpx_client_factory=_http_client_factory(conn),
+            )
+        return _streamable_http(conn)
 
     async def _supervise(self, conn: _Connection) -> None:
         name = conn.config.name
         while not self._closing:
-            conn.state = "connecting"
+            conn.state, conn.refused = "connecting", False
             try:
                 async with AsyncExitStack() as stack:
                     # asyncio.timeout, not wait_for: anyio scopes must stay in this task.
                     async with asyncio.timeout(self._connect_timeout_s):
-                        read, write = await stack.enter_async_context(self._transport(conn.config))
+                        read, write = await stack.enter_async_context(self._transport(conn))
                         session = await stack.enter_async_context(
                             ClientSession(
                                 read, write, elicitation_callback=self._elicitation_callback(name)
@@ -226,7 +292,17 @@ class McpToolBackend(ToolBackend):
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
-                logger.warning("mcp_server_unavailable", server=name, error=_describe(exc))
+                error = _describe(exc)
+                if conn.refused:
+                    logger.warning(
+                        "mcp_server_unauthorized",
+                        server=name,
+                        error=error,
+                        detail=f"{name} refused the brain's credential: its auth_token in "
+                        "config/tools/mcp.yaml must equal that server's MCP_AUTH_TOKEN",
+                    )
+                else:
+                    logger.warning("mcp_server_unavailable", server=name, error=error)
             finally:
                 lost = conn.state == "connected"
                 conn.session, conn.state = None, "disconnected"

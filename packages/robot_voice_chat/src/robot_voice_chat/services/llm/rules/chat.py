@@ -23,6 +23,7 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     ToolResult,
 )
+from robot_voice_chat.services.llm.rules import answers
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
@@ -31,13 +32,13 @@ from robot_voice_chat.services.llm.rules.recollection import (
     names_of,
     recollection,
 )
+from robot_voice_chat.services.llm.understanding import saying
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
     Question,
     Reading,
     instruction_of,
-    spoken_of,
 )
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
@@ -52,6 +53,8 @@ from robot_voice_chat.services.llm.understanding.understand import Understanding
 LIST_LOCATIONS = "navigation.list_locations"
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
+RESUME = "resume_mission"  # the fast path's own tool: is there a paused mission, a latched stop
+_TOLD = ("time", "doing", "distance", "smalltalk", "thanks", "resume")  # issue 32's answers
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
@@ -86,6 +89,7 @@ class _Sent:
     purpose: str
     recall: Recall | None = None
     places: PlaceIndex | None = None
+    about: str | None = None  # the place a distance question is about
 
 
 class RulesChat(LLMProvider):
@@ -137,6 +141,8 @@ class RulesChat(LLMProvider):
             return self._reply(request, places, messages, names)
         if purpose == "pose":
             return LLMResponse(text=_where(result, names_of(sent.places)))
+        if purpose in ("doing", "distance", "resume"):
+            return LLMResponse(text=_told(sent, result))
         if purpose == "history":
             recall = sent.recall
             tool = recall.tool if recall else _tool_of(result, messages)
@@ -165,7 +171,7 @@ class RulesChat(LLMProvider):
         if reading is None:
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
-            said = spoken_of(reading.actions)
+            said = saying.plan(reading.actions, places)
             arguments = {"instruction": instruction_of(reading.actions), "ack": f"OK, I'll {said}."}
             return self._call("start_mission", arguments, "mission")
         if reading.kind == "ask" and reading.question is not None:
@@ -175,6 +181,8 @@ class RulesChat(LLMProvider):
             return self._call("stop_mission", {}, "stop")
         if reading.kind == "answer" and reading.recall is not None:
             return self._recall(reading.recall, places, names)
+        if reading.kind == "answer" and reading.topic in _TOLD:
+            return self._tell(reading, places, names)
         if reading.kind == "answer":
             return self._answer(reading.topic, places, names)
         if reading.kind == "greet":
@@ -209,6 +217,32 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
+    def _tell(self, reading: Reading, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
+        """The time, what I'm doing, how far a place is, small talk, thanks, continue: answered
+        from the clock, the pose and the place list, never by moving."""
+        topic = reading.topic
+        if topic == "time":
+            return LLMResponse(text=answers.clock_sentence(self._clock()))
+        if topic == "resume":
+            if RESUME in names:  # the brain knows whether a stop is latched
+                return self._call(RESUME, {}, "resume")
+            return LLMResponse(text=answers.NOTHING_TO_CONTINUE)
+        if topic == "doing":
+            if GET_POSE in names:
+                return self._call(GET_POSE, {}, "doing", places=places)
+            return LLMResponse(text=answers.doing_sentence(None, False, places))
+        if topic == "distance" and reading.about is not None and places is not None:
+            place = places.get(reading.about)
+            if place is not None and GET_POSE in names:
+                return self._call(GET_POSE, {}, "distance", places=places, about=place.name)
+            if place is not None:
+                return LLMResponse(text=answers.distance_sentence(place, None, False, places))
+        if topic == "distance" and not reading.text:
+            return LLMResponse(
+                text="I can't tell how far that is: the navigation server is not connected."
+            )
+        return LLMResponse(text=reading.text or "You're welcome.")
+
     def _recall(self, recall: Recall, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
         """A question about the past: one episodic call (never a motion)."""
         if recall.tool not in names:
@@ -240,10 +274,11 @@ class RulesChat(LLMProvider):
         purpose: str,
         recall: Recall | None = None,
         places: PlaceIndex | None = None,
+        about: str | None = None,
     ) -> LLMResponse:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
-        self._sent[call.id] = _Sent(purpose, recall, places)
+        self._sent[call.id] = _Sent(purpose, recall, places, about)
         while len(self._sent) > 64:  # answers that never came back
             self._sent.pop(next(iter(self._sent)))
         return LLMResponse(tool_calls=[call], stop_reason="tool_use")
@@ -262,6 +297,18 @@ def _asked(question: Question, messages: list[Message]) -> bool:
     """Our question is the conversation's last reply (or the pipeline keeps no history)."""
     replies = [m.content for m in messages if m.role == "assistant" and m.content]
     return not replies or replies[-1].strip().endswith(question.text)
+
+
+def _told(sent: _Sent, result: ToolResult) -> str:
+    """The answer to a doing / distance / continue question from its tool's result."""
+    if sent.purpose == "resume":
+        return result.content if not result.is_error else answers.NOTHING_TO_CONTINUE
+    if sent.purpose == "doing":
+        return answers.doing_sentence(result.content, result.is_error, sent.places)
+    place = sent.places.get(sent.about) if sent.places is not None and sent.about else None
+    if place is None:
+        return "I can't tell how far that is right now."
+    return answers.distance_sentence(place, result.content, result.is_error, sent.places)
 
 
 def _where(result: ToolResult, names: Names = by_id) -> str:
@@ -289,6 +336,7 @@ def _where(result: ToolResult, names: Names = by_id) -> str:
 _PURPOSE_OF_TOOL = {
     LIST_LOCATIONS: "places",
     GET_POSE: "pose",
+    RESUME: "resume",
     "start_mission": "mission",
     "stop_mission": "stop",
     WHAT_HAPPENED: "history",

@@ -244,9 +244,10 @@ class MissionProgram:
         """Every leg in order: drive to its place, look for its object, bring it on. All places
         are resolved before the first drive, so a request is never cut short halfway."""
         plan: list[tuple[Command, str | None, str | None, str | None]] = []
+        at: str | None = None  # where the legs before this one leave the robot
         for leg in self.legs:
             drive = look = deliver = None
-            if leg.place is not None:
+            if leg.place is not None and not _already_there(leg, at):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
                 drive = self.step_id(len(self.steps) + 1)
                 self.steps.append(_Step(drive, f"Drive to the {leg.place}", NAVIGATE))
@@ -264,6 +265,7 @@ class MissionProgram:
                 deliver = self.step_id(len(self.steps) + 1)
                 self.steps.append(_Step(deliver, f"Bring it to the {leg.to}", NAVIGATE))
             plan.append((leg, drive, look, deliver))
+            at = leg.to or leg.place or at
         self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
         names: dict[str, str] = {}
         spoken: Names = by_id
@@ -526,7 +528,14 @@ class MissionProgram:
             )
         if seen.is_error:
             return ""
-        return _labels(as_json(seen.content))
+        looked = as_json(seen.content)
+        if isinstance(looked, dict) and looked.get("cannot_see"):  # never "it isn't there"
+            raise _Finished(
+                "failed",
+                f"I can't see right now ({_cannot_see(looked.get('cannot_see_reason'))}), "
+                f"so I don't know whether the {obj} is there.",
+            )
+        return _labels(looked)
 
     def _vision_down(self) -> Steps:
         """After a wait with no result: is the vision node reachable at all? The reason if
@@ -668,6 +677,26 @@ class MissionProgram:
         if outcome.kind == "failed":
             raise _Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
         raise _Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _already_there(leg: Command, at: str | None) -> bool:
+    """A search in the place the leg before left the robot ("look for the scissors and a yellow
+    package in the mailroom"): no second drive there (issue 32)."""
+    return leg.obj is not None and leg.to is None and leg.place == at
+
+
+_CANNOT_SEE = {
+    "network": "the cloud vision service is unreachable",
+    "server_error": "the cloud vision service is failing",
+    "quota": "the cloud vision quota is used up",
+    "timeout": "the vision model did not answer in time",
+    "budget": "my cloud vision budget is spent for now",
+    "auth": "the cloud vision service refused my key",
+}
+
+
+def _cannot_see(reason: Any) -> str:
+    return _CANNOT_SEE.get(str(reason), "the vision model failed")
 
 
 def _labels(data: Any) -> str:

@@ -67,6 +67,7 @@ _FETCH = re.compile(
 )
 _DELIVER = re.compile(r"^(?:it|them|that|this|those)\s+(?:off\s+)?(?:to|at)\s+(?P<to>.+)$")
 _WATCH_TAIL = re.compile(r"\s+(?:appears?|shows?\s+up|turns?\s+up|is\s+visible|comes?\s+by)$")
+_THERE = re.compile(r"^(?:there(?:'s| is| are)|there)\s+")
 _FOR = re.compile(r"^.*?\s+for\s+(?P<obj>.+)$")
 
 
@@ -76,6 +77,7 @@ def find_slots(text: str, verbs: list[str]) -> tuple[str | None, str | None]:
     if match is not None:
         return strip_article(match["obj"]) or None, strip_article(match["place"])
     rest, _ = without_verb(text, verbs)
+    rest = _THERE.sub("", rest)  # "check if there's a package"
     match = _OBJ_IN.match(rest)
     if match is not None:
         return strip_article(match["obj"]) or None, strip_article(match["place"])

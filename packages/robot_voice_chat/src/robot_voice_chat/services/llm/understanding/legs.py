@@ -12,6 +12,8 @@ def legs_of(reading: Reading, text: str) -> tuple[list[Command], str | None]:
     if reading.kind == "act" and reading.actions:
         legs = [Command(a.kind, text, a.obj, a.place, a.to) for a in reading.actions]
         return legs, None
+    if reading.kind == "cancel" and reading.text:  # only what not to do (issue 32)
+        return [], reading.text
     if reading.kind == "ask" and reading.question is not None:
         return [], f"I won't act on a guess: {reading.question.text}"
     said = reading.text if reading.kind == "refuse" and reading.text else ""

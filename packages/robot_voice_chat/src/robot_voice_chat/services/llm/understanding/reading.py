@@ -98,12 +98,14 @@ class Reading:
     kind: ReadingKind
     actions: list[Action] = field(default_factory=list)
     question: Question | None = None
-    text: str = ""  # a refusal's sentence
-    topic: str = ""  # answer: where | places | abilities | history | greet | <site intent>
+    text: str = ""  # a refusal's sentence; an answer that needs no tool (small talk, thanks)
+    topic: str = ""  # answer: where | places | abilities | history | greet | distance | time |
+    # doing | smalltalk | thanks | resume | <site intent>
     recall: Recall | None = None  # topic history: the episodic call that answers it
     intent: str = ""
     score: float = 1.0
     stage: Literal["grammar", "semantic", "answer"] = "grammar"
+    about: str | None = None  # answer: the place a question is about (a map id)
 
     def code(self) -> list[str]:
         if self.kind == "act":

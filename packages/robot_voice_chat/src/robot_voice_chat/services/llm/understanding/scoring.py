@@ -17,31 +17,63 @@ from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.surface import Locations
 from robot_voice_chat.services.llm.understanding.places import words
 
-OFFICE_LOCATIONS = [
-    {"name": "dock", "description": "Charging dock next to the entrance.", "aliases": []},
+OFFICE_LOCATIONS = [  # as robot_mcp_navigation/config/maps/office.yaml (x, y in metres)
+    {
+        "name": "dock",
+        "x": 0.0,
+        "y": 0.0,
+        "description": "Charging dock next to the entrance.",
+        "aliases": [],
+    },
     {
         "name": "reception",
+        "x": 4.0,
+        "y": 1.5,
         "description": "Reception desk, usually staffed during office hours.",
         "aliases": ["front_desk", "reception_desk"],
     },
     {
         "name": "kitchen",
+        "x": 9.0,
+        "y": -3.0,
         "description": "Kitchen with the coffee machine and the fridge.",
         "aliases": [],
     },
     {
         "name": "corridor_b",
+        "x": 14.0,
+        "y": 6.0,
         "description": "East corridor; leads to the mailroom's east entrance.",
         "aliases": [],
     },
     {
         "name": "mailroom",
+        "x": 17.0,
+        "y": 3.0,
         "description": "Mailroom where parcels and letters are collected.",
         "aliases": ["mail_room", "post_room"],
     },
-    {"name": "desk_alice", "description": "Alice's desk in the open-plan office.", "aliases": []},
-    {"name": "desk_bob", "description": "Bob's desk in the open-plan office.", "aliases": []},
-    {"name": "meeting_room", "description": 'Meeting room "Harbour".', "aliases": []},
+    {
+        "name": "desk_alice",
+        "x": 6.0,
+        "y": 8.0,
+        "description": "Alice's desk in the open-plan office.",
+        "aliases": [],
+    },
+    {
+        "name": "desk_bob",
+        "x": 8.5,
+        "y": 8.0,
+        "description": "Bob's desk in the open-plan office.",
+        "aliases": [],
+    },
+    {
+        "name": "meeting_room",
+        "x": 11.0,
+        "y": 10.0,
+        "description": 'Meeting room "Harbour".',
+        "aliases": [],
+    },
 ]
 OFFICE_LIST_LOCATIONS = json.dumps({"map": "office", "locations": OFFICE_LOCATIONS})
 ACTING = ("goto:", "find:", "fetch:", "watch:", "see")

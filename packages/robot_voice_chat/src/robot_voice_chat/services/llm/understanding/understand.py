@@ -14,16 +14,25 @@ import structlog
 
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.understanding import clauses as cl
+from robot_voice_chat.services.llm.understanding import (
+    composites,
+    guards,
+    negation,
+    phrasing,
+    saying,
+    speech,
+)
 from robot_voice_chat.services.llm.understanding.embedder import Embedder, default_embedder
+from robot_voice_chat.services.llm.understanding.followup import follow_up
 from robot_voice_chat.services.llm.understanding.intents import load_intents
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, key
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, PlaceMatch, key
+from robot_voice_chat.services.llm.understanding.questions import read_question
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
     ActionKind,
     Question,
     Reading,
     _with,
-    spoken_of,
 )
 from robot_voice_chat.services.llm.understanding.recall import (
     default_recall,
@@ -37,19 +46,16 @@ NOT_READ_RECALL = (
     "you last see the mug?', 'what did you see 5 minutes ago?', 'what happened while I was "
     "away?' or 'where were you at 3 pm?'"
 )
-_CANCEL = re.compile(
-    r"^(?:never\s*mind|nevermind|cancel|forget\s+(?:it|that)|no|nope|no thanks|nothing|abort|"
-    r"don'?t|do nothing|stop|leave it)\b"
-)
-_YES = re.compile(
-    r"^(?:yes|yeah|yep|yup|sure|ok|okay|go ahead|do it|please do|correct|right|exactly|"
-    r"that's right|affirmative|please)\b"
-)
 _SEARCH_IN = re.compile(r"^(?:search|check|look\s+in|look\s+through)\s+.+?\s+for\s+.+$")
 # intents that read the same words: a verb of one and the meaning of the other agree
 _FAMILY = {"fetch": "carry", "deliver": "carry", "find": "find", "goto": "goto", "watch": "watch"}
-_ORDINALS = {"first": 0, "former": 0, "second": 1, "latter": -1, "third": 2, "last": -1}
 Status = Literal["ok", "ambiguous", "unknown_place", "missing", "unclear", "bare", "deliver"]
+# "put it on Q" / "leave it at Q" right after a fetch: where to bring it (the verbs of a
+# manipulation of its own are the manipulation layer's)
+_PUT_IT = re.compile(
+    r"^(?:put|place|leave|set|drop|put down|set down)\s+(?:it|them|that|this)\s+"
+    r"(?:down\s+|off\s+)?(?:on|onto|at|in|into|by|next to|over at|on top of)\s+(?P<to>.+)$"
+)
 
 
 @dataclass
@@ -64,6 +70,8 @@ class _Leg:
     slot: Literal["place", "obj", "to"] = "place"
     options: list[str] = field(default_factory=list)
     phrase: str = ""
+    more: bool = False  # another object of the search before it ("... and a yellow package")
+    near: bool = False  # the place was only spelled close to one on the map
 
 
 class Understanding:
@@ -107,6 +115,7 @@ class Understanding:
         return reading
 
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
+        text = speech.normalise(text, places.owners() if places is not None else ())
         recall = read_recall(text)  # a question about the past: answered, never acted on
         if (
             recall
@@ -120,25 +129,98 @@ class Understanding:
             return Reading("answer", topic="history", recall=recall, intent="history")
         if looks_like_recall(text):  # about the past, but not read: never an action from it
             return Reading("refuse", text=NOT_READ_RECALL, intent="history")
-        parts = cl.clauses(text)
+        said = negation.read(text, lambda phrase: guards.names_a_place(places, phrase))
+        negated = guards.negated_places(said.negated, places)
+        if said.only_negative:
+            return self._declined(said.refused, places)
+        if negation.still_negated(said.text):
+            return self._unclear(text)  # a "not" we could not place: nothing acted or proposed
+        if places is not None and negated:
+            places = places.excluding(negated)
+        body, rounds = composites.rounds(said.text)
+        parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
+        parts = [p for p in parts if p]
         if not parts:
             return self._unclear(text)
+        wholes = [body, cl.tidy(body), *(parts[:1] if len(parts) == 1 else [])]
+        for whole in dict.fromkeys(wholes):
+            asked = self._question(whole, places)  # "thanks, that's all" is one sentence
+            if asked is not None:
+                return asked
         if len(parts) == 1 and parse(parts[0]).kind == "unknown":
             single = self._non_action(parts[0])
             if single is not None:
                 return single
         legs: list[_Leg] = []
         for part in parts:
-            legs.append(self._delivery(part, legs, places) or self._leg(part, places))
-        return self._compose(text, legs, places)
+            legs.append(
+                self._delivery(part, legs, places)
+                or self._more_objects(part, legs, places)
+                or self._leg(part, places)
+            )
+        _share_place(legs)
+        reading = self._compose(text, legs, places)
+        return guards.respect(guards.repeated(reading, rounds, places), negated, places)
+
+    def _question(self, part: str, places: PlaceIndex | None) -> Reading | None:
+        """How far / which way to a place, the time, what the robot is doing, small talk,
+        thanks, continue: answered (never an offer to move)."""
+        asked = read_question(part)
+        if asked is None:
+            return None
+        reading = Reading("answer", topic=asked.topic, text=asked.reply, intent=asked.topic,
+                          stage="answer")  # fmt: skip
+        if asked.place is None:
+            return reading
+        match = places.resolve(asked.place) if places is not None else None
+        if match is None or not match.names:
+            if part.startswith("where"):  # "where is the mug": not a place, not this question
+                return None
+            return Reading("refuse", text=self._unknown_place(asked.place, places),
+                           intent="distance")  # fmt: skip
+        if not match.sure:
+            labels = " or ".join(saying.place_of(n, places) for n in match.names)
+            return replace(reading, text=f"Which place do you mean: {labels}?")
+        return replace(reading, about=match.names[0])
+
+    def _declined(self, refused: str, places: PlaceIndex | None) -> Reading:
+        """Only what not to do was said ("don't go to the kitchen"): nothing is done."""
+        leg = self._leg(phrasing.canonical(cl.tidy(refused)), places)
+        what = saying.plan([leg.action], places) if leg.status == "ok" and leg.action else ""
+        text = f"OK, I won't {what}." if what else "OK, I won't do that."
+        return Reading("cancel", text=text, intent="negated", stage="grammar")
+
+    def _more_objects(
+        self, part: str, before: list[_Leg], places: PlaceIndex | None
+    ) -> _Leg | None:
+        """ "look for the scissors and a yellow package": a part with no verb right after a
+        search is another object of that search."""
+        previous = before[-1] if before else None
+        if previous is None or previous.action is None or previous.action.kind != "find":
+            return None
+        if parse(part).kind != "unknown" or self._verb(part) is not None or _SEARCH_IN.match(part):
+            return None
+        if places is not None and places.only_place(part):
+            return None
+        if read_question(part) is not None:
+            return None
+        leg = self._leg(f"find {part}", places)
+        if leg.action is None or leg.action.kind != "find":
+            return None
+        leg.text, leg.more = part, True
+        return leg
 
     def _delivery(self, part: str, before: list[_Leg], places: PlaceIndex | None) -> _Leg | None:
         """ "bring it to Q" right after a fetch is that fetch's delivery (the verbs "bring",
         "take" also start a fetch: the pronoun after a fetch decides)."""
         previous = before[-1].action if before else None
-        if previous is None or previous.kind != "fetch" or previous.to is not None:
+        if previous is None or previous.to is not None:
             return None
+        if previous.kind != "fetch" and not (previous.kind == "find" and previous.place):
+            return None  # a search in a place, then "bring it to Q": get it from there
         to = cl.deliver_slot(part, self.intents.intents["deliver"].verbs)
+        put = _PUT_IT.match(part)
+        to = to or (cl.strip_article(put["to"]) if put is not None else None)
         if to is None:
             return None
         leg = _Leg(part, "deliver", Action("fetch", None, None, to), "deliver")
@@ -155,6 +237,8 @@ class Understanding:
         actions = [v for k, v in scores.items() if self.intents.intents[k].kind == "action"]
         if self._verb(part) is not None and score - max(actions, default=-1.0) < 0.1:
             return None
+        if intent == "resume" and self._verb(part) is not None:
+            return None  # "go" alone: a drive with no place, not "go on"
         if info.kind == "refuse":
             return replace(self._unclear(part), intent=intent, score=score, stage="semantic")
         if info.kind == "stop":
@@ -200,7 +284,11 @@ class Understanding:
         bare = cl.strip_article(re.sub(r"^(?:to|into|at)\s+", "", part))
         if places is not None and bare and places.only_place(bare):
             match = places.resolve(bare)
-            return _Leg(part, "bare", Action("goto", match.names[0]), "goto")
+            return _Leg(part, "bare", Action("goto", match.names[0]), "goto", near=match.near)
+        near = _near_bare(places, bare)
+        if near is not None:
+            return _Leg(part, "ambiguous", Action("goto", bare), "goto", options=near.names,
+                        phrase=bare, near=True)  # fmt: skip
         scores = self._scores(part)
         ranked = sorted(scores.items(), key=lambda kv: kv[1], reverse=True)
         (intent, s1), s2 = ranked[0], ranked[1][1]
@@ -218,7 +306,8 @@ class Understanding:
             sure = False  # an action with slots but no verb we know: say it back first
         info = self.intents.intents[intent]
         leg = _Leg(part, intent=intent, score=s1, sure=sure, stage="semantic")
-        if s1 < self.ask_threshold or info.kind != "action":
+        # a verb we know with a weak meaning is said back (asked), not refused
+        if (s1 < self.ask_threshold and verb is None) or info.kind != "action":
             leg.status = "unclear"
             return leg
         verbs = info.verbs
@@ -260,6 +349,7 @@ class Understanding:
             if not phrase:
                 continue
             match = places.resolve(phrase)
+            leg.near = leg.near or match.near
             if match.sure:
                 action = _with(action, slot, match.names[0])
                 continue
@@ -282,12 +372,12 @@ class Understanding:
             if leg.status == "deliver" or (
                 leg.status != "ok" and leg.slot == "to" and leg.intent == "deliver"
             ):
-                if previous is None or previous.kind != "fetch" or previous.to is not None:
+                if previous is None or not _brought_on(previous):
                     leg.status = "unclear"
                     problems.append((len(actions), leg))
                     continue
                 assert leg.action is not None
-                actions[-1] = replace(previous, to=leg.action.to)
+                actions[-1] = replace(previous, kind="fetch", to=leg.action.to)
                 if leg.status != "deliver":
                     problems.append((len(actions) - 1, leg))
                 continue
@@ -300,6 +390,10 @@ class Understanding:
                     and previous.kind == "goto"
                 ):
                     actions[-1] = replace(leg.action, place=previous.place)
+                elif leg.more and previous is not None and leg.action.place is None:
+                    actions.append(replace(leg.action, place=previous.place))
+                elif previous == leg.action and leg.action.kind in ("see", "goto"):
+                    pass  # "look around and tell me what you see": one look
                 else:
                     actions.append(leg.action)
                 if not leg.sure:
@@ -334,16 +428,20 @@ class Understanding:
         ]
         if len(problems) == 1:
             index, leg = problems[0]
+            if leg.status == "ambiguous" and leg.near and len(leg.options) == 1:
+                return Reading(
+                    "ask",
+                    question=saying.did_you_mean(actions, index, leg.slot, leg.options[0], places),
+                )
             if leg.status == "ambiguous":
                 return Reading("ask", question=self._choose(actions, index, leg, places))
             if leg.status == "missing":
                 return Reading("ask", question=self._fill(actions, index, leg, places))
             if leg.status == "ok":  # understood, but not surely: say it back
-                plan = spoken_of(actions)
-                return Reading(
-                    "ask",
-                    question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
-                )
+                if not _sayable(actions, places):
+                    return self._unclear(text)  # never a fragment of the words said back
+                question = Question(saying.confirm(actions, places), "confirm", actions)
+                return Reading("ask", question=question)
         if hard and len(problems) == len(hard) and len(hard) == 1 and not actions:
             _, leg = hard[0]
             if leg.status == "unknown_place":
@@ -358,19 +456,18 @@ class Understanding:
             for _, leg in hard
         )
         sure_actions = _known_only(actions, places)
-        plan = spoken_of(actions)
+        if not _sayable(actions, places):
+            return Reading("refuse", text=missed) if hard else self._unclear(text)
         if hard:
             if not sure_actions:
                 return Reading("refuse", text=missed)
-            sure = spoken_of(sure_actions)
-            question = (
-                f"I understood only part of that: {plan}. {missed} "
-                f"Shall I do just that ({sure})? (yes or no)"
+            partly = (
+                f"I understood only part of that. {missed} "
+                f"Do you want me to just {saying.plan(sure_actions, places)}? (yes or no)"
             )
-            return Reading("ask", question=Question(question, "confirm", sure_actions))
+            return Reading("ask", question=Question(partly, "confirm", sure_actions))
         return Reading(
-            "ask",
-            question=Question(f"Did you mean: {plan}? (yes or no)", "confirm", actions),
+            "ask", question=Question(saying.confirm(actions, places), "confirm", actions)
         )
 
     def _choose(
@@ -379,7 +476,7 @@ class Understanding:
         labels = [_label(n, places) for n in leg.options]
         listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
         what = f"'{leg.phrase}'" if leg.phrase else "that"
-        context = f" (to {spoken_of(actions)})" if len(actions) > 1 else ""
+        context = f" (to {saying.plan(actions, places)})" if len(actions) > 1 else ""
         return Question(
             f"Which place do you mean by {what}{context}: {listed}?",
             "choose",
@@ -429,30 +526,7 @@ class Understanding:
     ) -> Reading | None:
         """The request completed by ``answer``; a cancel; or None (not an answer: read it as a
         new request)."""
-        text = cl.tidy(cl.normalise(answer))
-        if _CANCEL.match(text):
-            return Reading("cancel", text="OK, never mind: I won't do anything.", stage="answer")
-        if question.mode == "confirm":
-            return Reading("act", question.actions, stage="answer") if _YES.match(text) else None
-        if question.mode == "choose":
-            picked = _ordinal(text, question.options)
-            if picked is None and places is not None:
-                match = places.resolve(cl.strip_article(text), among=question.options)
-                picked = match.names[0] if match.sure else None
-            if picked is None:
-                return None
-            return Reading("act", question.complete(picked), stage="answer")
-        if question.slot == "obj":
-            obj = cl.strip_article(text)
-            return Reading("act", question.complete(obj), stage="answer") if obj else None
-        if places is None:
-            return Reading("act", question.complete(cl.strip_article(text)), stage="answer")
-        match = places.resolve(cl.strip_article(re.sub(r"^(?:to|go to)\s+", "", text)))
-        return (
-            Reading("act", question.complete(match.names[0]), stage="answer")
-            if match.sure
-            else None
-        )
+        return follow_up(question, answer, places)
 
 
 def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action]:
@@ -468,33 +542,9 @@ def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action
     return kept
 
 
-def _ordinal(text: str, options: list[str]) -> str | None:
-    for word, index in _ORDINALS.items():
-        if re.search(rf"\b{word}\b", text) and -len(options) <= index < len(options):
-            return options[index]
-    return None
-
-
 def _label(name: str, places: PlaceIndex | None) -> str:
     place = places.get(name) if places else None
     return place.label() if place else name.replace("_", " ")
-
-
-def _has_verb(part: str, intents: dict[str, object]) -> bool:
-    first = key(part).split(" ", 1)[0]
-    return first in {
-        "go",
-        "drive",
-        "find",
-        "look",
-        "search",
-        "bring",
-        "fetch",
-        "get",
-        "take",
-        "watch",
-        "check",
-    }
 
 
 def _spells_a_place(places: PlaceIndex, phrase: str) -> bool:
@@ -502,3 +552,44 @@ def _spells_a_place(places: PlaceIndex, phrase: str) -> bool:
     description is not ("where is the charger?" asks for a thing, not the charging dock)."""
     wanted = key(phrase)
     return any(wanted in place.spellings() for place in places.places)
+
+
+def _sayable(actions: list[Action], places: PlaceIndex | None) -> bool:
+    """Every object reads as a thing (not a piece of the sentence, not a place's name)."""
+    return all(
+        saying.plausible(a.obj)
+        and not (a.obj and places is not None and _spells_a_place(places, a.obj))
+        for a in actions
+    )
+
+
+def _brought_on(action: Action) -> bool:
+    """Whether "bring it to Q" can follow ``action``: a fetch, or a search in a place."""
+    return action.to is None and (
+        action.kind == "fetch" or (action.kind == "find" and bool(action.place))
+    )
+
+
+def _near_bare(places: PlaceIndex | None, bare: str) -> PlaceMatch | None:
+    """A part that is only a place said a little wrong ("the reciption"), unsure: asked."""
+    if places is None or not bare or len(bare.split()) > 3:
+        return None
+    match = places.resolve(bare)
+    return match if match.near and match.names and not match.sure else None
+
+
+def _share_place(legs: list[_Leg]) -> None:
+    """ "look for a red mug and a blue box in the meeting room": the place said with the last
+    object of a search is the place of the objects before it."""
+    for i, leg in enumerate(legs):
+        if not leg.more or leg.action is None or leg.action.place is None:
+            continue
+        j = i - 1
+        while j >= 0:
+            before = legs[j]
+            if before.action is None or before.action.kind != "find" or before.action.place:
+                break
+            before.action = replace(before.action, place=leg.action.place)
+            if not before.more:
+                break
+            j -= 1

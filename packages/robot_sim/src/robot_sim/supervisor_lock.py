@@ -113,9 +113,9 @@ class SupervisorLockGate:
             if not held:
                 self._last_open = now
                 return
-            if not self._drive.state(now).driving:
-                return
             at = min(now, max(self._engaged_at(now), self._last_open))
+            if not self._drive.state(at).driving:  # (advancing the drive no further than at)
+                return
             state = self._drive.halt(at)
             logger.warning(
                 "base_held_by_supervisor_lock",

@@ -81,6 +81,11 @@ class Bench:
         self.http = httpx.AsyncClient(base_url=brain, timeout=30.0)
         self.turn = 0
 
+    async def nav(self, tool: str, arguments: dict[str, Any]) -> Any:
+        """navigation's tool as another local client: an operator's tool, own credential."""
+        token = self.services.operator_credentials["navigation"]
+        return await call_mcp(self.navigation, tool, arguments, token=token)
+
     async def supervised(self) -> bool:
         try:
             data = (await self.http.get("/api/readyz")).json()["data"]
@@ -99,7 +104,7 @@ class Bench:
         for _ in range(3 * len(PLACES)):
             place = PLACES[self.turn % len(PLACES)]
             self.turn += 1
-            answer = await call_mcp(self.navigation, "navigate_to", {"location": place})
+            answer = await self.nav("navigate_to", {"location": place})
             if "task_id" not in answer:  # busy, or the clear's lease not there yet
                 await asyncio.sleep(0.5)
                 continue
@@ -107,7 +112,7 @@ class Bench:
                 await async_wait_until(self.watch.moving, 5, "the robot driving", 0.02)
                 return
             except TimeoutError:  # already there: stop it and take the next place
-                await call_mcp(self.navigation, "stop_navigation", {})
+                await self.nav("stop_navigation", {})
         raise RuntimeError("no drive got the robot moving")
 
     async def halt_after(self, action: Callable[[], Awaitable[float]]) -> float:
@@ -147,12 +152,12 @@ class Bench:
     async def base_run(self) -> float:
         """kill -9 of robot-sim → the drive's task failed BASE_UNAVAILABLE (seconds)."""
         await self.drive()
-        running = await call_mcp(self.navigation, "list_tasks", {"states": ["running"]})
+        running = await self.nav("list_tasks", {"states": ["running"]})
         (task,) = running["tasks"]
         killed = self.kill9("robot_sim")
 
         async def lost() -> float | None:
-            info = await call_mcp(self.navigation, "get_task", {"task_id": task["task_id"]})
+            info = await self.nav("get_task", {"task_id": task["task_id"]})
             error = info.get("error") or {}
             return time.time() if error.get("error_code") == "BASE_UNAVAILABLE" else None
 

@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import Any
 
 from mcp import Client
-from mcp.client.sse import sse_client
 
 from robot_mcp_kit.supervision import Supervision
+from robot_stack_testing.mcp_auth import fresh_token, mcp_transport
 from robot_stack_testing.ports import free_tcp_port, wait_for_tcp_port
 from robot_stack_testing.processes import ProcessLauncher
 from robot_voice_chat.control.guard import GuardedToolBackend
@@ -40,6 +40,7 @@ from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 
 RESULTS = Path(__file__).with_name("results")
+TOKEN = fresh_token()  # the navigation server's credential (MCP_AUTH_TOKEN) for this run
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -58,7 +59,7 @@ def summary(values: list[float], unit: str = "ms") -> dict[str, Any]:
 
 async def get_pose_rtts(url: str, calls: int) -> list[float]:
     rtts = []
-    async with Client(sse_client(url)) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
         for _ in range(calls):
             started = time.perf_counter()
             await client.call_tool("get_pose", {})
@@ -67,7 +68,7 @@ async def get_pose_rtts(url: str, calls: int) -> list[float]:
 
 
 async def renew_forever(url: str, rtts: list[float]) -> None:
-    async with Client(sse_client(url)) as client:
+    async with Client(mcp_transport(url, TOKEN)) as client:
         while True:
             started = time.perf_counter()
             await client.call_tool("supervise", {"holder": "bench", "latched": False, "ttl_s": 0.8})
@@ -167,6 +168,7 @@ def main() -> None:
                 "NAV_OUTBOX": str(Path(tmp) / "outbox.sqlite3"),
                 "NAV_POSE_PATH": str(Path(tmp) / "pose.json"),
                 "LOG_LEVEL": "WARNING",
+                "MCP_AUTH_TOKEN": TOKEN,
             },
         )
         try:

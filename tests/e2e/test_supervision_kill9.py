@@ -53,6 +53,12 @@ class Stack:
     navigation: str
     watch: AmclWatch
 
+    async def nav(self, tool: str, arguments: dict[str, Any]) -> Any:
+        """navigation's tool as another local client would call it: an operator's tool with
+        its own credential (not the brain)."""
+        token = self.services.operator_credentials["navigation"]
+        return await call_mcp(self.navigation, tool, arguments, token=token)
+
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
@@ -180,7 +186,7 @@ async def test_navigation_killed_mid_drive_halts_the_robot_and_stop_says_what_is
 
     stack.services.start(stack.services.specs["navigation"])
     await async_wait_until(lambda: supervised(http), 60, "navigation back, supervised", 0.2)
-    refused = await call_mcp(stack.navigation, "navigate_to", {"location": "kitchen"})
+    refused = await stack.nav("navigate_to", {"location": "kitchen"})
     assert refused["_error"]["error"] == "SAFETY_STOP_LATCHED", refused
     assert stack.watch.halted_at() == halted  # another local client moved nothing
     await end_mission(http)
@@ -201,7 +207,7 @@ async def test_robot_sim_killed_mid_drive_is_a_lost_base_and_its_return_is_repor
     await async_wait_until(base_lost, 30, "the drive ended as a lost base", 0.1)
     ended = time.time()
     assert ended - killed <= LOST_BASE_WITHIN_S, f"reported {ended - killed:.2f} s after"
-    pose = await call_mcp(stack.navigation, "get_pose", {})
+    pose = await stack.nav("get_pose", {})
     assert pose["stale"] is True, pose
     assert pose["moving"] is False
     assert "stopped answering" in pose["pose_note"]
@@ -209,7 +215,7 @@ async def test_robot_sim_killed_mid_drive_is_a_lost_base_and_its_return_is_repor
     stack.services.start(stack.services.specs["robot_sim"])  # it starts again at the dock
 
     async def relocated() -> Any:
-        pose = await call_mcp(stack.navigation, "get_pose", {})
+        pose = await stack.nav("get_pose", {})
         return pose if pose.get("relocated") and not pose["stale"] else None
 
     pose = await async_wait_until(relocated, 60, "the base back, relocated", 0.5)

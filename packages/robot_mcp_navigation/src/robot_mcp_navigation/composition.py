@@ -51,6 +51,7 @@ class NavigationApp:
         the events."""
         started = time.monotonic()
         await self.events.start()
+        await self.base.cancel_stale_goals()  # before a lease can open the lock (issue 27)
         watchdog = None
         if self.supervision is not None:
             watchdog = asyncio.create_task(

@@ -31,6 +31,7 @@ class Rig:
     action: FakeNav2Action
     events: FakeEventSink
     navigator: Navigator
+    base: Nav2MotionBase
 
 
 def make_rig(**options: float) -> Rig:
@@ -45,7 +46,7 @@ def make_rig(**options: float) -> Rig:
         **options,
     )
     events = FakeEventSink()
-    return Rig(action, events, Navigator(parse_map(MAP), base, events, TaskTable()))
+    return Rig(action, events, Navigator(parse_map(MAP), base, events, TaskTable()), base)
 
 
 @pytest.fixture
@@ -131,3 +132,24 @@ def test_a_quiet_pose_topic_that_resumes_in_place_is_no_relocation() -> None:
     moved = watch.observe(Pose(0, 0), at=62.0)
     assert moved is not None
     assert moved.silent_s == pytest.approx(1.95)
+
+
+async def test_at_start_up_a_goal_an_earlier_life_left_at_the_base_is_cancelled() -> None:
+    """A killed navigation server's goal is still Nav2's: once the next lease opens the lock
+    the robot would drive on with no one supervising it."""
+    rig = make_rig()
+    stale = await rig.action.send_goal(Pose(10, 0), "map", lambda feedback: None, 1.0)
+
+    await rig.base.cancel_stale_goals()  # what the app does before it serves
+
+    assert rig.action.cancel_all_calls == 1
+    assert (await stale.outcome()).status == "canceled"
+
+
+async def test_start_up_without_a_nav2_up_cancels_nothing_and_goes_on() -> None:
+    rig = make_rig()
+    rig.action.available = False
+
+    await rig.base.cancel_stale_goals()
+
+    assert rig.action.cancel_all_calls == 1

@@ -53,6 +53,10 @@ class SimSettings(BaseModel):
     supervisor_lock_timeout_s: float = Field(
         default=0.5, gt=0.0, le=5.0, alias="SIM_SUPERVISOR_LOCK_TIMEOUT_S"
     )
+    # Nav2's movement_time_allowance: a goal whose base the lock holds this long is aborted
+    progress_timeout_s: float = Field(
+        default=10.0, gt=0.0, le=600.0, alias="SIM_PROGRESS_TIMEOUT_S"
+    )
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
         default="INFO", alias="LOG_LEVEL"
     )

@@ -84,6 +84,7 @@ class SimNode(Node):
                 self.navigator.wake,
             )
             self.navigator.held = self.lock.locked
+            self.navigator.progress_timeout_s = settings.progress_timeout_s
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)
         self._odom = self.create_publisher(Odometry, "/odom", 10)
         self._map = self.create_publisher(OccupancyGrid, MAP_TOPIC, LATCHED_QOS)

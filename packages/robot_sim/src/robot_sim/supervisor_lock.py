@@ -13,11 +13,13 @@ timeout running out), never earlier than a pose already published as open — so
 starved of CPU under load does not simulate wheels that kept turning while twist_mux held them.
 The pose timer enforces the lock before each ``/amcl_pose``.
 
-Nav2 does not learn of a twist_mux lock: its controller keeps computing commands, the robot
-does not move, its progress checker gives up after ``movement_time_allowance`` (10 s by default)
-and the NavigateToPose goal ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105).
-robot-sim reports the same code at once (it knows why the base stopped); a goal sent while
-locked is accepted and aborted the same way, as Nav2 would.
+Nav2 does not learn of a twist_mux lock: its controller keeps computing commands, the robot does
+not move, and the NavigateToPose goal stays active — it drives on if the lock opens again, and
+ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105) once the progress checker's
+``movement_time_allowance`` (10 s by default) ran out. robot-sim does the same
+(``nav2_server``, ``SIM_PROGRESS_TIMEOUT_S``); a goal sent while locked waits the same way. The
+motion servers cancel their own goals when supervision ends, so a goal resumes only after a
+brief lock its server never saw end (a starved host), never after a lapse or a latch.
 """
 
 from __future__ import annotations

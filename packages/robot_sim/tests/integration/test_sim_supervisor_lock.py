@@ -1,6 +1,7 @@
 """robot-sim honours the supervisor lock as a robot's twist_mux does (issue 27): never heard,
-``true`` or silent longer than the timeout = the base halts and the running goal ends
-ABORTED with FAILED_TO_MAKE_PROGRESS (105), what Nav2's controller reports."""
+``true`` or silent longer than the timeout = the base halts; the goal stays, as with Nav2, and
+drives on when the lock opens, or ends ABORTED with FAILED_TO_MAKE_PROGRESS (105) once the
+progress allowance (SIM_PROGRESS_TIMEOUT_S, here 1.5 s) ran out."""
 
 from __future__ import annotations
 
@@ -31,6 +32,7 @@ def settings(tmp_path: Path) -> SimSettings:
         SIM_SCENES_DIR=tmp_path / "scenes",
         SIM_TIME_SCALE=5.0,
         SIM_SUPERVISOR_LOCK=True,
+        SIM_PROGRESS_TIMEOUT_S=1.5,
     )
 
 

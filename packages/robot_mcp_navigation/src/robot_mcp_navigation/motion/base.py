@@ -147,3 +147,7 @@ class MotionBase(abc.ABC):
     def pose_status(self) -> PoseStatus:
         """Whether ``current_pose`` is live; a base that always knows its pose keeps this."""
         return PoseStatus()
+
+    async def cancel_stale_goals(self) -> None:  # noqa: B027 - optional hook
+        """At start-up, before any lease opens the lock: end goals an earlier life of this
+        server left running at the base (a base with nothing left over keeps the default)."""

@@ -56,6 +56,8 @@ logger = structlog.get_logger(__name__)
 
 BASE_UNAVAILABLE = "BASE_UNAVAILABLE"
 RELOCATION_SHOWN_S = 300.0
+STALE_GOALS_TIMEOUT_S = 3.0
+"""How long start-up looks for Nav2 to cancel stale goals (none up: nothing to cancel)."""
 """How long get_pose keeps reporting a relocation."""
 
 
@@ -177,6 +179,19 @@ class Nav2MotionBase(MotionBase):
         }
 
     # -- commands --------------------------------------------------------------------------
+
+    async def cancel_stale_goals(self) -> None:
+        """A goal the killed process before us sent is still Nav2's (an action server does not
+        drop a goal whose client died): once our lease opens the lock the robot would drive
+        on with no one supervising it. Cancel every goal at start-up, before the lock opens."""
+        started = time.monotonic()
+        timeout = min(self._server_timeout_s, STALE_GOALS_TIMEOUT_S)
+        canceled = await self._action.cancel_all(timeout)
+        logger.info(
+            "nav2_stale_goals_canceled" if canceled is not None else "nav2_stale_goals_unchecked",
+            canceled=canceled,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
 
     async def drive_to(self, goal: DriveGoal, on_progress: ProgressCallback) -> DriveResult:
         return await (await self.start_drive(goal, on_progress))

@@ -95,6 +95,7 @@ class FakeNav2Action(Nav2Action):
         self._pose: PoseSample | None = None
         self._continuity = PoseContinuity()
         self.goal_sent = asyncio.Event()
+        self.cancel_all_calls = 0
 
     async def send_goal(
         self,
@@ -125,6 +126,15 @@ class FakeNav2Action(Nav2Action):
 
     def last_relocation(self) -> Relocation | None:
         return self._continuity.relocation
+
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        self.cancel_all_calls += 1
+        if not self.available:
+            return None
+        running = [g for g in self.goals if not g.done]
+        for goal in running:
+            goal.cancel_by_server()
+        return len(running)
 
     def vanish(self) -> None:
         """The action server's process died: it answers nothing any more."""

@@ -88,6 +88,12 @@ class Nav2Action(abc.ABC):
     def latest_pose(self) -> PoseSample | None:
         """The last pose from the pose topic (``None`` before the first message)."""
 
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        """Ask the action server to cancel every goal it runs (the action protocol's
+        cancel-all: a zero goal id and stamp); how many it cancels, None if no server answered
+        within ``timeout_s``."""
+        return 0
+
     def last_relocation(self) -> Relocation | None:
         """The latest time the pose topic came back somewhere else after a silence
         (``pose_watch.PoseContinuity``); None if it never did."""

@@ -15,6 +15,7 @@ from typing import Any
 
 import structlog
 from action_msgs.msg import GoalStatus
+from action_msgs.srv import CancelGoal
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav2_msgs.action import NavigateToPose
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -117,6 +118,7 @@ class RclpyNav2Action(Nav2Action):
         self._bridge = bridge
         self._action_name = action_name
         self._client = bridge.create_action_client(NavigateToPose, action_name)
+        self._cancel_goals = bridge.create_client(CancelGoal, f"{action_name}/_action/cancel_goal")
         self._pose: PoseSample | None = None
         self._continuity = PoseContinuity()
         for qos in POSE_QOS:
@@ -136,6 +138,15 @@ class RclpyNav2Action(Nav2Action):
 
     def latest_pose(self) -> PoseSample | None:
         return self._pose
+
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        try:
+            response = await self._bridge.call_service(
+                self._cancel_goals, CancelGoal.Request(), timeout_s, wait_for_service_s=timeout_s
+            )
+        except (ServiceUnavailableError, ServiceTimeoutError):
+            return None
+        return len(response.goals_canceling)
 
     def last_relocation(self) -> Relocation | None:
         return self._continuity.relocation

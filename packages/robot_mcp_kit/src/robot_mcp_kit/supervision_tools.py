@@ -72,12 +72,20 @@ async def watch_supervision(
     end_motion: Callable[[str], Awaitable[object]],
     moving: Callable[[], bool],
     period_s: float = 0.05,
+    publish_lock: Callable[[], object] | None = None,
 ) -> None:
     """Until cancelled: every ``period_s``, end running motion (``end_motion(reason)``) while
     ``moving()`` and supervision refuses motion (the lease lapsed, or the stop is latched —
-    also a latch cleared again since the last look), and log each change of supervision."""
+    also a latch cleared again since the last look), and log each change of supervision.
+    ``publish_lock``: the lock publisher's ``publish``, called (thread-safe) whenever the lock's
+    value changes, so a lock timer held up by a busy ROS executor does not delay it; the wheels
+    are locked before the motion is cancelled."""
     last: tuple[bool, bool, str | None] | None = None
+    locked: bool | None = None
     while True:
+        if publish_lock is not None and supervision.locked() != locked:
+            locked = supervision.locked()
+            publish_lock()
         edge = supervision.poll()
         refused = supervision.refusal()
         status = supervision.status()

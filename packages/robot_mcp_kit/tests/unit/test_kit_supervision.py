@@ -193,3 +193,34 @@ async def test_the_watchdog_ends_motion_with_the_reason_when_the_lease_latches()
         watchdog.cancel()
 
     assert ended == ["the software stop was latched"]
+
+
+async def test_the_watchdog_publishes_the_lock_at_once_whenever_its_value_changes() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    published: list[bool] = []
+    changed = asyncio.Event()
+
+    def publish() -> None:
+        published.append(supervision.locked())
+        changed.set()
+
+    async def never(reason: str) -> None:
+        raise AssertionError("nothing moves here")
+
+    watchdog = asyncio.create_task(
+        watch_supervision(supervision, never, lambda: False, 0.01, publish_lock=publish)
+    )
+    try:
+        async with asyncio.timeout(5):
+            await changed.wait()  # the first look: locked (no lease yet)
+            changed.clear()
+            supervision.renew("brain-1", 0.8, latched=False)
+            await changed.wait()
+            changed.clear()
+            clock.now += 1.0  # lapsed
+            await changed.wait()
+    finally:
+        watchdog.cancel()
+
+    assert published == [True, False, True]

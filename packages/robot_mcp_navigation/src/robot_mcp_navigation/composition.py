@@ -44,6 +44,7 @@ class NavigationApp:
     server: MCPServer
     closers: list[Callable[[], None]] = field(default_factory=list)
     supervision: Supervision | None = None
+    publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[NavigationApp]:
@@ -56,7 +57,10 @@ class NavigationApp:
         if self.supervision is not None:
             watchdog = asyncio.create_task(
                 watch_supervision(
-                    self.supervision, self.navigator.stop, lambda: self.navigator.moving
+                    self.supervision,
+                    self.navigator.stop,
+                    lambda: self.navigator.moving,
+                    publish_lock=self.publish_lock,
                 ),
                 name="supervision",
             )
@@ -131,9 +135,10 @@ def build_motion_base(
 
 def build_nav2_action(
     settings: NavigationSettings, supervision: Supervision | None = None
-) -> tuple[Nav2Action, MapView, Callable[[], None]]:
+) -> tuple[Nav2Action, MapView, RosSide]:
     """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions — and,
-    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` — and how to close them.
+    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` — and the ROS side that
+    closes them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
     """
@@ -159,7 +164,7 @@ def build_nav2_action(
     except BaseException:
         bridge.close()
         raise
-    return action, view, RosSide(bridge, lock).close
+    return action, view, RosSide(bridge, lock)
 
 
 @dataclass
@@ -168,6 +173,10 @@ class RosSide:
 
     bridge: Any
     lock: Any = None
+
+    def publish_lock(self) -> None:
+        if self.lock is not None:
+            self.lock.publish()
 
     def close(self) -> None:
         if self.lock is not None:
@@ -190,13 +199,15 @@ def build_app(
         required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
     )
     view: MapView = map_view or NoMapView()
+    publish_lock = None
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
             # the lock only where it means something: a robot's twist_mux (or robot-sim)
             locking = supervision if supervision.required else None
-            nav2_action, view, close = build_nav2_action(settings, locking)
-            closers.append(close)
+            nav2_action, view, ros = build_nav2_action(settings, locking)
+            closers.append(ros.close)
+            publish_lock = ros.publish_lock
         base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
     navigator = Navigator(
@@ -221,4 +232,5 @@ def build_app(
         build_mcp_server(navigator, settings.log_level, confirmer, view),
         closers,
         supervision,
+        publish_lock,
     )

@@ -30,11 +30,18 @@ format: setup  ## apply ruff fixes and formatting
 	uv run --frozen ruff check --fix .
 	uv run --frozen ruff format .
 
-audit: setup  ## pip-audit of the locked dependencies (needs PyPI); fails if it could not look
+NPM_PROJECTS := frontend tools/mcp-inspector
+
+audit: setup  ## pip-audit + npm audit of the locked dependencies (needs the registries); fails if either could not look
 	uv export --frozen --all-packages --no-emit-workspace --no-hashes -o build/requirements-audit.txt
-	rm -f build/pip-audit.json
+	rm -f build/pip-audit.json build/npm-audit-*.json
 	-uv run --frozen pip-audit -r build/requirements-audit.txt --progress-spinner off --format json -o build/pip-audit.json
-	uv run --frozen python scripts/audit_gate.py build/pip-audit.json
+	-for p in $(NPM_PROJECTS); do n=$${p//\//-}; \
+	  (cd $$p && npm audit --package-lock-only --json >$(CURDIR)/build/npm-audit-$$n.json; \
+	   npm audit --package-lock-only --omit=dev --json >$(CURDIR)/build/npm-audit-$$n-runtime.json); done
+	pip=0; uv run --frozen python scripts/audit_gate.py build/pip-audit.json || pip=$$?; \
+	uv run --frozen python scripts/npm_audit_gate.py $(foreach p,$(NPM_PROJECTS),$(p)=build/npm-audit-$(subst /,-,$(p)).json:build/npm-audit-$(subst /,-,$(p))-runtime.json) \
+	  && exit $$pip
 
 bench: setup  ## run every benchmark; JSON results in benchmarks/results/
 	@ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 90 + 10))} bash scripts/run-benchmarks.sh

@@ -28,6 +28,7 @@ SERVICES=(
   "mcp-perception-buffer ros perception-buffer"
   "robot-mcp-memory memory"
   "robot-mcp-navigation ros navigation"
+  "robot-mcp-manipulation ros manipulation"
   "robot-mcp-episodic ros episodic"
   "robot-voice-chat brain"
 )
@@ -42,6 +43,7 @@ MCP_SERVERS=(
   "memory:MEMORY"
   "episodic:EPISODIC"
   "navigation:NAVIGATION"
+  "manipulation:MANIPULATION"
 )
 LEGACY_USER=robot  # every unit ran as this one user before 0.x; removed by --purge
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -167,12 +169,15 @@ write_env_files() {
   install -d -m 0700 "$ETC"
   chmod 0700 "$ETC"  # also when an older install made it 0750 root:robot
   system chown root:root "${ETC#"$DESTDIR"}"
-  # One HMAC secret per event-posting server (navigation, perception buffer), shared with the
-  # brain; generated once. skill_control posts no events.
-  local nav perc admin_key
+  # One HMAC secret per event-posting server (navigation, manipulation, perception buffer),
+  # shared with the brain; generated once. skill_control posts no events.
+  local nav perc manip admin_key
   nav="$(env_value NAV_EVENT_SECRET "$ETC/brain.env")"
   nav="${nav:-$(env_value RVC_EVENT_SECRET "$ETC/navigation.env")}"
   nav="${nav:-$(new_secret)}"
+  manip="$(env_value MANIP_EVENT_SECRET "$ETC/brain.env")"
+  manip="${manip:-$(env_value RVC_EVENT_SECRET "$ETC/manipulation.env")}"
+  manip="${manip:-$(new_secret)}"
   perc="$(env_value PERCEPTION_EVENT_SECRET "$ETC/brain.env")"
   perc="${perc:-$(env_value RVC_EVENT_SECRET "$ETC/perception-buffer.env")}"
   perc="${perc:-$(new_secret)}"
@@ -193,9 +198,13 @@ write_env_files() {
   env_file navigation "RVC_EVENT_SECRET=$nav" NAV_MOTION=nav2 NAV2_ACTION=/navigate_to_pose \
     NAV_POSE_TOPIC=/amcl_pose NAV_SUPERVISION=required NAV_LOCK_TOPIC=/robot/supervisor_lock \
     LOG_LEVEL=INFO
+  # The robot's arm: its Pick/Place action servers (robot_manipulation_interfaces).
+  env_file manipulation "RVC_EVENT_SECRET=$manip" MANIP_PICK_ACTION=/manipulation/pick \
+    MANIP_PLACE_ACTION=/manipulation/place MANIP_HELD_TOPIC=/manipulation/held LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
+    "MANIP_EVENT_SECRET=$manip" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local
@@ -256,6 +265,9 @@ install_units() {
     install -m 0644 "$OPT/deploy/$unit.service" "$SYSTEMD/$unit.service"
   done
   install -m 0644 "$OPT/deploy/$APP.target" "$SYSTEMD/$APP.target"
+  # the TLS proxy joins the brain's group: only it may connect to the brain's proxy socket
+  install -d -m 0755 "$SYSTEMD/caddy.service.d"
+  install -m 0644 "$OPT/deploy/caddy-robot-stack.conf" "$SYSTEMD/caddy.service.d/$APP.conf"
   system systemctl daemon-reload
   system systemctl enable "$APP.target" "${UNITS[@]/%/.service}"
   if ((start)); then
@@ -271,7 +283,8 @@ uninstall() {
     system systemctl disable --now "$APP.target" "${UNITS[@]/%/.service}"
   fi
   for unit in "${UNITS[@]}"; do rm -f "$SYSTEMD/$unit.service"; done
-  rm -f "$SYSTEMD/$APP.target"
+  rm -f "$SYSTEMD/$APP.target" "$SYSTEMD/caddy.service.d/$APP.conf"
+  rmdir "$SYSTEMD/caddy.service.d" 2>/dev/null || true  # only if nothing else is in it
   system systemctl daemon-reload
   rm -rf "$OPT" "$OPT.new"
   if ((purge)); then

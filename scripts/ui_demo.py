@@ -3,9 +3,11 @@
 Starts every service of ``deploy/local-stack.yaml`` as its own OS process (embedded defaults:
 no keys, no GPU; the brain on its dev preset with recorded replies), stores the taught mailroom
 process in memory, prints the URL and keeps running until Ctrl+C; every process is stopped by
-PID on the way out. Type (or say) "Please fetch the package from the mailroom." in the page to
-watch the mission plan, fail at the closed door, replan and finish. The terminal-narrated run
-is ``make demo-mission`` (scripts/demo.py).
+PID on the way out. Type (or say) "Please fetch the package from the mailroom and bring it to
+reception." in the page to watch the mission plan, fail at the closed door, replan, pick the
+package up, carry it (the status bar shows what the robot holds), put it down at reception and
+look: the camera shows it there, and the History panel lists it at reception. The
+terminal-narrated run is ``make demo-mission`` (scripts/demo.py).
 
     uv run python scripts/ui_demo.py [--nav-time-scale 3] [--free-ports]
 """
@@ -21,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from robot_stack_testing.mission_driver import MAILROOM_REQUEST, mailroom_stack, seed_memory
+from robot_stack_testing.mission_driver import FETCH_REQUEST, mailroom_stack, seed_memory
 from robot_stack_testing.stack import PortsBusyError, StackError, free_port_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
             say(f"demo: stack up in {time.monotonic() - started:.1f}s")
             say("")
             say(f"    Open {stack.brain_url}/ in a browser")
-            say(f'    and type: "{MAILROOM_REQUEST}"')
+            say(f'    and type: "{FETCH_REQUEST}"')
             say('    or "go to the kitchen", "find the scissors", "what do you see", "stop"')
             say("")
             say(f"demo: logs and mission traces in {VAR_DIR} — Ctrl+C stops everything")

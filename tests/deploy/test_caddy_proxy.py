@@ -1,10 +1,15 @@
 """deploy/Caddyfile (RUNBOOK step 4) with Debian's caddy in front of a real brain, on loopback.
 
 The shipped file is used as is, with three test-only changes: the site address comes from
-ROBOT_HOSTNAME (as the file documents), the upstream port is the brain's free port instead of
-8000, and a global options block keeps Caddy off the fixed ports 80/443 and off the system
-trust store (``skip_install_trust``; its local CA lives in the test's temp dir). Nothing leaves
-loopback: ``tls internal`` issues the certificate locally, no ACME.
+ROBOT_HOSTNAME (as the file documents), the upstream is the test brain's proxy socket instead of
+/run/robot-voice-chat/proxy.sock, and a global options block keeps Caddy off the fixed ports
+80/443 and off the system trust store (``skip_install_trust``; its local CA lives in the test's
+temp dir). Nothing leaves loopback: ``tls internal`` issues the certificate locally, no ACME.
+
+The robot's name is not a loopback name (``robot-7.test``, as an operator's LAN name would be),
+and the brain runs the robot preset's host and proxy settings, so a name the brain does not
+trust, or forwarded headers it does not believe, fail here as they would on a robot. Requests
+go to 127.0.0.1 with that name in the Host header and the TLS server name (no DNS needed).
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import shutil
 import ssl
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +35,9 @@ from robot_voice_chat.api.security_headers import CONTENT_SECURITY_POLICY
 
 ROOT = Path(__file__).resolve().parents[2]
 CADDYFILE = ROOT / "deploy" / "Caddyfile"
+SHIPPED_UPSTREAM = "unix//run/robot-voice-chat/proxy.sock"
 PASSWORD = "caddy-test operator password"
+ROBOT = "robot-7.test"  # the robot's LAN name: not localhost, not an address
 
 
 @pytest.fixture(scope="module")
@@ -64,27 +72,40 @@ def test_the_shipped_caddyfile_is_valid(caddy: str, tmp_path: Path) -> None:
 
 @dataclass
 class Proxied:
-    https: str  # the site through Caddy
+    https: str  # the site through Caddy (127.0.0.1; the robot's name goes in Host and SNI)
     http: str  # Caddy's plain-HTTP port (redirects)
+    host: str  # the site's Host header: the robot's name and Caddy's HTTPS port
     brain: str  # the brain directly, bypassing Caddy
     root_ca: Path  # Caddy's local CA certificate (what operators install once)
 
 
 @pytest.fixture
-def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
+def socket_dir() -> Iterator[Path]:
+    path = Path(tempfile.mkdtemp(prefix="rvc-", dir="/tmp"))  # sun_path is 108 bytes
+    yield path
+    shutil.rmtree(path, ignore_errors=True)
+
+
+@pytest.fixture
+def proxied(caddy: str, tmp_path: Path, socket_dir: Path) -> Iterator[Proxied]:
     brain_port, https_port, http_port = free_tcp_port(), free_tcp_port(), free_tcp_port()
+    proxy_socket = socket_dir / "proxy.sock"
     shipped = CADDYFILE.read_text(encoding="utf-8")
-    assert "reverse_proxy 127.0.0.1:8000" in shipped
+    assert f"reverse_proxy {SHIPPED_UPSTREAM}" in shipped
     config = tmp_path / "Caddyfile"
     config.write_text(
         "{\n\tadmin off\n\tskip_install_trust\n"
-        f"\thttp_port {http_port}\n\thttps_port {https_port}\n}}\n\n"
-        + shipped.replace("127.0.0.1:8000", f"127.0.0.1:{brain_port}"),
+        f"\thttp_port {http_port}\n\thttps_port {https_port}\n\tdefault_sni {ROBOT}\n}}\n\n"
+        + shipped.replace(SHIPPED_UPSTREAM, f"unix/{proxy_socket}"),
         encoding="utf-8",
     )
     dead = f"http://127.0.0.1:{free_tcp_port()}"
     brain_env = {
-        "RVC_DEPLOYMENT": "dev",
+        # the robot preset's host names, login and proxy trust; offline adapters, no keys
+        "RVC_DEPLOYMENT": "robot",
+        "RVC_CONFIG_OVERRIDES": "llm=rules llm_planner=rules speech_output=socketio "
+        "speech_input=none tools.require_event_secrets=false tools.require_mcp_credentials=false",
+        "ROBOT_HOSTNAME": ROBOT,
         "RVC_TRACE_DIR": str(tmp_path / "missions"),
         "RVC_DATA_DIR": str(tmp_path / "brain"),
         "RVC_CAMERA_URL": dead,
@@ -92,7 +113,7 @@ def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
         "ADMIN_SECRET_KEY": secrets.token_urlsafe(32),
         **{
             f"RVC_{s}_URL": f"{dead}/sse"
-            for s in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
+            for s in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
         },
     }
     launcher = ProcessLauncher(tmp_path)
@@ -105,14 +126,15 @@ def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
                 "robot_voice_chat",
                 "--port",
                 str(brain_port),
-                "auth.enabled=true",
+                "--proxy-socket",
+                str(proxy_socket),
             ],
             brain_env,
         )
         proxy = launcher.start(
             "caddy",
             [caddy, "run", "--config", str(config), "--adapter", "caddyfile"],
-            caddy_env(tmp_path, ROBOT_HOSTNAME=f"localhost:{https_port}"),
+            caddy_env(tmp_path, ROBOT_HOSTNAME=f"{ROBOT}:{https_port}"),
         )
         wait_for_tcp_port(brain_port, 60.0)
         wait_for_tcp_port(https_port, 30.0)
@@ -121,8 +143,9 @@ def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
         root_ca = tmp_path / "caddy-data/caddy/pki/authorities/local/root.crt"
         wait_until(root_ca.is_file, 30.0, "Caddy's local CA")
         yield Proxied(
-            https=f"https://localhost:{https_port}",
-            http=f"http://localhost:{http_port}",
+            https=f"https://127.0.0.1:{https_port}",
+            http=f"http://127.0.0.1:{http_port}",
+            host=f"{ROBOT}:{https_port}",
             brain=f"http://127.0.0.1:{brain_port}",
             root_ca=root_ca,
         )
@@ -130,9 +153,22 @@ def proxied(caddy: str, tmp_path: Path) -> Iterator[Proxied]:
         launcher.stop_all()
 
 
+class RobotNameTransport(httpx.HTTPTransport):
+    """Connects to 127.0.0.1 but names the robot in TLS (SNI, certificate check)."""
+
+    def handle_request(self, request: httpx.Request) -> httpx.Response:
+        request.extensions["sni_hostname"] = ROBOT
+        return super().handle_request(request)
+
+
 def https_client(proxied: Proxied) -> httpx.Client:
     trust = ssl.create_default_context(cafile=str(proxied.root_ca))
-    return httpx.Client(base_url=proxied.https, verify=trust, timeout=10)
+    return httpx.Client(
+        base_url=proxied.https,
+        headers={"Host": proxied.host},
+        transport=RobotNameTransport(verify=trust),
+        timeout=10,
+    )
 
 
 def test_the_brain_answers_over_https_with_the_security_headers(proxied: Proxied) -> None:
@@ -163,11 +199,26 @@ def test_the_event_ingress_and_readiness_details_are_not_published(proxied: Prox
 
 
 def test_plain_http_is_redirected_to_https(proxied: Proxied) -> None:
-    answer = httpx.get(f"{proxied.http}/api/livez", timeout=10, follow_redirects=False)
+    port = proxied.http.rsplit(":", 1)[1]
+    answer = httpx.get(
+        f"{proxied.http}/api/livez",
+        headers={"Host": f"{ROBOT}:{port}"},
+        timeout=10,
+        follow_redirects=False,
+    )
     assert answer.status_code in (301, 308), answer.text
     # to the site's host on the HTTPS port (443 on a robot; Caddy leaves the default port out)
-    assert answer.headers["location"].startswith("https://localhost")
+    assert answer.headers["location"].startswith(f"https://{ROBOT}")
     assert answer.headers["location"].endswith("/api/livez")
+
+
+def test_the_robots_own_name_is_served_and_any_other_name_is_refused(proxied: Proxied) -> None:
+    """Issue 31: with ROBOT_HOSTNAME=robot-7.lan the brain answered 400 untrusted_host."""
+    with https_client(proxied) as client:
+        assert client.get("/api/livez").status_code == 200
+    direct = httpx.get(f"{proxied.brain}/api/livez", headers={"Host": "evil.example"}, timeout=10)
+    assert direct.status_code == 400
+    assert direct.json()["reason"] == "untrusted_host"
 
 
 def test_a_login_through_the_proxy_sets_a_secure_cookie_and_a_direct_one_does_not(
@@ -180,9 +231,17 @@ def test_a_login_through_the_proxy_sets_a_secure_cookie_and_a_direct_one_does_no
         assert client.get("/api/auth/me").json()["operator"] == "operator"
     direct = httpx.post(f"{proxied.brain}/api/auth/login", json=credentials, timeout=10)
     assert direct.status_code == 200, direct.text
-    # the brain believes X-Forwarded-Proto from Caddy on 127.0.0.1 (auth.trusted_proxies)
+    # the brain believes X-Forwarded-Proto from Caddy on its proxy socket only
     assert "secure" in proxied_login.headers["set-cookie"].lower()
     assert "secure" not in direct.headers["set-cookie"].lower()
+    spoofed = httpx.post(
+        f"{proxied.brain}/api/auth/login",
+        json=credentials,
+        headers={"X-Forwarded-Proto": "https", "X-Forwarded-For": "10.1.2.3"},
+        timeout=10,
+    )
+    assert spoofed.status_code == 200, spoofed.text
+    assert "secure" not in spoofed.headers["set-cookie"].lower()  # not from a local client
 
 
 def test_socketio_upgrades_to_a_websocket_through_the_proxy(proxied: Proxied) -> None:
@@ -196,7 +255,7 @@ def test_socketio_upgrades_to_a_websocket_through_the_proxy(proxied: Proxied) ->
         await sio.connect(
             proxied.https,
             transports=["websocket"],
-            headers={"Cookie": cookie},
+            headers={"Cookie": cookie, "Host": proxied.host},
             wait_timeout=10,
         )
         try:

@@ -26,6 +26,7 @@ UNITS = [
     "mcp-perception-buffer",
     "robot-mcp-memory",
     "robot-mcp-navigation",
+    "robot-mcp-manipulation",
     "robot-mcp-episodic",
     "robot-voice-chat",
 ]
@@ -42,6 +43,7 @@ MCP_SERVERS = {
     "robot-mcp-memory": ("memory", "MEMORY"),
     "robot-mcp-episodic": ("episodic", "EPISODIC"),
     "robot-mcp-navigation": ("navigation", "NAVIGATION"),
+    "robot-mcp-manipulation": ("manipulation", "MANIPULATION"),
 }
 
 
@@ -56,12 +58,17 @@ SECRETS_OF = {
     "robot-voice-chat": {
         "NAV_EVENT_SECRET",
         "PERCEPTION_EVENT_SECRET",
+        "MANIP_EVENT_SECRET",
         "ADMIN_SECRET_KEY",
         *(f"{name}_MCP_TOKEN" for _, name in MCP_SERVERS.values()),
     },
     "robot-mcp-navigation": {
         "RVC_EVENT_SECRET@navigation",
         *credentials_of("robot-mcp-navigation"),
+    },
+    "robot-mcp-manipulation": {
+        "RVC_EVENT_SECRET@manipulation",
+        *credentials_of("robot-mcp-manipulation"),
     },
     "mcp-perception-buffer": {
         "RVC_EVENT_SECRET@perception-buffer",
@@ -133,6 +140,7 @@ def test_env_files_are_readable_by_root_only(installed: Path) -> None:
     assert files == [
         "brain.env",
         "episodic.env",
+        "manipulation.env",
         "memory.env",
         "navigation.env",
         "operator.env",
@@ -169,6 +177,7 @@ def test_each_unit_runs_as_its_own_user_and_gets_only_its_own_secrets(installed:
         **{k: v for k, v in brain.items() if v},
         "RVC_EVENT_SECRET@navigation": nav["RVC_EVENT_SECRET"],
         "RVC_EVENT_SECRET@perception-buffer": buffer["RVC_EVENT_SECRET"],
+        "RVC_EVENT_SECRET@manipulation": env_file(etc / "manipulation.env")["RVC_EVENT_SECRET"],
     }
     for file, _ in MCP_SERVERS.values():
         server = env_file(etc / f"{file}.env")
@@ -193,12 +202,14 @@ def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) 
         brain["PERCEPTION_EVENT_SECRET"]
         == env_file(etc / "perception-buffer.env")["RVC_EVENT_SECRET"]
     )
+    assert brain["MANIP_EVENT_SECRET"] == env_file(etc / "manipulation.env")["RVC_EVENT_SECRET"]
     secrets = [
         brain["NAV_EVENT_SECRET"],
         brain["PERCEPTION_EVENT_SECRET"],
+        brain["MANIP_EVENT_SECRET"],
         brain["ADMIN_SECRET_KEY"],
     ]
-    assert len(set(secrets)) == 3
+    assert len(set(secrets)) == 4
     assert all(len(s) >= 32 for s in secrets)
     assert brain["ADMIN_PASSWORD_HASH"] == ""  # the operator sets it (RUNBOOK step 3)
 
@@ -323,6 +334,7 @@ def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
     for key in (
         "NAV_EVENT_SECRET",
         "PERCEPTION_EVENT_SECRET",
+        "MANIP_EVENT_SECRET",
         "ADMIN_SECRET_KEY",
         "NAVIGATION_MCP_TOKEN",
         "EPISODIC_MCP_TOKEN",
@@ -443,3 +455,19 @@ def test_unknown_arguments_are_refused(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "unknown argument --frobnicate" in result.stderr
+
+
+def test_only_the_tls_proxy_joins_the_brains_group_for_its_proxy_socket(installed: Path) -> None:
+    """Issue 31: forwarded headers are believed from the proxy socket, not from loopback."""
+    brain = installed / "etc/systemd/system/robot-voice-chat.service"
+    start = " ".join(unit_values(brain, "ExecStart"))
+    socket = re.search(r"--proxy-socket (\S+)", start)
+    assert socket is not None, start
+    assert socket[1].startswith("/run/robot-voice-chat/")
+    assert unit_values(brain, "RuntimeDirectory") == ["robot-voice-chat"]
+    assert unit_values(brain, "RuntimeDirectoryMode") == ["0750"]
+    caddyfile = (ROOT / "deploy/Caddyfile").read_text(encoding="utf-8")
+    assert f"reverse_proxy unix/{socket[1]}" in caddyfile
+    assert "reverse_proxy 127.0.0.1" not in caddyfile
+    drop_in = installed / "etc/systemd/system/caddy.service.d/robot-stack.conf"
+    assert unit_values(drop_in, "SupplementaryGroups") == ["robot-voice-chat"]

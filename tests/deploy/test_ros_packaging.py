@@ -1,4 +1,4 @@
-"""ROS 2 packaging: colcon builds both ROS packages against the pip wheels, and the launch
+"""ROS 2 packaging: colcon builds the ROS packages against the pip wheels, and the launch
 file's arguments reach the vision node (there is no `launch` wheel: the launch description
 is built with stand-ins of the launch classes that record what they were given)."""
 
@@ -149,7 +149,7 @@ def test_launch_arguments_change_what_the_node_gets(description: list[Recorded])
 
 
 @pytest.mark.slow
-def test_colcon_builds_both_ros_packages_against_the_pip_wheels(tmp_path: Path) -> None:
+def test_colcon_builds_the_ros_packages_against_the_pip_wheels(tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if not k.startswith(("AMENT_", "COLCON_"))}
     result = subprocess.run(
         ["bash", str(ROOT / "scripts/colcon-build.sh"), str(tmp_path)],
@@ -160,7 +160,7 @@ def test_colcon_builds_both_ros_packages_against_the_pip_wheels(tmp_path: Path) 
         check=False,
     )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
-    assert "2 packages finished" in result.stdout
+    assert "3 packages finished" in result.stdout
     install = tmp_path / "install"
     share = install / "robot_mcp_perception/share/robot_mcp_perception"
     marker = "share/ament_index/resource_index/packages"
@@ -176,3 +176,5 @@ def test_colcon_builds_both_ros_packages_against_the_pip_wheels(tmp_path: Path) 
     assert (site / "robot_mcp_perception/config/config.yaml").is_file()  # Hydra reads it here
     msgs = next((install / "ros2_vision_interfaces/lib").glob("python3*/site-packages"))
     assert (msgs / "ros2_vision_interfaces/msg/__init__.py").is_file()
+    hands = next((install / "robot_manipulation_interfaces/lib").glob("python3*/site-packages"))
+    assert (hands / "robot_manipulation_interfaces/action/__init__.py").is_file()

@@ -3,8 +3,10 @@ Messages API (planner) and the OpenAI-compatible API (Groq fast path): every req
 brain sends must pass the checks the real APIs make. A stand-in model (the rules planner and
 rules chat behind the wire) answers as a model would.
 
-    mailroom mission through PlannerChain → AnthropicLLM → fake API (the robot goes round
-    the closed door by itself, found; no rejected request; cost from the price table) → then
+    fetch the package from the mailroom and bring it to reception through PlannerChain →
+    AnthropicLLM → fake API (the robot goes round the closed door by itself, found, picked,
+    carried, placed, seen at reception — read from robot-sim; no rejected request; cost from
+    the price table) → then
     the fake API goes down mid mission → the mission finishes on the rules planner, readyz
     reports degraded
 """
@@ -21,7 +23,12 @@ from robot_stack_testing import async_wait_until
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_stack_testing.fake_openai import FakeOpenAIApi
-from robot_stack_testing.mission_driver import MissionDriver, RunningStack, mailroom_stack
+from robot_stack_testing.mission_driver import (
+    MissionDriver,
+    RunningStack,
+    mailroom_stack,
+    sim_world,
+)
 from robot_stack_testing.stack import free_port_overrides
 from robot_voice_chat.services.llm.fake_wire import anthropic_responder, openai_responder
 from robot_voice_chat.services.llm.rules.chat import RulesChat
@@ -32,6 +39,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 NOTICE_FRAGMENT = "lost my connection to the cloud planner"
+FETCH_REQUEST = "Please fetch the package from the mailroom and bring it to reception."
 
 
 @pytest.fixture
@@ -79,7 +87,7 @@ async def test_the_robot_preset_runs_the_mailroom_mission_through_strict_fake_ap
         ready = (await user.http.get("/api/readyz")).json()["data"]
         assert ready["deployment"] == "robot"
         assert ready["planner"] == "chain[anthropic,rules]"
-        record = await user.run_mission("Please fetch the package from the mailroom.", 90.0)
+        record = await user.run_mission(FETCH_REQUEST, 150.0)
 
     assert record.outcome == "succeeded", record.of("mission_finished")
     assert not anthropic.rejections, anthropic.rejections
@@ -87,11 +95,15 @@ async def test_the_robot_preset_runs_the_mailroom_mission_through_strict_fake_ap
     assert len(openai.requests) >= 1  # the fast path handed off through the fake Groq
     assert len(anthropic.requests) >= 4  # every planner step went through the fake API
     tools = {t["name"] for t in anthropic.requests[0]["tools"]}
-    assert "navigation__navigate_to" in tools
+    assert {"navigation__navigate_to", "manipulation__pick", "manipulation__place"} <= tools
     statuses = {s["id"]: s["status"] for s in record.snapshot["steps"]}
-    assert statuses["s1"] == "succeeded"  # one drive: robot-sim went round the closed door
-    assert statuses["s5"] == "succeeded"
+    assert set(statuses.values()) == {"succeeded"}, statuses  # robot-sim went round the door
     assert {f.label for f in record.findings()} == {"yellow package"}
+    # the package is where robot-sim says it is, not where the summary says
+    world = sim_world()
+    assert "yellow package" in world["places"]["reception"], world
+    assert "yellow package" not in world["places"]["mailroom"], world
+    assert record.snapshot["summary"].endswith("I can see it there.")
     usage = record.of("mission_finished")[0]["usage"]
     assert usage["cost_usd"] > 0
     assert usage["cache_read_tokens"] > 0

@@ -4,9 +4,12 @@ user at the brain's REST + Socket.IO. The robot is robot-sim over ROS (Nav2's ac
 camera topic showing the place the robot is in).
 
     hello → go to the kitchen → find the mug (the red mug on the counter) → fetch the package
-    from the mailroom (robot-sim sees the west door closed and goes round by the east
-    entrance: one drive, a longer one → found) → find the mug (none in the mailroom) → what
-    do you see → what did you see a minute ago / when did you last see the yellow package /
+    from the mailroom and bring it to reception (robot-sim sees the west door closed and goes
+    round by the east entrance: one drive, a longer one → found → picked by robot-sim's
+    gripper → carried → placed → seen at reception; robot-sim's parameters say it is there)
+    → find the mug (none at reception) → what do you see → two injected grasp failures (one
+    retry, then the truth) → the arm's server stops (found, "can't carry it") → what did you
+    see a minute ago / when did you last see the yellow package / where is the package now /
     a giraffe (the episodic memory) → stop mid-drive → continue → Teach + mission →
     save_process
     → the same instruction again → the process is retrieved (trace + processes_retrieved log)
@@ -29,6 +32,7 @@ from robot_stack_testing.mission_driver import (
     RunningStack,
     call_mcp,
     mailroom_stack,
+    sim_world,
 )
 from robot_stack_testing.stack import free_port_overrides
 
@@ -36,6 +40,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(480)]
 
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
+FETCH = "fetch the package from the mailroom and bring it to reception"
 
 
 @pytest.fixture
@@ -77,19 +82,25 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
     assert mug.outcome == "succeeded", mug.of("mission_finished")
     assert {f.label for f in mug.findings()} == {"red mug"}
 
-    fetch = await mission(stack, "Please fetch the package from the mailroom.")
+    fetch = await mission(stack, FETCH, timeout_s=120.0)
     assert fetch.outcome == "succeeded", fetch.of("mission_finished")
     assert set(statuses(fetch).values()) == {"succeeded"}
     drives = [
         json.loads(r["result"]).get("destination")
         for r in fetch.tool_results("navigation.navigate_to")
     ]
-    assert drives == ["mailroom"]  # the detour is the robot's own, round the closed door
+    assert drives == ["mailroom", "reception"]  # the detour is the robot's own
     assert '"replans": 1' in stack.services["robot_sim"].log()
     assert {f.label for f in fetch.findings()} == {"yellow package"}
-    assert "yellow package" in fetch.snapshot["summary"]
+    # words = world: robot-sim's own parameters say where the package is now
+    world = sim_world()
+    assert "yellow package" in world["places"]["reception"]
+    assert "yellow package" not in world["places"]["mailroom"]
+    assert world["held"] is None
+    assert fetch.snapshot["summary"].endswith(": I can see it there.")
+    assert "reception" in fetch.snapshot["summary"]
 
-    # Now the robot stands in the mailroom: no mug on its shelf.
+    # Now the robot stands at reception: no mug on the desk.
     no_mug = await mission(stack, "find the mug")
     assert no_mug.outcome == "failed", no_mug.of("mission_finished")
     assert no_mug.snapshot["summary"] == "I couldn't see the mug."
@@ -99,6 +110,8 @@ async def test_typed_commands_run_on_the_rules_planner_over_the_real_stack(
     assert seen.outcome == "succeeded", seen.of("mission_finished")
     assert seen.snapshot["summary"].startswith("I see")
 
+    await a_grasp_that_fails_twice_is_reported_as_it_is(stack)
+    await without_an_arm_nothing_is_carried(stack)
     await questions_about_the_past(stack, "yellow package")
     await stop_mid_drive_then_continue(stack)
     await teaching_round_trip(stack, tmp_path)
@@ -134,12 +147,58 @@ async def questions_about_the_past(stack: RunningStack, label: str) -> None:
         last = await user.send(f"when did you last see the {label}?")
         assert last["route"] == "fast", last
         said = last["reply"].lower()
-        assert said.startswith(f"i last saw the {label} in the mailroom"), last
+        assert said.startswith(f"i last saw the {label} at"), last  # where it was put down
+        assert "reception" in said, last
         assert " ago (" in said, last
+
+        now = await user.send("where is the package now?")
+        assert now["route"] == "fast", now
+        assert "reception" in now["reply"].lower(), now
+        assert "mailroom" not in now["reply"].lower(), now
 
         never = await user.send("have you seen a giraffe?")
         assert never["route"] == "fast", never
         assert never["reply"] == "I have no record of seeing the giraffe."
+
+
+async def a_grasp_that_fails_twice_is_reported_as_it_is(stack: RunningStack) -> None:
+    """Two injected grasp failures at reception: one retry after a fresh look, then the truth."""
+    sim_world("--fail-grasps", "2")
+    record = await mission(stack, "pick up the package", timeout_s=90.0)
+    assert record.outcome == "failed", record.of("mission_finished")
+    assert len(record.tool_results("manipulation.pick")) == 2
+    summary = record.snapshot["summary"]
+    assert summary.startswith("I couldn't pick up the package: the grasp didn't hold"), summary
+    assert "I tried twice" in summary
+    assert "GRASP_FAILED" not in summary
+    assert any("try once more" in s["text"] for s in record.of("speak"))
+    world = sim_world()
+    assert "yellow package" in world["places"]["reception"]
+    assert world["held"] is None
+
+
+async def without_an_arm_nothing_is_carried(stack: RunningStack) -> None:
+    """The manipulation server stops: the robot finds the package and says it can't carry it."""
+    stack.services.launcher.stop(stack.services["manipulation"])
+    async with MissionDriver(stack.brain_url) as user:
+
+        async def arm_gone() -> bool:
+            ready = (await user.http.get("/api/readyz")).json()["data"]
+            return ready["mcp_servers"].get("manipulation") != "connected"
+
+        await async_wait_until(arm_gone, 60, "the brain to notice the arm is gone", 0.5)
+    record = await mission(stack, "fetch the package from reception and bring it to the kitchen")
+    assert record.outcome == "failed", record.of("mission_finished")
+    summary = record.snapshot["summary"]
+    assert "can't carry it" in summary, summary
+    assert "brought" not in summary
+    assert record.tool_results("manipulation.pick") == []
+    drives = [
+        json.loads(r["result"]).get("destination")
+        for r in record.tool_results("navigation.navigate_to")
+    ]
+    assert "kitchen" not in drives
+    assert "yellow package" in sim_world()["places"]["reception"]
 
 
 async def stop_mid_drive_then_continue(stack: RunningStack) -> None:

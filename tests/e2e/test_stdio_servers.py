@@ -34,6 +34,7 @@ SERVERS = {
     "perception": ("mcp-perception-buffer", True, "what_do_you_see"),
     "memory": ("robot-mcp-memory", False, "find_processes"),
     "navigation": ("robot-mcp-navigation", False, "navigate_to"),
+    "manipulation": ("robot-mcp-manipulation", True, "pick"),
 }
 
 

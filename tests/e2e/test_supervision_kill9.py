@@ -171,7 +171,7 @@ async def test_navigation_killed_mid_drive_halts_the_robot_and_stop_says_what_is
     assert halted is not None
     assert halted - killed <= HALTED_WITHIN_S, f"halted {halted - killed:.2f} s after the kill"
 
-    lost = "lost contact with the navigation server"
+    lost = "lost contact with my navigation"
     told = await async_wait_until(lambda: said_at(http, mission_id, lost), 30, "told", 0.2)
     assert told is not None
     assert told - killed <= TOLD_WITHIN_S, f"told {told - killed:.2f} s after the kill"
@@ -180,7 +180,7 @@ async def test_navigation_killed_mid_drive_halts_the_robot_and_stop_says_what_is
 
     reply = (await http.post("/api/chat", json={"text": "stop"})).json()["reply"]
     assert not reply.startswith("Stopped."), reply
-    assert "could not reach the navigation server" in reply
+    assert "could not reach my navigation" in reply
     assert "lapsed at" in reply
     assert stack.watch.halted_at() == halted  # words = world: it has not moved since
 

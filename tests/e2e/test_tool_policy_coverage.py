@@ -1,4 +1,4 @@
-"""Every tool the five MCP servers publish has honest annotations and a decision in the brain's
+"""Every tool the six MCP servers publish has honest annotations and a decision in the brain's
 shipped policy (issue 21): the live tool lists, read through the SDK's client from each server
 built as shipped (fakes only below their ports), leave no tool without a decision."""
 
@@ -21,6 +21,10 @@ from robot_mcp_episodic.composition import build_app as build_episodic
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.tasks import TaskTable
+from robot_mcp_manipulation.arm.fake import FakeArm
+from robot_mcp_manipulation.events.fake import FakeEventSink as FakeArmEvents
+from robot_mcp_manipulation.manipulator import Manipulator
+from robot_mcp_manipulation.tools import build_mcp_server as build_manipulation
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
 from robot_mcp_memory.tools import build_server as build_memory_server
@@ -33,7 +37,7 @@ from robot_ros_bridge.testing import FakeVisionTasks
 from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.settings import CONFIG_DIR
 
-MOTION_SERVERS = {"navigation"}  # config/tools/mcp.yaml: motion: true
+MOTION_SERVERS = {"navigation", "manipulation"}  # config/tools/mcp.yaml: motion: true
 MAP = {"start": "dock", "locations": {"dock": {"x": 0, "y": 0}}, "speed_mps": 2.0}
 
 
@@ -42,12 +46,14 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
     navigator = Navigator(
         parse_map(MAP), FakeMotionBase(), FakeEventSink(), TaskTable(), supervision=Supervision()
     )
+    manipulator = Manipulator(FakeArm(), FakeArmEvents(), TaskTable())
     memory = build_memory(MemoryConfig(db_path=tmp_path / "m.sqlite3", robot_id="r1"))
     episodic = build_episodic(
         EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False), record_ros=False
     )
     servers: dict[str, MCPServer] = {
         "navigation": build_navigation(navigator),
+        "manipulation": build_manipulation(manipulator),
         "memory": build_memory_server(memory),
         "skill_control": build_skill_control(SkillControlConfig(), tasks=FakeVisionTasks()).server,
         "perception": build_perception(
@@ -68,14 +74,15 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
                 )
     yield tools
     await navigator.close()
+    await manipulator.close()
     episodic.close()
 
 
-async def test_every_live_tool_of_the_five_servers_has_annotations_and_a_decision(
+async def test_every_live_tool_of_the_six_servers_has_annotations_and_a_decision(
     live_tools: dict[str, dict[str, Any] | None],
 ) -> None:
     policy = ToolPolicy.load(CONFIG_DIR / "policy.yaml")
-    assert len(live_tools) >= 35
+    assert len(live_tools) >= 43
     undecided = [
         name for name in live_tools if (rule := policy.rule(name)) is None or rule.decision is None
     ]
@@ -102,6 +109,8 @@ async def test_the_annotations_alone_would_ask_before_any_motion_or_free_configu
     assert decisions["skill_control.instantiate_raw_skill"] == "confirm"
     # a motion server's own annotations never allow anything: the policy file does (issue 27)
     assert decisions["navigation.get_pose"] == "confirm"
+    for arm in ("pick", "place", "release", "get_held"):
+        assert decisions[f"manipulation.{arm}"] == "confirm"  # the policy file allows get_held
     assert decisions["perception.what_do_you_see"] == "allow"
     assert decisions["memory.save_process"] == "allow"
     assert decisions["episodic.last_seen"] == "allow"

@@ -12,6 +12,7 @@ Screenshots of each state land in build/ui-screenshots/.
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import re
 import shutil
@@ -124,6 +125,12 @@ def camera_room(page: Page, stack: RunningStack) -> str:
     """The place whose robot-sim frame the Camera panel shows: the panel's image (fetched as
     the page fetches it; the live view draws the skills' overlays on the frame) compared with
     the frames robot-sim keeps — the closest one, by a clear margin over other places'."""
+    return camera_view(page, stack)[0]
+
+
+def camera_view(page: Page, stack: RunningStack) -> tuple[str, list[str]]:
+    """(room, labels): the closest kept frame's place, by a clear margin over other places',
+    and what its annotation says is in view (views of one place differ in their contents)."""
     import cv2
     import numpy as np
 
@@ -143,14 +150,15 @@ def camera_room(page: Page, stack: RunningStack) -> str:
     shown = thumb(cv2.imdecode(np.asarray(frame, np.uint8), cv2.IMREAD_GRAYSCALE))
     index = FrameIndex.load(stack.sim_scenes_dir)
     scores = sorted(
-        ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0]) for f in index.frames),
+        ((float(np.sum(shown * f.thumb)), f.path.name.split("-")[0], f.path) for f in index.frames),
         reverse=True,
     )
-    best, room = scores[0]
-    elsewhere = max((score for score, name in scores if name != room), default=0.0)
+    best, room, path = scores[0]
+    elsewhere = max((score for score, name, _ in scores if name != room), default=0.0)
     assert best > 0.8, scores[:3]
     assert best - elsewhere > 0.15, scores[:3]  # frames on the way in look alike; rooms do not
-    return room
+    annotation = json.loads(path.with_suffix(".json").read_text())
+    return room, [str(a["label"]) for a in annotation.get("annotations", [])]
 
 
 def step(page: Page, step_id: str, scope: str = "Mission") -> Any:
@@ -495,7 +503,7 @@ def voice_brain(tmp_path: Path) -> Iterator[tuple[str, FakeTranscriptionServer]]
             "RVC_CAMERA_URL": dead,
             **{
                 f"RVC_{s}_URL": f"{dead}/sse"
-                for s in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
+                for s in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION")
             },
         }
         argv = [
@@ -593,4 +601,30 @@ def test_a_typed_multi_step_request_drives_every_leg_in_order(
     pose = httpx.get(stack.url("brain", "/api/map/pose"), timeout=5).json()
     assert pose["moving"] is False, pose
     shoot(page, "12-both-legs-driven")
+    fetch_the_package_to_reception(page, stack)
     assert errors == [], errors
+
+
+def fetch_the_package_to_reception(page: Page, stack: RunningStack) -> None:
+    """Issue 28: the package arrives at reception. The pick and place steps show with their
+    states, the status bar's holding chip shows what the arm reports it holds while carrying,
+    and the camera shows reception with the package once it is there."""
+    chip = page.get_by_role("region", name="Status").get_by_test_id("holding")
+    expect(chip).to_have_attribute("data-holding", "", timeout=20_000)  # the gripper is empty
+    send(page, "Fetch the package from the mailroom and bring it to reception")
+    mission = page.get_by_role("region", name="Mission")
+    pick = mission.locator("li[data-kind=arm]", has_text="Pick up the package")
+    expect(pick).to_be_visible(timeout=STEP_TIMEOUT_MS)
+    expect(mission.locator("li[data-kind=arm]", has_text="Put the package down")).to_be_visible()
+    expect(pick).to_have_attribute("data-status", "succeeded", timeout=STEP_TIMEOUT_MS)
+    expect(chip).to_have_attribute("data-holding", "yellow package", timeout=20_000)
+    pick.scroll_into_view_if_needed()
+    shoot(page, "16-carrying-the-package")
+    summary = page.get_by_role("log", name="Conversation").get_by_role("article").last
+    expect(summary).to_contain_text("I can see it there", timeout=STEP_TIMEOUT_MS)
+    expect(summary).to_contain_text("succeeded")
+    expect(chip).to_have_attribute("data-holding", "", timeout=20_000)
+    room, labels = camera_view(page, stack)
+    assert room == "reception", (room, labels)
+    assert "yellow package" in labels, labels
+    shoot(page, "17-package-at-reception")

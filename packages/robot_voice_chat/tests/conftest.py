@@ -4,9 +4,12 @@ socket connection to a non-loopback address is refused."""
 from __future__ import annotations
 
 import socket
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
+
+from robot_voice_chat.robot_words import check_robot_words, witnessing
 
 _REAL_CONNECT = socket.socket.connect
 _REAL_CONNECT_EX = socket.socket.connect_ex
@@ -21,6 +24,7 @@ def _loopback_only(address: Any) -> None:
 
 MCP_TOKEN_VARS = (
     "NAVIGATION_MCP_TOKEN",
+    "MANIPULATION_MCP_TOKEN",
     "MEMORY_MCP_TOKEN",
     "EPISODIC_MCP_TOKEN",
     "SKILL_CONTROL_MCP_TOKEN",
@@ -36,6 +40,22 @@ def mcp_credentials(monkeypatch: pytest.MonkeyPatch) -> dict[str, str]:
     for name, value in tokens.items():
         monkeypatch.setenv(name, value)
     return tokens
+
+
+@pytest.fixture(autouse=True)
+def robot_words_are_plain(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Everything a test made the robot say or show (through the fake speech and emitter) is
+    checked for task ids, tool names, codes, snake_case ids and raw server text (issue 31).
+    A test whose scripted planner says such things on purpose is marked
+    ``robot_words_unchecked``."""
+    if request.node.get_closest_marker("robot_words_unchecked") is not None:
+        yield
+        return
+    with witnessing() as said:
+        yield
+    found = check_robot_words(said)
+    if found:
+        pytest.fail("the robot's words leak: " + "; ".join(str(leak) for leak in found[:5]))
 
 
 @pytest.fixture(autouse=True)

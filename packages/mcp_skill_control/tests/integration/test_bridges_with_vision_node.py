@@ -8,6 +8,7 @@ errors in time; vision node restarted -> both servers recover without restarting
 
 import importlib.util
 import json
+import signal
 import sys
 import time
 import uuid
@@ -66,18 +67,25 @@ def start_vision(
 
 
 def start_servers(launcher: ProcessLauncher, node_name: str) -> tuple[str, str]:
+    urls, _ = start_server_processes(launcher, node_name)
+    return urls
+
+
+def start_server_processes(
+    launcher: ProcessLauncher, node_name: str
+) -> tuple[tuple[str, str], tuple[LaunchedProcess, LaunchedProcess]]:
     ports = free_tcp_port(), free_tcp_port()
     common = {
         "MCP_TRANSPORT": "streamable-http",
         "MCP_AUTH_TOKEN": TOKEN,
         "VISION_NODE_NAME": node_name,
     }
-    launcher.start(
+    skills = launcher.start(
         "skill-control",
         [sys.executable, "-m", "mcp_skill_control"],
         env={**common, "MCP_PORT": str(ports[0]), "SKILL_CONTROL_CALL_TIMEOUT_S": "5"},
     )
-    launcher.start(
+    buffer = launcher.start(
         "perception-buffer",
         [sys.executable, "-m", "mcp_perception_buffer"],
         env={**common, "MCP_PORT": str(ports[1]), "PERCEPTION_GRAPH_POLL_S": "0.2"},
@@ -88,7 +96,7 @@ def start_servers(launcher: ProcessLauncher, node_name: str) -> tuple[str, str]:
     # nobody without the server's credential gets in (issue 27)
     assert_refuses_strangers(urls[0], "skill_control")
     assert_refuses_strangers(urls[1], "perception")
-    return urls
+    return urls, (skills, buffer)
 
 
 async def call(client: Client, tool: str, args: dict[str, Any] | None = None) -> Any:
@@ -181,7 +189,7 @@ async def test_both_servers_fail_cleanly_without_the_vision_node_and_recover_whe
 ) -> None:
     _require_vision_node()
     node_name = f"vision_{uuid.uuid4().hex[:6]}"
-    urls = start_servers(launcher, node_name)
+    urls, processes = start_server_processes(launcher, node_name)
     async with clients(urls) as (skills, perception):
         tool_calls: list[tuple[str, dict[str, Any]]] = [
             ("list_running_skills", {}),
@@ -207,7 +215,18 @@ async def test_both_servers_fail_cleanly_without_the_vision_node_and_recover_whe
             assert "scene" in {s["skill_id"] for s in running["skills"]}  # default skill
             scene = await call(perception, "wait_for_result", {"skill": "scene", "timeout_s": 25})
             assert "_error" not in scene, scene
-            launcher.stop(vision)
+            assert launcher.stop(vision) == 0
+            assert "Traceback" not in vision.log(), vision.log()  # a normal stop (issue 31)
+        # stopped as systemd stops them, with these clients still connected: quiet, and the
+        # servers' own cleanup (the ROS bridge) still runs (issue 31)
+        for process in processes:
+            process.popen.send_signal(signal.SIGTERM)
+            assert process.popen.wait(timeout=30) == 0, process.log()
+    for process in processes:
+        log = process.log()
+        assert "Traceback" not in log, log
+        assert "ERROR:" not in log, log
+        assert _log_events(process, "ros_bridge_closed"), log
 
 
 async def _ok(pending: Any) -> Any:

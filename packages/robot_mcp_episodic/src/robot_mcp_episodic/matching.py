@@ -14,6 +14,9 @@ last time was were is are be been any some have has had it there here
 """
 STOP_WORDS = frozenset(_STOP_WORDS_TEXT.split())
 _WORD = re.compile(r"[^\W_]+", re.UNICODE)
+# one word for one thing, whichever a detector or a person uses ("the package" asked, a
+# "yellow package" or a "parcel" recorded: the brain's recall says "parcel" for both)
+_SAME_WORD = {"package": "parcel"}
 
 
 def singular(word: str) -> str:
@@ -28,7 +31,10 @@ def singular(word: str) -> str:
 
 def words(text: str) -> list[str]:
     """Content words of ``text``, lower case, singular, stop words dropped, in order."""
-    found = [singular(w) for w in _WORD.findall(text.lower()) if w not in STOP_WORDS]
+    found = [
+        _SAME_WORD.get(word, word)
+        for word in (singular(w) for w in _WORD.findall(text.lower()) if w not in STOP_WORDS)
+    ]
     return list(dict.fromkeys(found))
 
 

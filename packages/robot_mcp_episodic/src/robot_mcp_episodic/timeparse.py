@@ -55,7 +55,22 @@ def _unit(text: str) -> float:
 
 def parse_time(text: str | float | None, now: float, zone: ZoneInfo = UTC_ZONE) -> float:
     """Unix seconds for ``text`` relative to ``now`` (unix s); clock times are read in
-    ``zone``. ``None`` or empty = now. One offset may follow any time (``3pm -5m``)."""
+    ``zone``. ``None`` or empty = now. One offset may follow any time (``3pm -5m``). A time
+    no calendar date can show (``-99999999999d``) is a :class:`TimeError`, like any other."""
+    return _on_the_calendar(_parse_time(text, now, zone), text)
+
+
+def _on_the_calendar(stamp: float, text: object) -> float:
+    try:
+        datetime.fromtimestamp(stamp, UTC)
+    except (OverflowError, OSError, ValueError):
+        raise TimeError(
+            f"the time {text!r} is out of range: give a time between the years 1 and 9999"
+        ) from None
+    return stamp
+
+
+def _parse_time(text: str | float | None, now: float, zone: ZoneInfo) -> float:
     if text is None:
         return now
     if isinstance(text, int | float):
@@ -172,8 +187,11 @@ def iso(stamp: float) -> str:
 
 
 def ago(stamp: float, now: float) -> str:
-    """``"42 s ago"``, ``"5 min ago"``, ``"3 h 5 min ago"``, ``"2 d 4 h ago"``."""
+    """``"just now"`` (under a second), ``"42 s ago"``, ``"5 min ago"``, ``"3 h 5 min ago"``,
+    ``"2 d 4 h ago"``."""
     seconds = max(0, round(now - stamp))
+    if seconds < 1:
+        return "just now"
     if seconds < 120:
         return f"{seconds} s ago"
     minutes = seconds // 60
@@ -187,5 +205,7 @@ def ago(stamp: float, now: float) -> str:
 
 
 def duration(seconds: float) -> str:
-    """``"45 s"``, ``"12 min"``, ``"1 h 30 min"``."""
+    """``"less than a second"``, ``"45 s"``, ``"12 min"``, ``"1 h 30 min"``."""
+    if round(seconds) < 1:
+        return "less than a second"
     return ago(0.0, max(0.0, seconds)).removesuffix(" ago")

@@ -158,8 +158,11 @@ def test_iso_ago_and_duration_texts() -> None:
     assert ago(NOW - 7200, NOW) == "2 h ago"
     assert ago(NOW - 2 * 86400 - 4 * 3600, NOW) == "2 d 4 h ago"
     assert ago(NOW - 86400, NOW) == "1 d ago"
-    assert ago(NOW + 5, NOW) == "0 s ago"
+    assert ago(NOW + 5, NOW) == "just now"
+    assert ago(NOW - 0.4, NOW) == "just now"  # issue 31: never "0 s ago"
+    assert ago(NOW - 1, NOW) == "1 s ago"
     assert duration(90) == "90 s"
+    assert duration(0.3) == "less than a second"  # never "for 0 s"
 
 
 def test_places_locate_within_the_radius(places: Places) -> None:
@@ -176,3 +179,10 @@ def test_places_resolve_names_and_aliases(places: Places) -> None:
     assert places.resolve("mail room") == "mailroom"
     with pytest.raises(UnknownPlaceError, match="known places: dock, reception"):
         places.resolve("garage")
+
+
+@pytest.mark.parametrize("text", ["-99999999999d", "-99999999999999999999s", "-1h -99999999999d"])
+def test_a_time_no_calendar_can_show_is_a_time_error(text: str) -> None:
+    """Issue 31: it raised a bare ValueError from datetime (the tool answered "internal")."""
+    with pytest.raises(TimeError, match="out of range"):
+        parse_time(text, NOW)

@@ -14,7 +14,7 @@ from mcp import Client
 from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import Episode, ManualClock
-from robot_mcp_episodic.matching import corrected_query
+from robot_mcp_episodic.matching import corrected_query, matching_labels
 from robot_mcp_kit.testing_mcp import tool_answer
 
 T = 1_790_000_000.0
@@ -79,3 +79,8 @@ async def test_a_thing_never_seen_stays_no_record(app: EpisodicApp) -> None:
     answer = await _last_seen(app, "stapler")
     assert (answer["found"], answer["read_as"]) == (False, None)
     assert answer["answer"].startswith("I have no record of seeing stapler")
+
+
+def test_a_package_and_a_parcel_are_the_same_thing_whichever_was_recorded() -> None:
+    assert matching_labels(["yellow package", "red mug"], "parcel") == ["yellow package"]
+    assert matching_labels(["parcel"], "the package") == ["parcel"]

@@ -29,7 +29,6 @@ from typing import Any, BinaryIO, Literal, get_args
 
 import anyio
 import structlog
-import uvicorn
 from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
@@ -37,6 +36,7 @@ from mcp.server.stdio import stdio_server
 
 from robot_mcp_kit.caller import install_caller_context
 from robot_mcp_kit.correlation import install_mission_correlation
+from robot_mcp_kit.http_serving import serve_http
 from robot_mcp_kit.service_auth import BearerAuthMiddleware, ServiceAuth, service_auth
 from robot_mcp_kit.startup import refuse_to_start
 
@@ -203,21 +203,24 @@ def http_app(server: MCPServer, settings: TransportSettings) -> Any:
 
 
 async def _serve_http(server: MCPServer, settings: TransportSettings) -> None:
-    # what MCPServer.run_sse_async / run_streamable_http_async do, with the check in front
-    config = uvicorn.Config(
-        http_app(server, settings),
-        host=settings.host,
-        port=settings.port,
-        log_level=server.settings.log_level.lower(),
-    )
-    await uvicorn.Server(config).serve()
+    # what MCPServer.run_sse_async / run_streamable_http_async do, with the check in front,
+    # and a stop that returns (robot_mcp_kit.http_serving, issue 31)
+    level = str(server.settings.log_level).lower()
+    app = http_app(server, settings)
+    stopped_by = await serve_http(app, settings.host, settings.port, level)
+    logger.info("mcp_server_stopped", transport=settings.transport, signal=stopped_by)
 
 
 def run_server(server: MCPServer, default_port: int, wire: BinaryIO | None = None) -> None:
-    """Run ``server`` on the transport chosen by the environment (blocks until it stops);
-    unusable transport or credential settings exit 2 with one line, never a traceback."""
+    """Run ``server`` on the transport chosen by the environment (blocks until it stops; a
+    stop signal returns normally, so the caller's cleanup runs and nothing is printed but
+    one ``mcp_server_stopped`` line); unusable transport or credential settings exit 2 with
+    one line, never a traceback."""
     try:
         settings = transport_settings(os.environ, default_port)
     except ValueError as error:
         refuse_to_start(server.name, error)
-    anyio.run(serve_mcp, server, settings, wire)
+    try:
+        anyio.run(serve_mcp, server, settings, wire)
+    except KeyboardInterrupt:  # Ctrl+C outside uvicorn's own handling (start-up, stdio)
+        logger.info("mcp_server_stopped", transport=settings.transport, signal="SIGINT")

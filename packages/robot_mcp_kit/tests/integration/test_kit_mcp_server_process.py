@@ -4,7 +4,9 @@ the credential check on every request (issue 27 item 3)."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
+import signal
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -180,3 +182,39 @@ def test_an_http_server_without_a_usable_credential_refuses_to_start(
         assert output.splitlines() == [output]  # one line, no traceback
         assert message in output
         assert BRAIN_TOKEN[:8] not in output
+
+
+@pytest.mark.parametrize("transport", ["sse", "streamable-http"])
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM])
+async def test_a_normal_stop_with_a_client_connected_is_quiet_and_cleans_up(
+    launcher: ProcessLauncher, transport: str, stop: signal.Signals
+) -> None:
+    """Issue 31: "Exception in ASGI application" (the SSE route's second response start) and
+    interrupt tracebacks on every normal stop; a SIGTERM skipped the server's own cleanup."""
+    port = free_tcp_port()
+    proc = launcher.start(
+        f"mcp-{transport}",
+        [sys.executable, str(PROC)],
+        env={
+            "MCP_TRANSPORT": transport,
+            "MCP_PORT": str(port),
+            "LOG_LEVEL": "INFO",
+            "MCP_AUTH_TOKEN": BRAIN_TOKEN,
+        },
+    )
+    await asyncio.to_thread(wait_for_tcp_port, port, 20)
+    url = f"http://127.0.0.1:{port}{PATHS[transport]}"
+    with contextlib.suppress(Exception):  # the server goes away under the client
+        async with Client(mcp_transport(url, BRAIN_TOKEN)) as client:
+            assert (await client.call_tool("echo", {"text": "hi"})).is_error is False
+            proc.popen.send_signal(stop)  # a stop while the client's stream is open
+            await asyncio.to_thread(proc.popen.wait, 30)
+    code = await asyncio.to_thread(proc.popen.wait, 30)
+    log = proc.log()
+    assert code == 0, log
+    assert "Traceback" not in log, log
+    assert "Exception in ASGI application" not in log
+    assert "ERROR:" not in log  # nor "ASGI callable returned without completing response"
+    events = [json.loads(line)["event"] for line in log.splitlines() if line.startswith("{")]
+    assert "mcp_server_stopped" in events, log
+    assert "cleaned up" in log  # the code after run_server ran

@@ -45,7 +45,7 @@ from robot_mcp_perception.settings import (
     StartupError,
     node_settings_with,
 )
-from robot_mcp_perception.skills import Skill, SkillOutput
+from robot_mcp_perception.skills import Skill, SkillError, SkillOutput
 from robot_mcp_perception.task_service import Operation, TaskService, serve
 
 logger = structlog.get_logger("robot_mcp_perception.vision_node")
@@ -166,6 +166,8 @@ class VisionNode(Node):
         ambient = self.runtime.settings.cost.ambient_scene
         for data in self.node_settings.default_skills:
             ok, message = serve("create_vision_task", self.tasks.create, json.dumps(data))
+            if not ok and not self.context.ok():
+                raise ExternalShutdownException  # stopped while starting: a normal stop
             if not ok:  # pragma: no cover - only a duplicate of ambient_scene's name
                 raise StartupError(f"default skill {data.get('name')!r} refused: {message}")
         if ambient.enabled:
@@ -180,6 +182,8 @@ class VisionNode(Node):
             ok, message = serve("create_vision_task", self.tasks.create, skill.to_json())
             if ok:
                 self.registry.get(ambient.name).always_gated = True
+            elif not self.context.ok():
+                raise ExternalShutdownException
             else:
                 logger.error("ambient_scene_rejected", reply=message)
 
@@ -202,7 +206,13 @@ class VisionNode(Node):
         )
 
     def _attach(self, state: SkillState) -> None:
-        state.publishers = SkillPublishers(self, state.skill.name, state.topics)
+        try:
+            state.publishers = SkillPublishers(self, state.skill.name, state.topics)
+        except Exception:
+            if self.context.ok():
+                raise
+            # a stop (SIGINT/SIGTERM) during start-up invalidated the context: no traceback
+            raise SkillError("shutting_down", "the vision node is shutting down") from None
 
     def _detach(self, state: SkillState) -> None:
         if isinstance(state.publishers, SkillPublishers):

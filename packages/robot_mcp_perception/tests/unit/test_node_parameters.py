@@ -157,3 +157,44 @@ def test_the_camera_topic_parameter_selects_the_subscribed_topic(
         node.shutdown()
         node.destroy_node()
         camera.destroy_node()
+
+
+@pytest.mark.ros
+def test_a_stop_while_the_default_skills_are_created_is_a_quiet_normal_stop(
+    settings_factory: Any, log_events: list[dict[str, Any]]
+) -> None:
+    """SIGINT's handler shuts the ROS context down; a node still creating its start-up skills
+    then stops as on any other stop (no traceback, no refusal to start: exit 0)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import ExternalShutdownException
+
+    from robot_mcp_perception.models.fakes import FakeGrounder
+    from robot_mcp_perception.models.null import NullSegmenter
+    from robot_mcp_perception.pipelines import run_skill
+    from robot_mcp_perception.runtime import Runtime
+    from robot_mcp_perception.vision_node import VisionNode
+
+    class StoppedWhileStarting(VisionNode):
+        def _create_default_skills(self) -> None:
+            rclpy.shutdown(context=self.context)  # what the SIGINT handler does
+            super()._create_default_skills()
+
+    context = Context()
+    rclpy.init(context=context)
+    runtime = Runtime(
+        settings=settings_factory(node={"default_skills": [{"name": "scene", "mode": "describe"}]}),
+        grounder=FakeGrounder(),
+        segmenter=NullSegmenter(),
+        frame_source=SilentCamera(),
+        runner=run_skill,
+        serve_artifacts=False,
+    )
+    try:
+        with pytest.raises(ExternalShutdownException):
+            StoppedWhileStarting(runtime, context=context)
+    finally:
+        rclpy.try_shutdown(context=context)
+    events = [e["event"] for e in log_events]
+    assert "vision_task_failed" not in events, log_events
+    assert any(e.get("error") == "shutting_down" for e in log_events), log_events

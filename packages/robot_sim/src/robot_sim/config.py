@@ -9,6 +9,8 @@ from typing import Literal
 import platformdirs
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from robot_sim.manipulation_settings import ManipulationSettings
+
 APP_NAME = "robot-sim"
 
 
@@ -44,6 +46,12 @@ class SimSettings(BaseModel):
     pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")
     feedback_hz: float = Field(default=10.0, gt=0.0, le=50.0, alias="SIM_FEEDBACK_HZ")
     ready_file: Path | None = Field(default=None, alias="SIM_READY_FILE")
+    pick_action: str = Field(default="/manipulation/pick", alias="SIM_PICK_ACTION")
+    place_action: str = Field(default="/manipulation/place", alias="SIM_PLACE_ACTION")
+    held_topic: str = Field(default="/manipulation/held", alias="SIM_HELD_TOPIC")
+    pick_s: float = Field(default=3.0, gt=0.0, le=120.0, alias="SIM_PICK_S")
+    place_s: float = Field(default=2.0, gt=0.0, le=120.0, alias="SIM_PLACE_S")
+    pick_max_age_s: float = Field(default=30.0, gt=0.0, le=3600.0, alias="SIM_PICK_MAX_AGE_S")
     # issue 27: honour the motion servers' dead-man locks like a robot's twist_mux (on in the
     # local stack, whose navigation server publishes one; off for robot-sim driven alone)
     supervisor_lock: bool = Field(default=False, alias="SIM_SUPERVISOR_LOCK")
@@ -87,7 +95,25 @@ class SimSettings(BaseModel):
             raise ValueError("must be an absolute path (the working directory is not state)")
         return value
 
-    @field_validator("action_name", "camera_topic", "camera_info_topic", "depth_topic")
+    def manipulation(self) -> ManipulationSettings:
+        return ManipulationSettings(
+            self.pick_action,
+            self.place_action,
+            self.held_topic,
+            self.pick_s,
+            self.place_s,
+            self.time_scale,
+        )
+
+    @field_validator(
+        "action_name",
+        "camera_topic",
+        "camera_info_topic",
+        "depth_topic",
+        "pick_action",
+        "place_action",
+        "held_topic",
+    )
     @classmethod
     def _ros_name(cls, value: str) -> str:
         if not value.startswith("/") or " " in value:

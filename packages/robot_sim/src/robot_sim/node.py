@@ -13,6 +13,7 @@ from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -25,10 +26,12 @@ from robot_sim import messages
 from robot_sim.camera import Camera
 from robot_sim.config import SimSettings
 from robot_sim.drive import DriveSim
+from robot_sim.gripper import Gripper
+from robot_sim.manipulation_server import ManipulationServer
 from robot_sim.nav2_server import NavigateToPoseServer
 from robot_sim.render.renderer import camera_matrix
 from robot_sim.supervisor_lock import SupervisorLockGate
-from robot_sim.world_params import WorldParameters
+from robot_sim.world_params import HELD, WorldParameters, objects_parameter
 
 logger = structlog.get_logger(__name__)
 
@@ -72,7 +75,16 @@ class SimNode(Node):
         self.navigator = NavigateToPoseServer(
             self, drive, settings.action_name, settings.feedback_hz, wall, self._publish_image
         )
-        self.parameters = WorldParameters(self, camera.world, self._set_active)
+        self.gripper = Gripper(camera.world, settings.pick_max_age_s)
+        self.parameters = WorldParameters(self, camera.world, self._set_active, self.gripper)
+        self.manipulation = ManipulationServer(
+            self,
+            self.gripper,
+            drive,
+            settings.manipulation(),
+            self._world_changed,
+            wall,
+        )
         self.lock: SupervisorLockGate | None = None
         if settings.supervisor_lock:  # twist_mux's locks in front of the drive (issue 27)
             self.lock = SupervisorLockGate(
@@ -118,6 +130,21 @@ class SimNode(Node):
 
     def _set_active(self, active: bool) -> None:
         self.navigator.accepting = active
+
+    def _world_changed(self, place: str) -> None:
+        """The gripper moved something: the parameters say so, and the camera shows it."""
+        world = self.camera.world
+        self.set_parameters(
+            [
+                Parameter(
+                    objects_parameter(place),
+                    Parameter.Type.STRING_ARRAY,
+                    list(world.objects_at(place)),
+                ),
+                Parameter(HELD, Parameter.Type.STRING, world.held() or ""),
+            ]
+        )
+        self._publish_image()
 
     def _publish_pose(self) -> None:
         if self.lock is not None:  # never a pose past the moment twist_mux held the base
@@ -173,4 +200,5 @@ class SimNode(Node):
 
     def destroy_node(self) -> None:
         self.navigator.destroy()
+        self.manipulation.destroy()
         super().destroy_node()

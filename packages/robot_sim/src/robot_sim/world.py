@@ -126,6 +126,7 @@ class World:
         self._closed = frozenset(d for d, state in spec.doors.items() if state == "closed")
         self.version = 0
         """Grows with every change of contents or doors (the camera renders anew)."""
+        self._held: str | None = None  # what the gripper carries (it stands nowhere meanwhile)
 
     @property
     def doors(self) -> list[str]:
@@ -174,6 +175,47 @@ class World:
             raise WorldError(
                 f"unknown objects {unknown}; the catalogue has: {', '.join(self.spec.objects)}"
             )
+
+    def held(self) -> str | None:
+        """What the gripper holds (a catalogue label), or None."""
+        with self._lock:
+            return self._held
+
+    def set_held(self, label: str | None) -> None:
+        """Put ``label`` in the gripper (or empty it) without taking it from a place: the
+        world as someone sets it (a parameter), not as the gripper changes it."""
+        if label is not None and label not in self.spec.objects:
+            raise WorldError(
+                f"unknown object {label!r}; the catalogue has: {', '.join(self.spec.objects)}"
+            )
+        with self._lock:
+            self._held = label
+
+    def take(self, place: str, label: str) -> None:
+        """The gripper takes one ``label`` from ``place``: it leaves the place and is held."""
+        with self._lock:
+            if self._held is not None:
+                raise WorldError(f"the gripper already holds the {self._held}")
+            if label not in self._objects.get(place, []):
+                raise WorldError(f"there is no {label} at {place}")
+            self._objects[place].remove(label)
+            self._held = label
+            self.version += 1
+
+    def put(self, place: str) -> str:
+        """The gripper puts what it holds down at ``place``; returns its label."""
+        with self._lock:
+            label = self._held
+            if label is None:
+                raise WorldError("the gripper holds nothing")
+            if place not in self._objects:
+                raise WorldError(f"unknown place {place!r}")
+            if len(self._objects[place]) >= MAX_OBJECTS_PER_PLACE:
+                raise WorldError(f"{place} is full ({MAX_OBJECTS_PER_PLACE} objects)")
+            self._objects[place].append(label)
+            self._held = None
+            self.version += 1
+            return label
 
     def look(self, label: str) -> ObjectLook:
         return self.spec.objects[label]

@@ -2,7 +2,10 @@
 
 One ``string[]`` parameter per place, ``places.<place>.objects`` (catalogue labels), one
 ``bool`` per door, ``doors.<door>.closed``, and a ``bool`` parameter ``active`` (false: the
-navigator rejects goals, like a Nav2 whose lifecycle is not active). Any ROS tool sets them —
+navigator rejects goals, like a Nav2 whose lifecycle is not active). The gripper's:
+``gripper.held`` (the label it holds, "" for none; the gripper keeps it current), and the
+injected faults ``gripper.fail_grasps`` (that many next grasps fail) and
+``gripper.out_of_reach`` (labels the arm cannot reach). Any ROS tool sets them —
 ``ros2 param set /robot_sim places.kitchen.objects "['green bottle']"`` (someone took the mug),
 ``ros2 param set /robot_sim doors.mailroom_west_door.closed false`` — and the camera shows the
 change from its next frame; the robot learns of a door when it sees it. A bad value is refused
@@ -22,11 +25,15 @@ from rcl_interfaces.msg import (
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from robot_sim.gripper import Gripper
 from robot_sim.world import World, WorldError
 
 logger = structlog.get_logger(__name__)
 
 ACTIVE = "active"
+HELD = "gripper.held"
+FAIL_GRASPS = "gripper.fail_grasps"
+OUT_OF_REACH = "gripper.out_of_reach"
 
 
 def objects_parameter(place: str) -> str:
@@ -40,9 +47,16 @@ def door_parameter(door: str) -> str:
 class WorldParameters:
     """Declares the parameters and applies every accepted change to ``world``."""
 
-    def __init__(self, node: Node, world: World, on_active: Callable[[bool], None]) -> None:
+    def __init__(
+        self,
+        node: Node,
+        world: World,
+        on_active: Callable[[bool], None],
+        gripper: Gripper | None = None,
+    ) -> None:
         self._world = world
         self._on_active = on_active
+        self._gripper = gripper
         self._places = {objects_parameter(place): place for place in world.places}
         catalogue = ", ".join(world.spec.objects)
         for name, place in self._places.items():
@@ -66,7 +80,50 @@ class WorldParameters:
         node.declare_parameter(
             ACTIVE, True, ParameterDescriptor(description="false: reject navigation goals")
         )
+        if gripper is not None:
+            self._declare_gripper(node)
         node.add_on_set_parameters_callback(self._on_set)
+
+    def _declare_gripper(self, node: Node) -> None:
+        node.declare_parameter(
+            HELD,
+            self._world.held() or "",
+            ParameterDescriptor(description="What the gripper holds (a label; empty: nothing)"),
+        )
+        node.declare_parameter(
+            FAIL_GRASPS,
+            0,
+            ParameterDescriptor(description="Injected fault: this many next grasps fail"),
+        )
+        node.declare_parameter(
+            OUT_OF_REACH,
+            [""],
+            ParameterDescriptor(
+                description="Injected fault: labels the arm cannot reach", dynamic_typing=True
+            ),
+        )
+
+    def _gripper_change(self, parameter: Parameter[Any]) -> str | None:
+        """Apply one gripper parameter; the reason when it is refused."""
+        assert self._gripper is not None
+        if parameter.name == HELD:
+            if parameter.type_ != Parameter.Type.STRING:
+                return f"{HELD} must be a string"
+            try:
+                self._world.set_held(str(parameter.value) or None)
+            except WorldError as error:
+                return str(error)
+        elif parameter.name == FAIL_GRASPS:
+            if parameter.type_ != Parameter.Type.INTEGER or int(parameter.value) < 0:
+                return f"{FAIL_GRASPS} must be an integer >= 0"
+            self._gripper.set_faults(fail_grasps=int(parameter.value))
+        else:
+            labels = _labels(parameter)
+            if labels is None:
+                return f"{OUT_OF_REACH} must be a list of strings"
+            self._gripper.set_faults(out_of_reach=[label for label in labels if label])
+        logger.info("gripper_changed", parameter=parameter.name, value=parameter.value)
+        return None
 
     def _on_set(self, parameters: list[Parameter[Any]]) -> SetParametersResult:
         changes: list[tuple[str, list[str]]] = []
@@ -79,6 +136,11 @@ class WorldParameters:
                     )
                 if parameter.name in self._doors:
                     doors.append((self._doors[parameter.name], bool(parameter.value)))
+                continue
+            if self._gripper is not None and parameter.name in (HELD, FAIL_GRASPS, OUT_OF_REACH):
+                refused = self._gripper_change(parameter)
+                if refused is not None:
+                    return SetParametersResult(successful=False, reason=refused)
                 continue
             place = self._places.get(parameter.name)
             if place is None:

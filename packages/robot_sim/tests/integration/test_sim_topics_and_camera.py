@@ -4,6 +4,7 @@ as a ROS subscriber and the offline grounder (the vision node's default) see the
 from __future__ import annotations
 
 import asyncio
+import json
 import time
 
 import numpy as np
@@ -136,7 +137,9 @@ def test_someone_takes_the_mug_through_a_parameter(sim: Sim, settings: SimSettin
     assert sim.node.camera.world.objects_at("kitchen") == ()
 
 
-def test_the_world_command_changes_a_running_sim(sim: Sim) -> None:
+def test_the_world_command_changes_a_running_sim(
+    sim: Sim, capsys: pytest.CaptureFixture[str]
+) -> None:
     from robot_sim.world_cli import main as world
 
     assert world(["kitchen", "green bottle"]) == 0
@@ -151,5 +154,15 @@ def test_the_world_command_changes_a_running_sim(sim: Sim) -> None:
     with pytest.raises(SystemExit):
         world(["--door", "kitchen_door=ajar"])
     assert world(["kitchen", "--node", "no_such_node", "--timeout", "1"]) == 2
+    assert world(["--fail-grasps", "1", "--out-of-reach", "red mug", "--held", ""]) == 0
+    assert sim.node.gripper.faults.fail_grasps == 1
+    assert sim.node.gripper.faults.out_of_reach == frozenset({"red mug"})
+    assert world(["--held", "unicorn"]) == 1
+    capsys.readouterr()
+    assert world(["--show"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["places"]["kitchen"] == ["green bottle"]
+    assert shown["places"]["mailroom"][0] == "yellow package"
+    assert shown["held"] is None
     with pytest.raises(SystemExit):
         world([])  # nothing to change: usage error

@@ -80,6 +80,11 @@ def _check_params(body: dict[str, Any]) -> str | None:
         if name in names:
             return "tools: Tool names must be unique."
         names.add(name)
+        schema = tool.get("input_schema")
+        if not isinstance(schema, dict):
+            return f"tools.{i}.custom.input_schema: Field required"
+        if schema.get("type") != "object":
+            return f"tools.{i}.custom.input_schema.type: Input should be 'object'"
     return None
 
 

@@ -12,12 +12,14 @@ from __future__ import annotations
 import asyncio
 import json
 import secrets
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import httpx
 import socketio
@@ -28,6 +30,8 @@ from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
 from robot_stack_testing.waiting import async_wait_until
 
 MAILROOM_REQUEST = "Please fetch the package from the mailroom."
+FETCH_REQUEST = "Please fetch the package from the mailroom and bring it to reception."
+"""The demo's request (issue 28): the package leaves the mailroom and arrives at reception."""
 PACKAGE_LABEL = "yellow package"
 MAILROOM_PROCESS_ID = "fetch-package-from-mailroom"
 MAILROOM_PROCESS = f"""---
@@ -48,17 +52,34 @@ tags: [mailroom, package, fetch]
 """
 
 
+def sim_world(*change: str) -> dict[str, Any]:
+    """robot-sim's world as its ROS parameters say (``robot-sim-world --show``: ``{"places":
+    {place: [labels]}, "held": label | None}``), after an optional change such as
+    ``"--fail-grasps", "2"``. Tests read the world here, never from what the robot says."""
+    world_cli = [sys.executable, "-m", "robot_sim.world_cli"]
+    if change:
+        subprocess.run(  # noqa: S603 - our own module, arguments from the test
+            [*world_cli, *change], check=True, capture_output=True, timeout=60
+        )
+    shown = subprocess.run(  # noqa: S603 - our own module
+        [*world_cli, "--show"], check=True, capture_output=True, timeout=60
+    )
+    world: dict[str, Any] = json.loads(shown.stdout)
+    return world
+
+
 def fresh_secret() -> str:
     return secrets.token_urlsafe(32)
 
 
 def stack_env(secret: str) -> dict[str, str]:
     """The runner's environment: one fresh HMAC secret for the servers (RVC_EVENT_SECRET)
-    and the brain (per-server NAV_/PERCEPTION_EVENT_SECRET); ROS discovery on loopback."""
+    and the brain (per-server NAV_/PERCEPTION_/MANIP_EVENT_SECRET); ROS discovery on loopback."""
     return {
         "RVC_EVENT_SECRET": secret,
         "NAV_EVENT_SECRET": secret,
         "PERCEPTION_EVENT_SECRET": secret,
+        "MANIP_EVENT_SECRET": secret,
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
     }
 
@@ -168,6 +189,24 @@ class MissionRecord:
     events: list[tuple[str, Any]] = field(default_factory=list)
     reply: dict[str, Any] = field(default_factory=dict)
     snapshot: dict[str, Any] = field(default_factory=dict)
+    replies: list[str] = field(default_factory=list)  # every REST reply, in order
+
+    def robot_words(self) -> list[str]:
+        """Everything shown or said as the robot's words: REST and chat replies, spoken and
+        said lines, mission summaries (not plan steps, tool calls or task events)."""
+        said = list(self.replies)
+        for name, data in self.events:
+            if not isinstance(data, dict):
+                continue
+            if (name == "chat_message" and data.get("role") == "assistant") or (
+                name == "mission_event" and data.get("kind") == "say"
+            ):
+                said.append(str(data.get("text", "")))
+            elif name in ("speak", "chat_error"):
+                said.append(str(data.get("text") or data.get("message") or ""))
+            elif name == "mission_finished":
+                said.append(str(data.get("summary", "")))
+        return [s for s in said if s]
 
     def of(self, name: str) -> list[Any]:
         return [data for event, data in self.events if event == name]
@@ -286,7 +325,13 @@ class Narrator:
 
 
 class MissionDriver:
-    """A user at the brain: REST for the turn, Socket.IO for everything the UI shows."""
+    """A user at the brain: REST for the turn, Socket.IO for everything the UI shows.
+
+    ``words_check`` (a checker such as ``robot_voice_chat.robot_words.leaks``; the e2e
+    conftest sets it) reads every sentence the robot said or showed when the driver closes,
+    and raises if any leaks a task id, tool name, code or snake_case id."""
+
+    words_check: ClassVar[Callable[[str], list[Any]] | None] = None
 
     def __init__(self, brain_url: str, narrator: Narrator | None = None) -> None:
         self.brain_url = brain_url.rstrip("/")
@@ -301,9 +346,14 @@ class MissionDriver:
         await self.sio.connect(self.brain_url, transports=["websocket"], wait_timeout=10)
         return self
 
-    async def __aexit__(self, *exc: object) -> None:
+    async def __aexit__(self, exc_type: object, *exc: object) -> None:
         await self.sio.disconnect()
         await self.http.aclose()
+        check = type(self).words_check
+        if check is not None and exc_type is None:
+            found = [leak for said in self.record.robot_words() for leak in check(said)]
+            if found:
+                raise AssertionError(f"the robot's words leak: {found[:5]}")
 
     async def _on_event(self, name: str, data: Any = None) -> None:
         self.record.events.append((name, data))
@@ -348,6 +398,7 @@ class MissionDriver:
         response.raise_for_status()
         reply: dict[str, Any] = response.json()
         self.record.reply = reply
+        self.record.replies.append(str(reply.get("reply", "")))
         return reply
 
     async def wait_finished(self, timeout_s: float) -> MissionRecord:

@@ -54,6 +54,10 @@ class Readiness:
     """Ready once this file holds the process's own PID (a stale file from an earlier run
     names another PID and does not count)."""
     timeout_s: float = 30.0
+    defer: bool = False
+    """Start it, go on with the next services at once, and wait for it once all are started:
+    a service nothing later needs at its own start-up (the brain reconnects) starts alongside
+    the others instead of after them."""
 
 
 @dataclass(frozen=True)
@@ -135,6 +139,7 @@ def load_stack(
                     http=expand(ready["http"]) if "http" in ready else None,
                     pid_file=Path(expand(ready["pid_file"])) if "pid_file" in ready else None,
                     timeout_s=float(ready.get("timeout_s", 30.0)),
+                    defer=bool(ready.get("defer", False)),
                 ),
             )
         )
@@ -242,8 +247,14 @@ def local_stack(
         raise PortsBusyError(busy)
     stack = LocalStack(ProcessLauncher(var_dir), root, dict(env), dict(credentials), operators)
     try:
+        deferred = [service for service in services if service.ready.defer]
         for service in services:
-            stack.start(service)
+            if service.ready.defer:
+                stack.launch(service)
+            else:
+                stack.start(service)
+        for service in deferred:
+            wait_ready(stack[service.name], service.ready)
         yield stack
     finally:
         stack.launcher.stop_all()
@@ -270,12 +281,17 @@ class LocalStack(dict[str, LaunchedProcess]):
         """This run's MCP credential of each server for an operator's tool."""
         self.specs: dict[str, ServiceSpec] = {}
 
-    def start(self, service: ServiceSpec) -> LaunchedProcess:
+    def launch(self, service: ServiceSpec) -> LaunchedProcess:
+        """Start ``service`` without waiting for it to be ready."""
         process = self.launcher.start(
             service.name, service.argv, env={**self.env, **service.env}, cwd=self.root
         )
         self[service.name] = process
         self.specs[service.name] = service
+        return process
+
+    def start(self, service: ServiceSpec) -> LaunchedProcess:
+        process = self.launch(service)
         wait_ready(process, service.ready)
         return process
 

@@ -112,6 +112,25 @@ def test_tool_names_with_dots_or_over_64_characters_are_refused(
     rejected(client, {**valid(), "tools": [TOOL, TOOL]}, "unique")
 
 
+def test_a_tool_needs_an_object_input_schema_nested_definitions_are_fine(
+    api: tuple[FakeAnthropicApi, httpx.Client],
+) -> None:
+    _, client = api
+    bare = {k: v for k, v in TOOL.items() if k != "input_schema"}
+    rejected(client, {**valid(), "tools": [bare]}, "input_schema: Field required")
+    listed = {**TOOL, "input_schema": {"type": "array", "items": {"type": "string"}}}
+    rejected(client, {**valid(), "tools": [listed]}, "Input should be 'object'")
+    nested = {
+        **TOOL,
+        "input_schema": {
+            "type": "object",
+            "$defs": {"MaskRef": {"type": "object", "properties": {"stamp": {"type": "number"}}}},
+            "properties": {"mask_ref": {"$ref": "#/$defs/MaskRef"}},
+        },
+    }
+    assert post(client, {**valid(), "tools": [nested]}).status_code == 200
+
+
 def test_roles_must_start_with_the_user_and_alternate(
     api: tuple[FakeAnthropicApi, httpx.Client],
 ) -> None:

@@ -188,9 +188,28 @@ def test_the_stack_environment_shares_one_secret_and_stays_on_loopback() -> None
     env = stack_env("s3cret")
 
     assert env["RVC_EVENT_SECRET"] == env["NAV_EVENT_SECRET"] == env["PERCEPTION_EVENT_SECRET"]
+    assert env["MANIP_EVENT_SECRET"] == env["RVC_EVENT_SECRET"]
     assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
 
 
 def _scene(scenes: Path, name: str, annotations: list[dict[str, Any]]) -> None:
     (scenes / f"{name}.json").write_text(json.dumps({"annotations": annotations}))
     (scenes / f"{name}.png").write_bytes(b"png")
+
+
+async def test_every_sentence_the_robot_said_is_checked_when_the_driver_closes(
+    brain_url: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    checked: list[str] = []
+
+    def check(sentence: str) -> list[str]:
+        checked.append(sentence)
+        return ["leak"] if "I found it" in sentence else []
+
+    monkeypatch.setattr(MissionDriver, "words_check", staticmethod(check))
+    with pytest.raises(AssertionError, match="the robot's words leak"):
+        async with MissionDriver(brain_url) as user:
+            record = await user.run_mission("fetch the package", timeout_s=10.0)
+    assert "On my way." in record.robot_words()
+    assert "I found it." in checked
+    assert "[task nav-1] done" not in checked  # task events are not the robot's words

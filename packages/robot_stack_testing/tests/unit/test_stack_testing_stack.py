@@ -73,6 +73,25 @@ def test_services_start_in_order_become_ready_and_stop_on_exit(tmp_path: Path) -
     assert not any(process.running() for process in running.values())
 
 
+def test_a_deferred_service_starts_alongside_and_is_ready_before_the_stack_is(
+    tmp_path: Path,
+) -> None:
+    http_port = free_tcp_port()
+    slow = tmp_path / "slow.py"
+    slow.write_text("import time\ntime.sleep(1.0)\n" + HTTP_SERVER)
+    stack = write_stack(
+        tmp_path / "stack.yaml",
+        "services:\n"
+        f'  - name: slow\n    argv: ["{{python}}", "{slow}", "{http_port}"]\n'
+        f'    ready: {{http: "http://127.0.0.1:{http_port}/", timeout_s: 20, defer: true}}\n'
+        '  - name: quick\n    argv: ["{python}", "-c", "import time; time.sleep(60)"]\n'
+        "    ready: {timeout_s: 20}\n",
+    )
+    with local_stack(tmp_path, tmp_path / "var", {}, stack_file=stack) as running:
+        assert list(running) == ["slow", "quick"]  # started in file order, not waited in it
+        socket.create_connection(("127.0.0.1", http_port), timeout=1).close()  # ready by now
+
+
 def test_only_starts_the_named_services(tmp_path: Path) -> None:
     port = free_tcp_port()
     stack = write_stack(
@@ -126,6 +145,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
     services = load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v", **tokens})
     assert [s.name for s in services] == [
         "robot_sim",
+        "manipulation",
         "vision_node",
         "skill_control",
         "perception",

@@ -28,6 +28,7 @@ from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
+from robot_voice_chat.api.seen_events import SeenEvents, SqliteSeenEvents
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.elicitation import approval_elicitation
 from robot_voice_chat.control.guard import GuardedToolBackend
@@ -176,6 +177,7 @@ class Container:
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
     history: ChatHistory = field(default_factory=ChatHistory)
     supervisor: MotionSupervisor | None = None  # the lease on every motion server
+    seen_events: SeenEvents | None = None  # handled event ids across restarts (the ingress)
 
     def policy_summary(self) -> dict[str, Any] | None:
         """The tool policy in force (version, digest, file) for readyz."""
@@ -273,6 +275,7 @@ def assemble(
         speech=adapters.speech_output,
         config=config.chat,
     )
+    seen = SqliteSeenEvents(state_path(agent, "", "seen_events.sqlite3"), config.api.dedupe_size)
     return Container(
         config,
         adapters,
@@ -284,6 +287,7 @@ def assemble(
         sio,
         history=history,
         supervisor=supervisor,
+        seen_events=seen,
     )
 
 

@@ -15,6 +15,7 @@ import structlog
 SECRET_NAME = re.compile(r"SECRET|PASSWORD|API_KEY|TOKEN|PRIVATE_KEY", re.IGNORECASE)
 MIN_REDACTED_CHARS = 6  # shorter values would blank ordinary words
 REDACTED = "[redacted]"
+QUIET_LIBRARIES = ("httpx", "httpx2", "httpcore", "httpcore2")  # WARNING and up only
 
 
 def secret_values(environ: Mapping[str, str] | None = None) -> list[str]:
@@ -73,6 +74,9 @@ def configure_logging(level: str = "INFO", fmt: str = "json") -> None:
         cache_logger_on_first_use=False,
     )
     logging.basicConfig(level=level.upper(), stream=sys.stderr, format="%(name)s %(message)s")
+    # one INFO line per HTTP request (every MCP health check, every event post) is noise
+    for chatty in QUIET_LIBRARIES:
+        logging.getLogger(chatty).setLevel(logging.WARNING)
     for handler in logging.getLogger().handlers:
         handler.addFilter(_RedactRecords(redact))
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from pathlib import Path
+from typing import Any
 
 import structlog
 import uvicorn
@@ -15,6 +17,7 @@ import uvicorn
 from robot_voice_chat.api.app import create_asgi_app
 from robot_voice_chat.api.auth_cli import hash_password_command
 from robot_voice_chat.api.auth_guard import PublicBindRefusedError, ensure_bind_allowed
+from robot_voice_chat.api.forwarded import unix_listener
 from robot_voice_chat.composition import ConfigError, bootstrap, compose_config, one_line
 from robot_voice_chat.logging import configure_logging
 from robot_voice_chat.settings import EnvSettings
@@ -27,6 +30,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="robot-voice-chat", description=__doc__)
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument(
+        "--proxy-socket",
+        type=Path,
+        help="also listen on this Unix socket for the TLS reverse proxy (its forwarded headers "
+        "are believed; deploy/Caddyfile)",
+    )
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. agent.max_llm_steps=20")
     args = parser.parse_args(argv)
     env = EnvSettings()
@@ -42,15 +51,34 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, ValueError, PublicBindRefusedError) as exc:
         logger.error("startup_refused", deployment=env.deployment, error=one_line(str(exc)))
         return 2
-    uvicorn.run(
-        create_asgi_app(container),
-        host=args.host,
-        port=args.port,
-        log_config=None,
-        proxy_headers=True,
-        forwarded_allow_ips=config.auth.trusted_proxies,
-    )
+    sockets = []
+    if args.proxy_socket is not None:
+        try:
+            sockets.append(unix_listener(args.proxy_socket))
+        except (OSError, ValueError) as exc:
+            logger.error("startup_refused", deployment=env.deployment, error=one_line(str(exc)))
+            return 2
+        logger.info("proxy_socket_listening", path=str(args.proxy_socket))
+    server = uvicorn.Server(server_config(create_asgi_app(container), args.host, args.port))
+    server.run(sockets=[server.config.bind_socket(), *sockets])
     return 0
+
+
+GRACEFUL_SHUTDOWN_S = 10  # then open requests (a long poll) are cut: systemd stops at 15 s
+
+
+def server_config(app: Any, host: str, port: int) -> uvicorn.Config:
+    """uvicorn without its own proxy-header handling: the app believes forwarded headers from
+    the proxy socket and ``auth.trusted_proxies`` only (api/forwarded.py); a stop never waits
+    on a client for longer than ``GRACEFUL_SHUTDOWN_S``."""
+    return uvicorn.Config(
+        app,
+        host=host,
+        port=port,
+        log_config=None,
+        proxy_headers=False,
+        timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S,
+    )
 
 
 if __name__ == "__main__":

@@ -129,6 +129,8 @@ class ApiConfig(BaseModel):
     # per client address, every HTTP route but the signed ingress; one open UI polls ~400/min
     default_rate_limit: str = "3000/minute"
     max_event_body_bytes: int = Field(65536, gt=0)
+    # every other request body (login, chat, approvals); larger ones are 413, unread
+    max_body_bytes: int = Field(65536, gt=0)
     # deeper events are refused (400): nothing legitimate nests this far, and deep nesting
     # overflows the stack of whatever walks the payload later (json, pydantic, the trace)
     max_event_json_depth: int = Field(32, ge=2)
@@ -189,8 +191,9 @@ class AuthConfig(BaseModel):
     # argon2 checks running at once (each ~64 MiB) and queued behind them; more → 429
     login_concurrency: int = Field(2, ge=1)
     login_queue: int = Field(8, ge=0)
-    # Proxies whose X-Forwarded-For/-Proto are believed (uvicorn's forwarded_allow_ips).
-    trusted_proxies: list[str] = Field(default_factory=lambda: ["127.0.0.1", "::1"])
+    # Peers whose X-Forwarded-For/-Proto are believed besides the proxy socket (a proxy on
+    # another host). Never loopback on a robot: every local process has that address.
+    trusted_proxies: list[str] = Field(default_factory=list)
 
 
 class UiConfig(BaseModel):

@@ -1,8 +1,9 @@
 """Small MCP servers built with the official SDK for the end-to-end mission test.
 
 ``python rvc_fake_mcp_servers.py navigation <port> <events_url> <secret> <outbox>`` (sse) or
-``python rvc_fake_mcp_servers.py memory <port>`` (streamable-http). Navigation returns a
-TaskInfo and then posts real signed events through ``robot_mcp_kit.EventPoster``.
+``python rvc_fake_mcp_servers.py memory <port> [sse]`` (streamable-http unless sse).
+Navigation returns a TaskInfo and then posts real signed events through
+``robot_mcp_kit.EventPoster``.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def navigation(port: int, events_url: str, secret: str, outbox: str) -> None:
     server.run("sse", host="127.0.0.1", port=port)
 
 
-def memory(port: int) -> None:
+def memory(port: int, transport: str = "streamable-http") -> None:
     server = MCPServer("memory")
     saved: dict[str, str] = {"mailroom-run": "---\nid: mailroom-run\n---\n## Steps\n1. drive"}
 
@@ -98,7 +99,7 @@ def memory(port: int) -> None:
         saved["new"] = markdown
         return json.dumps({"id": "new"})
 
-    server.run("streamable-http", host="127.0.0.1", port=port)
+    server.run(transport, host="127.0.0.1", port=port)  # type: ignore[arg-type]
 
 
 if __name__ == "__main__":
@@ -106,4 +107,4 @@ if __name__ == "__main__":
     if kind == "navigation":
         navigation(port, sys.argv[3], sys.argv[4], sys.argv[5])
     else:
-        memory(port)
+        memory(port, *sys.argv[3:4])

@@ -24,12 +24,20 @@ KEYS = {
     "OPENAI_API_KEY": "dummy-openai-key",
     "NAV_EVENT_SECRET": "dummy-navigation-event-secret-of-32-bytes",
     "PERCEPTION_EVENT_SECRET": "dummy-perception-event-secret-of-32-bytes",
+    "MANIP_EVENT_SECRET": "dummy-manipulation-event-secret-of-32-bytes",
     "ADMIN_PASSWORD_HASH": hash_password("dummy operator password"),
     "ADMIN_SECRET_KEY": "dummy-session-signing-key-of-32-bytes",
     # each MCP server's credential (install.sh writes them into brain.env)
     **{
         f"{server}_MCP_TOKEN": f"dummy-{server.lower()}-mcp-credential-of-32-bytes"
-        for server in ("NAVIGATION", "MEMORY", "EPISODIC", "SKILL_CONTROL", "PERCEPTION")
+        for server in (
+            "NAVIGATION",
+            "MANIPULATION",
+            "MEMORY",
+            "EPISODIC",
+            "SKILL_CONTROL",
+            "PERCEPTION",
+        )
     },
 }
 PLANNERS = {
@@ -47,6 +55,7 @@ def base_env(tmp_path: Path, deployment: str) -> dict[str, str]:
         RVC_DEPLOYMENT=deployment,
         RVC_TRACE_DIR=str(tmp_path / "missions"),
         RVC_NAVIGATION_URL=closed,
+        RVC_MANIPULATION_URL=closed,
         RVC_MEMORY_URL=closed,
         RVC_SKILL_CONTROL_URL=closed,
         RVC_PERCEPTION_URL=closed,
@@ -124,7 +133,7 @@ def test_each_preset_boots_as_shipped_and_reports_ready(
             "openai_compat (qwen2.5:7b-instruct), fallback rules + embedded matcher"
         )
     assert set(data["mcp_servers"]) == {
-        "navigation", "memory", "episodic", "skill_control", "perception",
+        "navigation", "manipulation", "memory", "episodic", "skill_control", "perception",
     }  # fmt: skip
     process.terminate()
     assert process.wait(15) in (0, -15)

@@ -46,7 +46,7 @@ export function MissionPanel() {
       <>
         <ApprovalCards missionId={null} />
         <section aria-label="Mission" className="rounded-lg border border-dashed border-line px-3 py-2 text-sm text-muted">
-          No mission running. Ask the robot to do something, e.g. “Please fetch the package from the mailroom.”
+          No mission running. Ask the robot to do something, e.g. “Please fetch the package from the mailroom and bring it to reception.”
         </section>
       </>
     );

@@ -25,6 +25,7 @@ export function PlanStep({ step, compact = false }: { step: Step; compact?: bool
     <li
       data-step-id={step.id}
       data-status={step.status}
+      data-kind={step.tool?.startsWith('manipulation.') ? 'arm' : undefined}
       aria-label={`${step.title}: ${LABEL[step.status]}`}
       className={`relative flex gap-3 rounded-md border border-line px-3 ${compact ? 'py-1' : 'py-2'}
         ${running ? 'shimmer border-status-running' : ''} ${step.status === 'failed' ? 'border-status-failed' : ''}
@@ -38,6 +39,9 @@ export function PlanStep({ step, compact = false }: { step: Step; compact?: bool
           <span className={`text-sm font-medium ${step.status === 'skipped' ? 'text-muted line-through' : ''}`}>
             {step.title}
           </span>
+          {step.tool?.startsWith('manipulation.') && (
+            <span className="rounded border border-line px-1 text-[10px] uppercase tracking-wide text-muted">arm</span>
+          )}
           {step.tool && !compact && <code className="truncate text-xs text-muted">{step.tool}</code>}
           <span className={`ml-auto text-xs font-semibold ${tone}`}>{LABEL[step.status]}</span>
         </div>

@@ -2,6 +2,7 @@ import { useCallback, useState } from 'react';
 import { usePolling } from '@/lib/usePolling';
 import { useConnectionStore } from '@/stores/connectionStore';
 import { useSafetyStore } from '@/stores/safetyStore';
+import { HoldingChip } from '@/features/hands/components/HoldingChip';
 import { fetchReadiness, type Readiness } from '../api/status';
 
 const SERVER_TONE = {
@@ -48,6 +49,7 @@ export function StatusBar() {
             Software stop: <strong>{latch.latched ? 'latched' : 'clear'}</strong>
           </span>
         )}
+        {ready && 'manipulation' in ready.data.mcp_servers && <HoldingChip />}
         {ready &&
           Object.entries(ready.data.mcp_servers).map(([name, state]) => (
             <span key={name} className="flex items-center gap-1" title={`${name}: ${state}`}>

@@ -8,6 +8,7 @@ reserve stdout for the protocol first, as the ROS servers do.
 from __future__ import annotations
 
 import os
+import sys
 
 from mcp.server.mcpserver import MCPServer
 
@@ -53,3 +54,4 @@ if __name__ == "__main__":
         run_server(build(), default_port=9999, wire=wire)
     finally:
         native_print("at shutdown")
+    sys.stderr.write("cleaned up\n")  # only after a clean return from run_server

@@ -16,6 +16,7 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
+from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.supervision_words import lost_motion_server, stop_hint
@@ -31,6 +32,7 @@ from robot_voice_chat.agent.task_registry import (
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.control.supervisor import MotionSupervisor
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
@@ -417,8 +419,8 @@ class TaskDispatcher:
             said = await lost_motion_server(self.supervisor, server)
         else:
             said = (
-                f"I lost contact with the {server} server and am waiting for it to come back."
-                + stop_hint(self.supervisor)
+                f"I lost contact with my {service_name(server)} and am waiting for it to come "
+                f"back.{stop_hint(self.supervisor)}"
             )
         await self.output.say(run, said)
         run.post(line)
@@ -433,9 +435,10 @@ class TaskDispatcher:
             run.post(line)
         if not self.tools.has_tool(f"{server}.list_tasks"):
             return
-        outcome = await self.tools.call_tool(
-            f"{server}.list_tasks", {"states": ["running"]}, self.config.tool_timeout_s
-        )
+        with dispatching(DispatchContext(may_ask=False, caller="the brain's reconciliation")):
+            outcome = await self.tools.call_tool(
+                f"{server}.list_tasks", {"states": ["running"]}, self.config.tool_timeout_s
+            )
         running = None if outcome.is_error else running_task_ids(outcome.text)
         if running is None:
             logger.warning("reconcile_failed", server=server, result=outcome.text[:200])
@@ -455,3 +458,9 @@ class TaskDispatcher:
                     interrupted=task_id in self.interrupted,
                 )
                 await self.cancel_task(server, task_id)
+                if task_id in self.interrupted and self._is_motion(server):
+                    await self.output.speech.say(stopped_after_restart(server))
+
+    def _is_motion(self, server: str) -> bool:
+        cfg = self.tools.servers().get(server)
+        return cfg is not None and cfg.motion

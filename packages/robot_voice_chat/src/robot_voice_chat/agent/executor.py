@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import re
 import time
 from pathlib import Path
@@ -36,6 +37,7 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.supervisor import MotionSupervisor
+from robot_voice_chat.robot_words import plain_instruction
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -135,7 +137,10 @@ class MissionExecutor:
 
     @property
     def active(self) -> Mission | None:
-        return self.run.mission if self.run is not None else None
+        """The mission turns are routed into: none once it has finished, also while its end
+        is still being told (a turn then is a new request, never news for a failed mission)."""
+        run = self.run
+        return run.mission if run is not None and run.finished is None else None
 
     # --- entry points -------------------------------------------------------------------
     async def start(self, instruction: str) -> Mission:
@@ -144,6 +149,7 @@ class MissionExecutor:
         # One mission at a time (§4) also under concurrent starts: the check and the
         # ``self.run = run`` below are one critical section, awaits in between included.
         async with self._starting:
+            await self._wait_released()
             if self.run is not None:
                 raise MissionBusyError(self.run.mission)
             self._refuse_if_latched(instruction)
@@ -170,17 +176,28 @@ class MissionExecutor:
             run.task = asyncio.create_task(self._run(run), name=f"mission-{mission.id}")
         return mission
 
+    async def _wait_released(self) -> None:
+        """A mission that has finished but is still being told (its summary spoken) ends
+        first; the new one starts after it (bounded: a stuck finalization stays busy)."""
+        run = self.run
+        if run is None or run.finished is None:
+            return
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(self.config.tool_timeout_s):
+                await run.released.wait()
+
     def _refuse_if_latched(self, instruction: str) -> None:
         if self.latch.latched:
             logger.warning("mission_refused", code="SAFETY_STOP_LATCHED", instruction=instruction)
             raise SafetyStopLatchedError(latched_sentence(self.latch.state))
 
-    async def on_user_turn(self, text: str) -> str:
+    async def on_user_turn(self, text: str) -> str | None:
         """Route a turn into the mission (§5.1); returns the immediate answer for the
-        person (the planner may add its own with ``say``)."""
+        person (the planner may add its own with ``say``), or None when the mission ended
+        before the turn reached it (the caller treats it as a new request)."""
         run = self.run
-        if run is None:
-            raise RuntimeError("no active mission")
+        if run is None or run.finished is not None:
+            return None
         mission = run.mission
         if self.is_stop(text):
             return await self.safety_stop(reason=f"user said {text!r}")
@@ -196,15 +213,18 @@ class MissionExecutor:
             await self.output.say(run, held)
             return held
         await self.output.log_line(run, "user_turn", text)
+        if run.finished is not None:  # it ended while the line was written
+            return None
         self.trace.record(mission.id, "user_turn", text=text)
         run.awaiting_user = False
         if mission.state == "paused":
             run.post(f"{run.prompt.paused_note}\nUser: {text}")
-            return f"Your answer went to the paused mission ({mission.instruction})."
+            echoed = plain_instruction(mission.instruction)
+            return f"Your answer went to the paused mission ({echoed})."
         run.post(f"[user] {text}")
         return (
-            f"I'm busy with a mission ({mission.instruction}; it is {mission.state}); your "
-            f"message went to it.{stop_hint(self.supervisor)}"
+            f"I'm busy with a mission ({plain_instruction(mission.instruction)}; it is "
+            f"{mission.state}); your message went to it.{stop_hint(self.supervisor)}"
         )
 
     def _held_by_latch(self, run: MissionRun, text: str) -> str | None:
@@ -255,7 +275,8 @@ class MissionExecutor:
             logger.warning("mission_failed", code=exc.code, summary=exc.summary)
             run.finished = ("failed", exc.summary)
         except LLMError as exc:
-            run.finished = ("failed", f"The planner failed: {exc}")
+            logger.warning("planner_failed", error=str(exc)[:500])
+            run.finished = ("failed", "I had to stop the mission: my planner is not answering.")
         except asyncio.CancelledError:
             run.finished = run.finished or ("cancelled", "The mission was cancelled.")
             await self._finalize(run)
@@ -395,8 +416,34 @@ class MissionExecutor:
 
     # --- finalization (§5.6) ----------------------------------------------------------------
     async def _finalize(self, run: MissionRun) -> None:
+        try:
+            await self._close(run)
+        finally:
+            if self.run is run:
+                self.run = None
+            run.released.set()
         mission = run.mission
-        outcome, summary = run.finished or ("failed", "The mission ended unexpectedly.")
+        outcome, summary = mission.state, mission.summary
+        for process_id in mission.used_process_ids:
+            await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
+        self.trace.record(
+            mission.id,
+            "final",
+            outcome=outcome,
+            summary=summary,
+            llm_steps=run.llm_steps,
+            usage=mission.usage.model_dump(),
+        )
+        await self.trace.flush()
+        if mission.teaching and self.planner is not None:
+            records = await self.trace.read(mission.id)
+            await self.teaching.distill_and_save(self.planner, run.prompt, records)
+
+    async def _close(self, run: MissionRun) -> None:
+        """End the mission's tasks, resolve its steps and tell its end (UI, speech)."""
+        mission = run.mission
+        run.finished = run.finished or ("failed", "The mission ended unexpectedly.")
+        outcome, summary = run.finished
         for handle in self.registry.live(mission.id):
             await self.dispatcher.end_task(handle)
         for step in mission.steps:
@@ -422,22 +469,6 @@ class MissionExecutor:
         logger.info("mission_finished", outcome=outcome, summary=summary, steps=run.llm_steps)
         if summary:
             await self.speech.say(summary)
-        for process_id in mission.used_process_ids:
-            await self.memory.record_outcome(process_id, outcome == "succeeded", summary[:500])
-        self.trace.record(
-            mission.id,
-            "final",
-            outcome=outcome,
-            summary=summary,
-            llm_steps=run.llm_steps,
-            usage=mission.usage.model_dump(),
-        )
-        await self.trace.flush()
-        if self.run is run:
-            self.run = None
-        if mission.teaching and self.planner is not None:
-            records = await self.trace.read(mission.id)
-            await self.teaching.distill_and_save(self.planner, run.prompt, records)
 
     async def recover(self) -> None:
         """At start-up: close the missions a crashed process life left live; the tasks they

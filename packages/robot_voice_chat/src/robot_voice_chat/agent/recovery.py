@@ -19,10 +19,16 @@ from robot_voice_chat.socket_events import MissionEventLine, MissionFinished
 
 logger = structlog.get_logger(__name__)
 INTERRUPTED = "interrupted by a restart"
+# No claim about its tasks: whether a drive had ended or is still going is only known when
+# its server answers (reconciliation stops what still runs, and says so).
 SUMMARY = (
-    "The mission was interrupted by a restart of the brain; its tasks were cancelled. "
-    "Give the instruction again to carry on."
+    "The mission was interrupted by a restart of the brain. Give the instruction again to carry on."
 )
+
+
+def stopped_after_restart(server: str) -> str:
+    what = "drive" if server == "navigation" else "movement"
+    return f"I stopped the {what} that the mission interrupted by my restart had left running."
 
 
 def close(mission: Mission) -> set[str]:

@@ -55,6 +55,8 @@ class MissionRun:
     finished: tuple[Outcome, str] | None = None
     task: asyncio.Task[None] | None = None
     llm_call: asyncio.Task[LLMResponse] | None = None
+    # set once the mission is over and told (its summary said): the next one may start
+    released: asyncio.Event = field(default_factory=asyncio.Event)
 
     def post(self, line: str) -> None:
         self.inbox.append(line)

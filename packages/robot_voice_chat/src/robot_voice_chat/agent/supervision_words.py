@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 
 from robot_voice_chat.control.supervisor import MotionSupervisor
+from robot_voice_chat.robot_words import service_name
 
 
 def _clock(wall: float) -> str:
@@ -20,39 +21,40 @@ def _clock(wall: float) -> str:
 
 async def unconfirmed_stop(supervisor: MotionSupervisor | None, server: str) -> str:
     """One sentence for a motion server that did not confirm a stop."""
+    name = service_name(server)
     if supervisor is not None:
         outcome, when = await supervisor.settle(server)
         if outcome == "lapsed":
             return (
-                f"I could not reach the {server} server, so it could not confirm the stop. "
+                f"I could not reach my {name}, so it could not confirm the stop. "
                 f"My supervision of it lapsed at {_clock(when)}, and without supervision the "
                 "robot's base holds itself stopped."
             )
         if outcome == "latched":
             return (
-                f"The {server} server did not confirm the stop, but it has taken the software "
-                "stop, which holds the robot's base stopped."
+                f"My {name} did not confirm the stop, but it has taken the software stop, "
+                "which holds the robot's base stopped."
             )
     return (
-        f"I could not reach the {server} server, so I cannot confirm that the robot stopped. "
-        "If it still moves, use its hardware emergency stop."
+        f"I could not reach my {name}, so I cannot confirm that the robot stopped. If it "
+        "still moves, press the stop button on the robot itself."
     )
 
 
 async def lost_motion_server(supervisor: MotionSupervisor | None, server: str) -> str:
     """What to tell the person when a motion server with live tasks went away."""
+    name = service_name(server)
     if supervisor is not None:
         outcome, when = await supervisor.settle(server)
         if outcome == "lapsed":
             return (
-                f"I lost contact with the {server} server. My supervision of it lapsed at "
+                f"I lost contact with my {name}. My supervision of it lapsed at "
                 f"{_clock(when)}, so the robot's base holds itself stopped. I'm waiting for "
                 "the server to come back."
             )
     return (
-        f"I lost contact with the {server} server and am waiting for it to come back. I "
-        "cannot tell whether the robot is still moving: if it is, use its hardware emergency "
-        "stop."
+        f"I lost contact with my {name} and am waiting for it to come back. I cannot tell "
+        "whether the robot is still moving: if it is, press the stop button on the robot itself."
     )
 
 

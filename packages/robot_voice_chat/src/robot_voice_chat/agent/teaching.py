@@ -9,6 +9,8 @@ import structlog
 
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.prompt import AgentPrompt
+from robot_voice_chat.control.context import DispatchContext, dispatching
+from robot_voice_chat.control.latch import NO_LOGIN, acting
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import LLMError, LLMProvider, Message
 from robot_voice_chat.socket_events import TeachingFailed, TeachingSaved, TeachingState
@@ -47,9 +49,12 @@ class Teaching:
         self._emitter = emitter
         self._memory = memory
         self.armed = False
+        self.armed_by = NO_LOGIN  # who pressed Teach: their yes to storing what it teaches
 
     async def arm(self, enabled: bool) -> None:
         self.armed = enabled
+        if enabled:
+            self.armed_by = acting()
         await self._emitter.emit(TeachingState(armed=enabled))
 
     async def take(self) -> bool:
@@ -74,7 +79,9 @@ class Teaching:
             markdown = response.text.strip()
             if not markdown.startswith("---"):
                 raise ValueError("distillation did not return a process document")
-            process_id = await self._memory.save_process(markdown)
+            # the operator who armed teaching approved this save (policy: confirm)
+            with dispatching(DispatchContext(approved_by=f"teaching armed by {self.armed_by}")):
+                process_id = await self._memory.save_process(markdown)
         except (LLMError, ValueError, RuntimeError) as exc:
             logger.warning("teaching_failed", reason=str(exc)[:300])
             await self._emitter.emit(TeachingFailed(reason=str(exc)[:300]))

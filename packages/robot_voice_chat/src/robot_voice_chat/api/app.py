@@ -8,9 +8,12 @@ from typing import Any
 
 import socketio
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
+from robot_voice_chat.api.body_limit import BodyLimitMiddleware, validation_error
+from robot_voice_chat.api.forwarded import ForwardedFromProxy
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
 from robot_voice_chat.api.request_guard import RequestGuard
@@ -22,6 +25,7 @@ from robot_voice_chat.api.routes import (
     chat_history,
     health,
     history,
+    robot_arm,
     robot_map,
     safety,
     ui,
@@ -65,6 +69,13 @@ def create_app(
         limit=container.config.api.default_rate_limit,
         exempt_paths=[agent.EVENTS_PATH],  # the ingress keeps its own limits
     )
+    app.add_middleware(
+        BodyLimitMiddleware,
+        default=container.config.api.max_body_bytes,
+        limits=chat.BODY_LIMITS,  # a recorded turn is larger
+        exempt_paths=frozenset({agent.EVENTS_PATH}),  # it refuses its own (max_event_body_bytes)
+    )
+    app.add_exception_handler(RequestValidationError, validation_error)
     app.add_middleware(RequestContextMiddleware)
     if guard:
         app.add_middleware(RequestGuard, **_guard_options(container))
@@ -84,11 +95,12 @@ def create_app(
     app.include_router(chat.router)
     app.include_router(safety.router)
     app.include_router(approvals.router)
-    app.include_router(agent.build_router(container.config.api))
+    app.include_router(agent.build_router(container.config.api, container.seen_events))
     for router in (
         chat_history.router,
         camera.router,
         robot_map.router,
+        robot_arm.router,
         history.router,
         ui.router,
     ):
@@ -107,4 +119,5 @@ def create_asgi_app(container: Container) -> Any:
         # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
         if container.auth is not None:
             served = OperatorAuthMiddleware(served, container.auth)
-    return SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))
+    guarded = SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))
+    return ForwardedFromProxy(guarded, container.config.auth.trusted_proxies)

@@ -36,7 +36,7 @@ class OperatorInfo(BaseModel):
 
 
 def _address(request: Request) -> str:
-    # uvicorn has already replaced this with X-Forwarded-For when the peer is a trusted proxy.
+    # X-Forwarded-For has replaced this only for the proxy's connections (api/forwarded.py).
     return request.client.host if request.client else "?"
 
 

@@ -22,6 +22,7 @@ MAX_LIMIT = 100
 MAX_SINCE_CHARS = 40
 LAST_SEEN_N = 50  # the server's maximum: every row of one label in a window of MAX_LIMIT rows
 _RELATIVE = re.compile(r"^-(\d+(?:\.\d+)?)(s|m|min|h|d)$")
+_UNIT_S = {"s": 1.0, "m": 60.0, "h": 3600.0, "d": 86400.0}
 # A clock time today in the site's zone, as the episodic server reads it ("00:00" = since
 # midnight): the server resolves it, so the brain never does clock arithmetic.
 _CLOCK = re.compile(r"^([01]?\d|2[0-3]):[0-5]\d$")
@@ -60,7 +61,10 @@ def check_since(text: str, now: float) -> str:
     value = text.strip()
     if not value or len(value) > MAX_SINCE_CHARS:
         raise HistoryError(422, "invalid_query", f"since must be {SINCE_FORMS}")
-    if _RELATIVE.match(value) or _CLOCK.match(value):
+    relative = _RELATIVE.match(value)
+    if relative is not None and float(relative[1]) * _UNIT_S[relative[2][0]] > now:
+        raise HistoryError(422, "invalid_query", f"since {text!r} is before 1970: {SINCE_FORMS}")
+    if relative is not None or _CLOCK.match(value):
         return value
     stamp = _epoch(value)
     if stamp is None:

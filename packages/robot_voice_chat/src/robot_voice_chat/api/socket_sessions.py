@@ -4,6 +4,7 @@ session ends: at logout, at expiry (a timer), and on any event sent after either
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Coroutine
 from typing import Any
 
 import structlog
@@ -12,6 +13,7 @@ from robot_voice_chat.api.auth import OperatorAuth, Session
 from robot_voice_chat.api.auth_middleware import cookie_value
 
 logger = structlog.get_logger(__name__)
+TRANSPORT_CLOSE_WAIT_S = 10.0  # for the client to fetch the close packet (polling)
 
 
 class SocketSessions:
@@ -48,20 +50,35 @@ class SocketSessions:
             timer.cancel()
 
     async def close(self, sid: str, reason: str) -> None:
+        """Leave the Socket.IO namespace now (no event reaches ``sid`` after this returns),
+        then close the transport in the background: Engine.IO waits until the client has
+        fetched the close packet, which an idle long-polling client never does."""
         logger.info("socket_session_closed", sid=sid, reason=reason)
         self.detach(sid)
         eio_sid = self._sio.manager.eio_sid_from_sid(sid, "/")
         await self._sio.disconnect(sid)
         if eio_sid is not None:  # the transport too: a raw client cannot re-join on it
-            await self._sio.eio.disconnect(eio_sid)
+            self._spawn(self._close_transport(sid, eio_sid))
+
+    async def _close_transport(self, sid: str, eio_sid: str) -> None:
+        try:
+            async with asyncio.timeout(TRANSPORT_CLOSE_WAIT_S):
+                await self._sio.eio.disconnect(eio_sid)
+        except TimeoutError:
+            # closed on our side already; Engine.IO drops it from its table by itself
+            logger.info("socket_transport_close_unfetched", sid=sid)
 
     async def close_session(self, session_id: str) -> None:
-        """Disconnect every socket opened with ``session_id`` (called at logout)."""
-        for sid in [s for s, sess in self._session_ids.items() if sess == session_id]:
-            await self.close(sid, "logout")
+        """Disconnect every socket opened with ``session_id`` (called at logout); returns
+        once none of them receives events, without waiting for any client."""
+        sids = [s for s, sess in self._session_ids.items() if sess == session_id]
+        await asyncio.gather(*(self.close(sid, "logout") for sid in sids))
+
+    def _spawn(self, work: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.get_running_loop().create_task(work)
+        self._closing.add(task)
+        task.add_done_callback(self._closing.discard)
 
     def close_soon(self, sid: str, reason: str) -> None:
         """Close ``sid`` from a task of its own (safe from inside that socket's handlers)."""
-        task = asyncio.get_running_loop().create_task(self.close(sid, reason))
-        self._closing.add(task)
-        task.add_done_callback(self._closing.discard)
+        self._spawn(self.close(sid, reason))

@@ -7,7 +7,12 @@ from typing import Any
 
 from fastapi.responses import JSONResponse
 
+from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.services.tools.base import ToolBackend
+
+# The UI polls in the background: a tool the policy wants confirmed is refused here, never
+# turned into an approval card nobody asked for (an operator approves what the robot does).
+BACKGROUND_READ = DispatchContext(may_ask=False, caller="the UI's background read")
 
 
 class ToolUnavailableError(RuntimeError):
@@ -28,7 +33,8 @@ async def call_json(
     tools: ToolBackend, name: str, arguments: dict[str, object], timeout_s: float
 ) -> dict[str, Any]:
     """Call ``server.tool`` and decode its JSON object; ToolUnavailableError otherwise."""
-    outcome = await tools.call_tool(name, arguments, timeout_s=timeout_s)
+    with dispatching(BACKGROUND_READ):
+        outcome = await tools.call_tool(name, arguments, timeout_s=timeout_s)
     if outcome.is_error:
         raise ToolUnavailableError(name, outcome.text[:300])
     try:

@@ -24,6 +24,7 @@ from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext
 from robot_voice_chat.control.guard import ApprovalAnswer
 from robot_voice_chat.control.latch_store import append_record
+from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.socket_events import ApprovalRequested, ApprovalResolved
 
@@ -115,6 +116,25 @@ class PendingApproval:
             reason=self.reason,
             expires_at=self.expires_at,
         )
+
+
+# what an approval asks for, as a person hears it (the card shows the exact call)
+_ASKED = {
+    "navigate_to": "driving to {place}",
+    "save_process": "storing a process I was taught",
+    "forget": "deleting recordings from my memory",
+    "instantiate_raw_skill": "starting a custom camera skill",
+}
+
+
+def asked_for(tool: str, arguments: dict[str, Any]) -> str:
+    """``navigation.navigate_to {location: desk_alice}`` → "driving to the desk alice"."""
+    server, _, name = tool.partition(".")
+    template = _ASKED.get(name)
+    if template is None:
+        return f"an action of my {service_name(server)}"
+    place = str(arguments.get("location") or "").replace("_", " ")
+    return template.format(place=f"the {place}" if place else "a place")
 
 
 class ApprovalBroker:
@@ -253,8 +273,8 @@ class ApprovalBroker:
             return None
         verdict = parse_answer(text)
         if verdict is None:
-            tools = ", ".join(p.tool for p in pending)
-            return f"I'm waiting for your approval of {tools}. Please answer yes or no."
+            asked = " and ".join(asked_for(p.tool, p.arguments) for p in pending)
+            return f"I'm waiting for your yes or no to {asked}. Please answer yes or no."
         for request in pending:
             self._finish(request, verdict, operator, f"answered {text!r}", verdict + "d")
         return "Approved." if verdict == "approve" else "Denied: I won't do that."

@@ -17,7 +17,11 @@ from dataclasses import dataclass
 class DispatchContext:
     mission_id: str | None = None
     step_id: str | None = None
-    may_ask: bool = True  # False for prepared reactions: they never wait for a person
+    may_ask: bool = True  # False for prepared reactions and background reads: never wait
+    caller: str | None = None  # who cannot ask, in words ("the UI's background read")
+    # an operator's yes given up front for this very call (the Teach button arms the save of
+    # the process it teaches): a ``confirm`` tool is sent without asking again
+    approved_by: str | None = None
 
 
 NO_CONTEXT = DispatchContext()

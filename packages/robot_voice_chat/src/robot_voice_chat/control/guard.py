@@ -160,7 +160,9 @@ class GuardedToolBackend(ToolBackend):
             extra = {"bound": decision.bound} if decision.bound else {}
             return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
         approval: ApprovedCall | None = None
-        if decision.action == "confirm":
+        if decision.action == "confirm" and current_dispatch().approved_by is not None:
+            logger.info("tool_preapproved", tool=name, by=current_dispatch().approved_by)
+        elif decision.action == "confirm":
             answer = await self._ask(name, arguments, decision)
             if not answer.approved:
                 logger.warning("tool_refused", tool=name, code=POLICY_DENIED, detail=answer.detail)
@@ -193,7 +195,9 @@ class GuardedToolBackend(ToolBackend):
     ) -> ApprovalAnswer:
         context = current_dispatch()
         if self.approvals is None or not context.may_ask:
-            who = "a prepared reaction" if not context.may_ask else "this caller"
+            who = context.caller or (
+                "a prepared reaction" if not context.may_ask else "this caller"
+            )
             return ApprovalAnswer(
                 False, f"it needs an operator's approval, which {who} cannot ask for"
             )

@@ -132,8 +132,11 @@ class MotionSupervisor:
         """Before a motion call: a fresh lease on ``server`` (one is asked for at once when
         it has none, e.g. right after it connected), waiting at most ``timeout_s`` (a TTL by
         default). True when fresh; a server not supervised by this brain answers False."""
-        if server not in self._wakes or self.fresh(server):
-            return self.fresh(server)
+        view = self._views.get(server)
+        if server not in self._wakes or view is None or view.state == "unsupported":
+            return False  # not supervised by this brain: nothing to wait for
+        if self.fresh(server):
+            return True
         self._wakes[server].set()
         renewed = self._renewed[server]
         with contextlib.suppress(TimeoutError):
@@ -159,7 +162,13 @@ class MotionSupervisor:
         )
 
     def all_fresh(self) -> bool:
-        return all(self.fresh(server) for server in self._views)
+        """Every motion server that takes a lease holds a fresh one (a server without the
+        ``supervise`` tool is not supervised, and not counted)."""
+        return all(
+            self.fresh(server)
+            for server, view in self._views.items()
+            if view.state != "unsupported"
+        )
 
     def lapsed_at(self, server: str) -> float | None:
         """Wall time at which ``server``'s lease ran out (None while it may still be fresh,

@@ -19,6 +19,7 @@ from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.agent.run import MissionBusyError, MissionsDisabledError
 from robot_voice_chat.control.latch import acting
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
+from robot_voice_chat.robot_words import plain_instruction
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
     LLMError,
@@ -49,7 +50,7 @@ class TurnResult:
 def busy_message(mission: Mission, offer_stop: bool = True) -> str:
     """``offer_stop``: every motion server answers, so a stop halts the robot (issue 27)."""
     stop = " Say stop if you want me to halt." if offer_stop else ""
-    doing = f"{mission.instruction}; it is {mission.state}"
+    doing = f"{plain_instruction(mission.instruction)}; it is {mission.state}"
     return f"I'm busy with a mission right now ({doing}).{stop}"
 
 
@@ -86,7 +87,7 @@ class ChatPipeline:
             )
             return result
 
-    async def stop(self, reason: str = "stop_pipeline") -> str:
+    async def stop(self, reason: str = "Stop (operator request)") -> str:
         """``stop_pipeline`` / stop_mission / ``POST /api/safety/stop``: end streaming replies,
         safety stop (latched until an operator clears it), then quiet. Returns what the
         person is told; a stop some motion server did not confirm is said even without a
@@ -104,8 +105,8 @@ class ChatPipeline:
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
-        if mission is not None:
-            note = await self._executor.on_user_turn(text)
+        note = await self._executor.on_user_turn(text) if mission is not None else None
+        if mission is not None and note is not None:
             # shown at once (not spoken: the planner may answer with its own say)
             await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=note))
             return TurnResult(turn_id, note, "mission", mission.id)
@@ -127,7 +128,7 @@ class ChatPipeline:
             return TurnResult(turn_id, "", "stopped")
         except LLMError as exc:
             logger.warning("fast_path_failed", error=str(exc))
-            message = f"Sorry, I can't answer right now: {exc}"
+            message = "Sorry, I can't answer right now: my language model is not answering."
             await self._emitter.emit(ChatError(turn_id=turn_id, message=message))
             return TurnResult(turn_id, message, "error")
         finally:
@@ -200,7 +201,7 @@ class ChatPipeline:
         if call.name == "start_mission":
             return await self._start_mission(call, turn_id)
         if call.name == "stop_mission":
-            told = await self.stop("stop_mission (asked in chat)")
+            told = await self.stop("Stop (asked in chat)")
             return ToolResult(tool_call_id=call.id, content=told), None
         if call.name == "resume_mission":  # no mission runs here: the turn would have gone to it
             return ToolResult(
@@ -221,7 +222,7 @@ class ChatPipeline:
         ack = str(call.arguments.get("ack", "")).strip() or "On it."
         try:
             if not instruction:
-                raise ValueError("start_mission needs an instruction")
+                raise ValueError("I need to know what to do")
             mission = await self._executor.start(instruction)
         except MissionBusyError as exc:
             supervisor = self._executor.supervisor

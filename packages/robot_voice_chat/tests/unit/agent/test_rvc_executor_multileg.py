@@ -62,7 +62,7 @@ async def test_three_legs_with_then_and_commas_keep_their_order(tmp_path: Path) 
 
 
 async def test_fetch_and_deliver_finds_it_there_then_brings_it(tmp_path: Path) -> None:
-    o = office(tmp_path)
+    o = office(tmp_path, arm=True)
     starts = _record_where_each_drive_starts(o)
     mission = await o.run("fetch the package from the mailroom and bring it to reception")
     assert mission.state == "succeeded", mission.summary
@@ -70,13 +70,15 @@ async def test_fetch_and_deliver_finds_it_there_then_brings_it(tmp_path: Path) -
     assert [to for _, to in starts] == ["mailroom", "corridor_b", "mailroom", "reception"]
     assert starts[-1][0] == "mailroom"
     queries = o.tools.called("skill_control.instantiate_skill")
-    assert [q["params"] for q in queries] == [{"query": "package"}]
+    # the look before the pick, and the look that confirms it arrived
+    assert [q["params"] for q in queries] == [{"query": "package"}, {"query": "yellow package"}]
     names = [name for name, _ in o.tools.calls]
-    assert names.index("perception.wait_for_result") < len(names) - 1 - names[::-1].index(
+    assert names.index("manipulation.pick") < len(names) - 1 - names[::-1].index(
         "navigation.navigate_to"
     )
     assert mission.summary == (
-        "I found the package in the mailroom: yellow package (0.91). I brought it to the reception."
+        "I picked up the yellow package in the mailroom. "
+        "I brought the yellow package to the reception: I can see it there."
     )
     assert o.world.at == "reception"
 

@@ -69,7 +69,7 @@ async def test_stop_while_navigation_is_unreachable_says_what_is_true(harness: A
     told = await h.executor.on_user_turn("stop")
 
     assert not told.startswith("Stopped.")
-    assert "could not reach the navigation server" in told
+    assert "could not reach my navigation" in told
     assert "My supervision of it lapsed at" in told
     assert "holds itself stopped" in told
     assert told.endswith("Should I continue or abort?")
@@ -96,7 +96,7 @@ async def test_a_lost_navigation_server_is_reported_without_a_false_stop_hint(
     await h.executor.on_server_lost("navigation")  # the backend's disconnect listener
 
     text = " ".join(h.speech.spoken)
-    assert "lost contact with the navigation server" in text
+    assert "lost contact with my navigation" in text
     assert "holds itself stopped" in text
     assert "Say stop to halt me" not in text
     busy = await h.executor.on_user_turn("how far is it")

@@ -126,7 +126,8 @@ def test_robot_preset_enables_auth_and_needs_the_admin_secrets(
 ) -> None:
     monkeypatch.delenv("ADMIN_PASSWORD_HASH", raising=False)
     monkeypatch.delenv("ADMIN_SECRET_KEY", raising=False)
-    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET"):  # the preset needs them too
+    # the preset needs them too
+    for name in ("NAV_EVENT_SECRET", "PERCEPTION_EVENT_SECRET", "MANIP_EVENT_SECRET"):
         monkeypatch.setenv(name, "an-event-secret-that-is-32-bytes-long")
     config = compose_config("robot")
     assert config.auth.enabled

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import json
+import shutil
+import tempfile
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -19,7 +21,10 @@ import websockets
 from robot_stack_testing import async_wait_until, free_tcp_port
 from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.api.auth import hash_password
+from robot_voice_chat.api.forwarded import unix_listener
 from robot_voice_chat.composition import Container, bootstrap, compose_config
+from robot_voice_chat.main import server_config
+from robot_voice_chat.socket_events import MissionEventLine
 
 PASSWORD = "open sesame 42"
 HASH = hash_password(PASSWORD)
@@ -29,23 +34,46 @@ HASH = hash_password(PASSWORD)
 async def served(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> AsyncIterator[tuple[str, Container]]:
+    async for address, _, container in serve(tmp_path, monkeypatch):
+        yield address, container
+
+
+@pytest.fixture
+async def served_with_proxy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> AsyncIterator[tuple[str, Path, Container]]:
+    """Also listening on the proxy's Unix socket, as ``robot-voice-chat --proxy-socket``."""
+    async for served_at in serve(tmp_path, monkeypatch, proxy_socket=True):
+        yield served_at
+
+
+async def serve(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, proxy_socket: bool = False
+) -> AsyncIterator[tuple[str, Path, Container]]:
+    """The brain served like ``main`` serves it (TCP, and the proxy socket if asked)."""
     port = free_tcp_port()
     monkeypatch.setenv("RVC_TRACE_DIR", str(tmp_path / "traces"))
-    for name in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
+    for name in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
         monkeypatch.setenv(f"RVC_{name}_URL", "http://127.0.0.1:9/sse")  # nothing there
     monkeypatch.setenv("ADMIN_USERNAME", "ada")
     monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)
     monkeypatch.setenv("ADMIN_SECRET_KEY", "s" * 48)
     config = compose_config("test", ["auth.enabled=true", "+auth.login_max_failures=3"])
     container = bootstrap(config)
-    server = uvicorn.Server(
-        uvicorn.Config(create_asgi_app(container), host="127.0.0.1", port=port, log_level="warning")
-    )
-    serving = asyncio.create_task(server.serve())
-    await async_wait_until(lambda: server.started, 10, "app serving")
-    yield f"127.0.0.1:{port}", container
-    server.should_exit = True
-    await asyncio.wait_for(serving, 15)
+    server = uvicorn.Server(server_config(create_asgi_app(container), "127.0.0.1", port))
+    socket_dir = Path(tempfile.mkdtemp(prefix="rvc-", dir="/tmp"))  # short: sun_path limit
+    path = socket_dir / "proxy.sock"
+    sockets = [server.config.bind_socket()]
+    if proxy_socket:
+        sockets.append(unix_listener(path))
+    serving = asyncio.create_task(server.serve(sockets=sockets))
+    try:
+        await async_wait_until(lambda: server.started, 10, "app serving")
+        yield f"127.0.0.1:{port}", path, container
+    finally:
+        server.should_exit = True
+        await asyncio.wait_for(serving, 15)
+        shutil.rmtree(socket_dir, ignore_errors=True)
 
 
 async def login(http: httpx.AsyncClient, password: str = PASSWORD) -> httpx.Response:
@@ -92,15 +120,58 @@ async def test_login_sets_a_strict_httponly_expiring_cookie_and_the_api_works(
         assert (await http.get("/api/agent/missions")).status_code == 401
 
 
-async def test_the_cookie_is_secure_behind_a_tls_proxy(served: tuple[str, Container]) -> None:
-    address, _ = served
-    async with httpx.AsyncClient(base_url=f"http://{address}") as http:
+def via_proxy(path: Path) -> httpx.AsyncClient:
+    """A client on the proxy socket, as Caddy connects (the Host is the robot's)."""
+    transport = httpx.AsyncHTTPTransport(uds=str(path))
+    return httpx.AsyncClient(transport=transport, base_url="http://localhost")
+
+
+async def test_the_cookie_is_secure_behind_a_tls_proxy(
+    served_with_proxy: tuple[str, Path, Container],
+) -> None:
+    _, path, _ = served_with_proxy
+    async with via_proxy(path) as http:
         response = await http.post(
             "/api/auth/login",
             json={"username": "ada", "password": PASSWORD},
             headers={"X-Forwarded-Proto": "https", "X-Forwarded-For": "10.1.2.3"},
         )
         assert "secure" in response.headers["set-cookie"].lower()
+
+
+async def test_forwarded_addresses_from_a_local_client_do_not_dodge_the_login_throttle(
+    served_with_proxy: tuple[str, Path, Container],
+) -> None:
+    """Issue 31: 30 wrong logins from 127.0.0.1, each with a new X-Forwarded-For → no 429."""
+    address, path, _ = served_with_proxy
+    wrong = {"username": "ada", "password": "wrong"}
+    async with httpx.AsyncClient(base_url=f"http://{address}") as local:
+        statuses = [
+            (
+                await local.post(
+                    "/api/auth/login",
+                    json=wrong,
+                    headers={"X-Forwarded-For": f"10.9.0.{i}", "X-Forwarded-Proto": "https"},
+                )
+            ).status_code
+            for i in range(30)
+        ]
+        assert statuses[:3] == [401] * 3
+        assert set(statuses[3:]) == {429}  # one address: this connection's own
+        right = await local.post(
+            "/api/auth/login",
+            json={"username": "ada", "password": PASSWORD},
+            headers={"X-Forwarded-For": "10.9.9.9"},
+        )
+        assert right.status_code == 429
+    # through the proxy socket the forwarded address is the client's: others may still log in
+    async with via_proxy(path) as proxy:
+        login = await proxy.post(
+            "/api/auth/login",
+            json={"username": "ada", "password": PASSWORD},
+            headers={"X-Forwarded-For": "10.1.2.3", "X-Forwarded-Proto": "https"},
+        )
+        assert login.status_code == 200, login.text
 
 
 async def test_an_old_session_does_not_survive_logout(served: tuple[str, Container]) -> None:
@@ -305,3 +376,84 @@ async def test_a_failed_login_does_not_log_the_typed_user_name(
             assert (await http.post("/api/auth/login", json=typed)).status_code == 401
     assert [e for e in logs if e["event"] == "login_failed"]
     assert "hunter2-typed-in-the-wrong-box" not in repr(logs)
+
+
+def login_app(monkeypatch: pytest.MonkeyPatch) -> Any:
+    monkeypatch.setenv("ADMIN_USERNAME", "ada")
+    monkeypatch.setenv("ADMIN_PASSWORD_HASH", HASH)
+    monkeypatch.setenv("ADMIN_SECRET_KEY", "s" * 48)
+    return create_app(
+        bootstrap(compose_config("test", ["auth.enabled=true"])), manage_lifecycle=False
+    )
+
+
+async def test_a_huge_login_body_is_refused_unread_and_never_echoed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Issue 31: a 200 MB POST to /api/auth/login came back as a 422 carrying 200 MiB."""
+    sent = 0
+    chunk = b'{"username": "' + b"a" * (1 << 20)
+
+    async def body() -> AsyncIterator[bytes]:
+        nonlocal sent
+        for _ in range(200):  # 200 MiB if it were all read
+            sent += len(chunk)
+            yield chunk
+
+    transport = httpx.ASGITransport(login_app(monkeypatch))
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as http:
+        streamed = await http.post("/api/auth/login", content=body())
+        declared = await http.post(
+            "/api/auth/login",
+            content=b"{}",
+            headers={"Content-Length": str(200 << 20), "Content-Type": "application/json"},
+        )
+    assert streamed.status_code == 413, streamed.text[:200]
+    assert len(streamed.content) < 1000
+    assert sent <= 2 * len(chunk)  # it stopped reading at the limit
+    assert declared.status_code == 413
+
+
+async def test_a_login_the_schema_refuses_does_not_echo_what_was_sent(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    transport = httpx.ASGITransport(login_app(monkeypatch))
+    async with httpx.AsyncClient(transport=transport, base_url="http://127.0.0.1") as http:
+        refused = await http.post(
+            "/api/auth/login", json={"username": "ada", "password": ["my-real-password-1"]}
+        )
+    assert refused.status_code == 422
+    assert "my-real-password-1" not in refused.text
+    assert refused.json()["detail"][0]["loc"] == ["body", "password"]
+
+
+async def test_logout_answers_with_an_idle_polling_socket_and_closes_the_websocket(
+    served: tuple[str, Container],
+) -> None:
+    """Issue 31: an idle long-polling Socket.IO connection of the session stalled the logout
+    (200 s), and the session's websocket kept receiving events."""
+    address, container = served
+    async with httpx.AsyncClient(base_url=f"http://{address}", timeout=10) as http:
+        cookie = (await login(http)).cookies["rvc_session"]  # the client keeps it
+        opened = await http.get("/socket.io/?EIO=4&transport=polling")
+        assert opened.status_code == 200, opened.text
+        eio_sid = json.loads(opened.text[1:])["sid"]
+        poll = f"/socket.io/?EIO=4&transport=polling&sid={eio_sid}"
+        assert (await http.post(poll, content="40")).status_code == 200
+        assert "40{" in (await http.get(poll)).text  # joined; now idle
+        ws = await socket_connect(address, cookie)
+        try:
+            async with asyncio.timeout(10):
+                while not str(await ws.recv()).startswith("40{"):
+                    pass
+            async with asyncio.timeout(15):  # was: no answer for 200 s
+                out = await http.post("/api/auth/logout")
+            assert out.status_code == 200
+            await container.emitter.emit(
+                MissionEventLine(mission_id="m-x", kind="say", text="hi", ts=time.time())
+            )
+            frames = await read_until_closed(ws)
+            assert not [f for f in frames if "mission_event" in f]
+            assert frames[-2:] == ["41", "1"]
+        finally:
+            await ws.close()

@@ -138,3 +138,41 @@ async def test_every_turn_during_a_mission_is_answered_and_the_planner_says_so(
     assert executor.active is not None
     assert executor.active.state == "running"
     assert brain.world.tools.called("navigation.stop_navigation") == []
+
+
+async def test_twenty_turns_during_one_drive_are_each_answered_but_said_aloud_once(
+    brain: Brain,
+) -> None:
+    """Issue 31: the robot said "I heard …, but I'm busy" once per message (21 for 20)."""
+    assert (await brain.chat("go to the kitchen"))["route"] == "mission_started"
+    executor = brain.container.executor
+    await async_wait_until(lambda: executor.registry.live(), 10, "driving")
+    run = executor.run
+    assert run is not None
+    for i in range(20):  # one after the other: each wakes the planner on its own
+        steps = run.llm_steps
+        answer = await brain.chat(f"are you there {i}?")
+        assert answer["route"] == "mission", answer
+        assert "stop" in answer["reply"], answer
+        await async_wait_until(
+            lambda s=steps: run.llm_steps > s and run.suspended, 10, "the planner heard it"
+        )
+    busy = [s for s in brain.speech.spoken if "busy" in s]
+    assert len(busy) == 1, busy
+    assert executor.active is not None
+    assert executor.active.state == "running"
+
+
+async def test_with_navigation_down_a_rest_caller_is_told_the_refusal_not_an_ok(
+    brain: Brain,
+) -> None:
+    """Issue 31: "OK, I'll go to the kitchen." answered, the refusal 0.05 s later."""
+    brain.world.tools.states["navigation"] = "disconnected"
+    answer = await brain.chat("go to the kitchen")
+    assert answer["route"] != "mission_started", answer
+    assert "OK" not in answer["reply"], answer
+    assert "navigation" in answer["reply"], answer
+    assert "not connected" in answer["reply"], answer
+    assert brain.missions_started() == []
+    shown = [e.text for e in brain.emitter.events if isinstance(e, ChatMessage)]
+    assert not any(text.startswith("OK, I'll") for text in shown), shown

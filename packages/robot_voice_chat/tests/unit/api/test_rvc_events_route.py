@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import stat
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -403,3 +404,33 @@ def test_readyz_lists_only_posting_servers_that_lack_a_secret() -> None:
         ]
     )
     assert tools.servers_without_event_secret() == ["navigation"]
+
+
+async def one_life(tmp_path: Path, raw: bytes, **api: object) -> str:
+    """POST ``raw`` to a freshly assembled brain (one process life) on the same data dir."""
+    app = create_app(container_for(tmp_path, **api), manage_lifecycle=False)
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as c:
+        answer = await post(c, raw, signed_headers("navigation", SECRET, raw))
+    status: str = answer.json()["status"]
+    return status
+
+
+async def test_an_event_seen_before_a_restart_is_still_a_duplicate_after_it(
+    tmp_path: Path,
+) -> None:
+    """Issue 31: dedupe lived in memory only (``duplicate`` before a restart, accepted after)."""
+    raw = body()
+    assert await one_life(tmp_path, raw) == "orphan"
+    assert await one_life(tmp_path, raw) == "duplicate"  # the next process life
+
+
+async def test_the_seen_events_kept_on_disk_are_bounded_newest_first(tmp_path: Path) -> None:
+    raws = [body(event_id=f"ev-{i}") for i in range(6)]
+    for raw in raws:
+        assert await one_life(tmp_path, raw, dedupe_size=4) == "orphan"
+    assert await one_life(tmp_path, raws[-1], dedupe_size=4) == "duplicate"
+    assert await one_life(tmp_path, raws[0], dedupe_size=4) == "orphan"  # forgotten: oldest
+    stored = tmp_path / "rvc-data" / "seen_events.sqlite3"
+    assert stat.S_IMODE(stored.stat().st_mode) == 0o600

@@ -56,6 +56,13 @@ def _error(code: str, detail: str) -> ValueError:
 
 
 def _time(name: str, text: Any, now: float) -> float:
+    stamp = _read_time(name, text, now)
+    if not -62135596800.0 <= stamp <= 253402300799.0:  # years 1 to 9999, as the real server
+        raise _error("invalid_time", f"{name}: the time {text!r} is out of range")
+    return stamp
+
+
+def _read_time(name: str, text: Any, now: float) -> float:
     value = str(text).strip().lower()
     if value in ("", "now"):
         return now
@@ -450,6 +457,8 @@ CONTRACT_CASES = [
     ("what_happened", {"start": "-1h", "kinds": ["dreams"]}),
     ("what_happened", {"start": "-1h", "max_items": 0}),
     ("what_happened", {"start": "-1h", "max_items": 501}),
+    ("what_happened", {"start": "-99999999999d"}),  # before year 1: invalid_time (issue 31)
+    ("what_happened", {"start": "-1h", "end": "-99999999999999999999s"}),
     ("last_seen", {"query": "the"}),
     ("last_seen", {"query": "   "}),
     ("last_seen", {"query": "mug", "n": 0}),
@@ -597,3 +606,25 @@ async def test_since_midnight_lists_only_what_the_real_server_saw_today(tmp_path
     assert today["since"] == "2026-11-24T00:00:00.000Z"
     assert [row["label"] for row in today["sightings"]] == ["yellow package"]
     assert [row["label"] for row in day["sightings"]] == ["yellow package", "red mug"]
+
+
+@pytest.mark.parametrize("since", ["-99999999999d", "-1e400s", "-99999999999999999999999h"])
+async def test_a_since_too_far_back_is_a_422_not_a_502(
+    client: httpx.AsyncClient, tools: FakeToolBackend, since: str
+) -> None:
+    """Issue 31: ``since=-99999999999d`` → the episodic server raised ValueError → 502."""
+    FakeEpisodic(tools, SIGHTINGS)
+    response = await client.get("/api/history", params={"since": since})
+    assert response.status_code == 422, response.text
+    assert response.json()["error"] == "invalid_query"
+
+
+async def test_the_real_server_answers_a_time_out_of_range_as_invalid_time(
+    tmp_path: Path, real_episodic: EpisodicApp
+) -> None:
+    async with Client(real_episodic.server) as real:
+        answer = await real.call_tool("what_happened", {"start": "-99999999999d"})
+    assert answer.is_error
+    error = parse_tool_error(answer.content[0].text)  # type: ignore[union-attr]
+    assert error is not None
+    assert error["error"] == "invalid_time"

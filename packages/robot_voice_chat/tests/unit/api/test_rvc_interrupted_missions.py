@@ -18,6 +18,7 @@ from robot_voice_chat.composition import Container
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import LLMResponse
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.socket_events import MissionFinished, MissionPlan
 
 
@@ -108,6 +109,43 @@ async def test_a_mission_left_running_by_a_crash_is_closed_at_start_up(tmp_path:
         await again.executor.recover()
         assert again.executor.dispatcher.interrupted == set()
         assert json.dumps(snap)  # served as JSON
+    finally:
+        await second.stop()
+        run = first.executor.run
+        if run is not None and run.task is not None:
+            run.task.cancel()
+
+
+async def test_a_restart_after_the_drive_had_finished_claims_no_cancelled_tasks(
+    tmp_path: Path,
+) -> None:
+    """Issue 31: "its tasks were cancelled" was said although the drive had finished."""
+    first, mission_id = await crash_mid_drive(tmp_path)
+    second = brain(tmp_path, FakeLLM([]))
+    servers = fake_servers(second)
+    servers.add("navigation.list_tasks", lambda a: {"tasks": []}, states="array")  # it arrived
+    await second.start()
+    try:
+        closed = await second.executor.find_mission(mission_id)
+        assert closed is not None
+        assert closed.state == "failed"
+        assert "cancel" not in closed.summary
+        assert "stopped" not in closed.summary
+        await second.executor.reconcile("navigation")
+        assert servers.called("navigation.cancel_task") == []
+        speech = second.adapters.speech_output
+        assert isinstance(speech, FakeSpeechOutput)
+        assert not any("cancel" in s or "stopped" in s for s in speech.spoken), speech.spoken
+
+        # a drive still running at the restart is stopped, and that is said
+        servers.add(
+            "navigation.list_tasks",
+            lambda a: {"tasks": [{"task_id": "nav-1", "state": "running"}]},
+            states="array",
+        )
+        await second.executor.reconcile("navigation")
+        assert servers.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
+        assert any("stopped the drive" in s for s in speech.spoken), speech.spoken
     finally:
         await second.stop()
         run = first.executor.run

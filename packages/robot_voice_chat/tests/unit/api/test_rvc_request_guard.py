@@ -126,7 +126,7 @@ async def test_every_response_carries_a_content_security_policy(rest: httpx.Asyn
 @pytest.fixture
 async def served(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> AsyncIterator[int]:
     port = free_tcp_port()
-    for name in ("NAVIGATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
+    for name in ("NAVIGATION", "MANIPULATION", "MEMORY", "SKILL_CONTROL", "PERCEPTION"):
         monkeypatch.setenv(f"RVC_{name}_URL", "http://127.0.0.1:9/sse")  # nothing there
     app: Any = create_asgi_app(dev_container(tmp_path, monkeypatch))
     server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))

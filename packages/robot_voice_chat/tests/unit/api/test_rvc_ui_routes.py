@@ -341,6 +341,18 @@ async def test_a_bad_navigation_answer_is_a_503_json(
     assert response.json()["error"] == "navigation_unavailable"
 
 
+async def test_what_the_robot_holds_comes_from_the_arm_and_no_arm_is_a_503(
+    tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
+) -> None:
+    c, tools = tools_client
+    missing = await c.get("/api/robot/held")  # no manipulation server connected
+    assert missing.status_code == 503
+    assert missing.json()["error"] == "manipulation_unavailable"
+    held = {"known": True, "holding": True, "label": "yellow package", "since": 1.0}
+    tools.add("manipulation.get_held", lambda a: held)
+    assert (await c.get("/api/robot/held")).json() == held
+
+
 async def test_ui_config_tells_the_browser_what_it_may_do(
     tools_client: tuple[httpx.AsyncClient, FakeToolBackend],
 ) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import stat
 from pathlib import Path
 
 import pytest
@@ -102,3 +103,45 @@ async def test_a_clear_that_cannot_be_written_leaves_the_latch_set(tmp_path: Pat
     with pytest.raises(OSError):
         await latch.clear("bob", "try to clear")
     assert latch.latched is True
+
+
+@pytest.mark.parametrize("written", ["{}", '{"latched": false}', "null", "[]"])
+async def test_a_latch_file_saying_clear_while_the_journal_ends_in_a_stop_reads_latched(
+    tmp_path: Path, written: str
+) -> None:
+    """Issue 31: ``{}`` validated as the default state (clear) after a recorded stop."""
+    await SafetyLatch(FileLatchStore(tmp_path)).stop("alice", "stop")
+    (tmp_path / "latch.json").write_text(written)
+    state = FileLatchStore(tmp_path).load()
+    assert state.latched is True
+    assert state.reason is not None
+
+
+async def test_a_cleared_latch_reads_clear_and_a_stop_after_it_latched_again(
+    tmp_path: Path,
+) -> None:
+    latch = SafetyLatch(FileLatchStore(tmp_path))
+    await latch.stop("alice", "stop")
+    await latch.clear("bob", "area checked")
+    assert FileLatchStore(tmp_path).load().latched is False
+    await latch.stop("carol", "again")
+    assert FileLatchStore(tmp_path).load().by == "carol"
+
+
+async def test_latch_files_are_for_the_brains_user_only(tmp_path: Path) -> None:
+    """Issue 31: latch.json and the journal were 0644 in a 0755 directory."""
+    safety = tmp_path / "data" / "safety"
+    latch = SafetyLatch(FileLatchStore(safety))
+    await latch.stop("alice", "stop")
+    await latch.clear("bob", "area checked")
+    assert stat.S_IMODE(safety.stat().st_mode) == 0o700
+    for name in ("latch.json", "latch.journal"):
+        assert stat.S_IMODE((safety / name).stat().st_mode) == 0o600, name
+    # files an older version left readable are tightened at the next start
+    (safety / "latch.json").chmod(0o644)
+    (safety / "latch.journal").chmod(0o644)
+    safety.chmod(0o755)
+    assert FileLatchStore(safety).load().latched is False
+    assert stat.S_IMODE(safety.stat().st_mode) == 0o700
+    assert stat.S_IMODE((safety / "latch.json").stat().st_mode) == 0o600
+    assert stat.S_IMODE((safety / "latch.journal").stat().st_mode) == 0o600

@@ -138,3 +138,16 @@ def test_the_shipped_navigation_entry_lists_its_reads_for_the_latch() -> None:
     navigation = next(s for s in compose_config("dev").tools.servers if s.name == "navigation")
     assert navigation.motion is True
     assert set(navigation.read_tools) == {"get_pose", "list_locations", "get_map", "get_plan"}
+
+
+async def test_a_background_read_of_the_ui_never_raises_an_approval_card() -> None:
+    """The UI polls (what is held, the map, the camera): a tool the policy wants confirmed is
+    refused for that poll, never put to the operator as an approval nobody asked for."""
+    from robot_voice_chat.api.tool_json import ToolUnavailableError, call_json
+
+    gate = RecordingGate(approve=True)
+    tools, fake = rogue(gate)
+    with pytest.raises(ToolUnavailableError, match="background read"):
+        await call_json(tools, "rogue.where_am_i", {}, 5.0)
+    assert gate.asked == []
+    assert fake.calls == []

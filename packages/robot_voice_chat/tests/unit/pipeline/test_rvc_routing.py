@@ -11,6 +11,7 @@ from robot_voice_chat.agent.harness import Harness, make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.base import LLMError, Message, StreamEvent, ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.settings import ChatConfig
 from robot_voice_chat.socket_events import ChatDelta, ChatError, ChatMessage, MissionStarted
 
@@ -89,9 +90,8 @@ async def test_fast_path_failure_becomes_a_clear_chat_error(tmp_path: Path) -> N
     h = make_harness(tmp_path, FakeLLM([]))
     result = await pipeline_for(h, FakeLLM([LLMError("recording ran out")])).handle_turn("hi")
     assert result.route == "error"
-    assert any(
-        isinstance(e, ChatError) and "recording ran out" in e.message for e in h.emitter.events
-    )
+    said = "Sorry, I can't answer right now: my language model is not answering."
+    assert any(isinstance(e, ChatError) and e.message == said for e in h.emitter.events)
 
 
 async def test_stop_mission_tool_halts_motion(tmp_path: Path) -> None:
@@ -150,3 +150,42 @@ async def test_a_safety_stop_cancels_a_streaming_fast_path_reply(tmp_path: Path)
     deltas = [e.text for e in h.emitter.events if isinstance(e, ChatDelta)]
     assert deltas == ["Once upon a time. "]
     assert "And then a dragon came." not in h.speech.spoken
+
+
+class HeldSpeech(FakeSpeechOutput):
+    """Speaks a mission's summary only when let go (espeak takes seconds to say it)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.holding = asyncio.Event()
+        self.let_go = asyncio.Event()
+
+    async def speak_sentence(self, sentence: str) -> None:
+        if sentence.startswith("The door"):
+            self.holding.set()
+            await self.let_go.wait()
+        await super().speak_sentence(sentence)
+
+
+async def test_an_instruction_right_after_a_mission_failed_starts_a_new_mission(
+    tmp_path: Path,
+) -> None:
+    """Issue 31: a turn 0.07 s after a failure was routed into the failed mission."""
+    failing = reply("", ("finish_mission", {"outcome": "failed", "summary": "The door is shut."}))
+    h = make_harness(tmp_path, FakeLLM([failing, reply("", ("wait_for_events", {"reason": "x"}))]))
+    speech = HeldSpeech()
+    h.executor.speech = h.executor.output.speech = speech
+    fast = FakeLLM([reply("", ("start_mission", {"instruction": "Go home", "ack": "On it."}))])
+    pipeline = pipeline_for(h, fast)
+    first = await h.executor.start("Open the door")
+    await async_wait_until(speech.holding.is_set, 5, "the failure being said")
+    assert first.state == "failed"
+
+    turn = asyncio.create_task(pipeline.handle_turn("go home"))
+    await async_wait_until(lambda: turn.done() or fast.requests, 5, "the turn routed")
+    speech.let_go.set()
+    result = await asyncio.wait_for(turn, 10)
+    assert result.route == "mission_started", result
+    assert h.executor.active is not None
+    assert h.executor.active.instruction == "Go home"
+    await h.executor.shutdown()

@@ -24,7 +24,10 @@ def test_the_rules_chat_answers_an_openai_request_with_wire_names() -> None:
             {"role": "system", "content": "be brief"},
             {"role": "user", "content": "go to the kitchen"},
         ],
-        "tools": [{"type": "function", "function": {"name": "start_mission"}}],
+        "tools": [
+            {"type": "function", "function": {"name": "start_mission"}},
+            {"type": "function", "function": {"name": "navigation__get_pose"}},
+        ],
     }
     answer = respond(body)
     assert answer["content"] is None

@@ -8,10 +8,12 @@ import logging
 
 import pytest
 import structlog
+import structlog.testing
 from pydantic import BaseModel, SecretStr, ValidationError, field_validator
 
 from robot_voice_chat.composition import validation_summary
 from robot_voice_chat.logging import REDACTED, RedactSecrets, configure_logging, secret_values
+from robot_voice_chat.services.tools import mcp_logs
 
 SECRET = "s3cr3t-value-of-the-test"
 
@@ -72,3 +74,39 @@ def test_validation_errors_name_the_field_but_never_the_value() -> None:
     assert SECRET in str(raw.value)  # what pydantic itself would print
     for exc in (caught.value, raw.value):
         assert validation_summary(exc) == "key: Value error, too short"
+
+
+def test_an_mcp_transport_error_is_one_line_without_its_traceback() -> None:
+    """Issue 31: the SDK logged "Error in sse_reader" with a chained traceback per task."""
+    errors = mcp_logs.install()
+    assert mcp_logs.install() is errors  # one filter, however many backends
+    sdk = logging.getLogger("mcp.client.sse")
+    handled: list[logging.LogRecord] = []
+
+    class Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            handled.append(record)
+
+    keep = Keep()
+    sdk.addHandler(keep)
+    try:
+        with structlog.testing.capture_logs() as logs:
+            try:
+                raise ConnectionError("peer closed connection")
+            except ConnectionError:
+                sdk.exception("Error in sse_reader")  # no server in context: one line
+            token = mcp_logs.current_server.set("memory")
+            try:
+                try:
+                    raise ConnectionError("gone")
+                except ConnectionError:
+                    sdk.exception("Error in post_writer")  # kept for memory's own line
+            finally:
+                mcp_logs.current_server.reset(token)
+    finally:
+        sdk.removeHandler(keep)
+    assert handled == []
+    assert [(log["event"], log["error"]) for log in logs] == [
+        ("mcp_transport_error", "ConnectionError: peer closed connection")
+    ]
+    assert errors.take("memory") == "ConnectionError: gone"

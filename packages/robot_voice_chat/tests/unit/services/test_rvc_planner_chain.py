@@ -66,7 +66,7 @@ async def test_the_cloud_going_down_mid_mission_finishes_on_rules(
     anthropic = AnthropicLLM(api_key="k", base_url=url, max_retries=0, request_timeout_s=10)
     chain = PlannerChain([anthropic, RulesPlanner()])
     assert chain.understanding_label == "anthropic, fallback rules + embedded matcher"
-    o = office(tmp_path, drive_s=0.3)
+    o = office(tmp_path, drive_s=0.3, arm=True)
     o.executor.planner = chain
     mission = await o.executor.start("Please fetch the package from the mailroom.")
     await async_wait_until(lambda: o.tools.called("navigation.navigate_to"), 10, "driving")

@@ -13,7 +13,11 @@ from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 
-TOOLS = [*FAST_LOCAL_TOOLS, ToolDefinition(name="navigation.navigate_to")]
+TOOLS = [
+    *FAST_LOCAL_TOOLS,
+    ToolDefinition(name="navigation.navigate_to"),
+    ToolDefinition(name="skill_control.instantiate_skill"),
+]
 
 
 def user(text: str) -> list[Message]:
@@ -59,7 +63,7 @@ async def test_commands_go_to_start_mission_with_an_ack_and_stop_to_stop_mission
     stop = await chat.chat(user("Stop!"), TOOLS)
     assert [c.name for c in stop.tool_calls] == ["stop_mission"]
     after = [*user("stop"), stop.as_message()]
-    told = "I could not reach the navigation server, so it could not confirm the stop."
+    told = "I could not reach my navigation, so it could not confirm the stop."
     answer = ToolResult(tool_call_id=stop.tool_calls[0].id, content=told)
     after.append(Message(role="user", tool_results=[answer]))
     assert (await chat.chat(after, TOOLS)).text == told  # what the stop confirmed, no more

@@ -134,7 +134,9 @@ async def test_a_place_is_resolved_by_its_human_name_or_said_unknown(
     assert alice.tool_calls[0].arguments["place"] == "desk_alice"
     garage = await recall_turn(chat, [], "what did you see in the garage today")
     assert not garage.tool_calls
-    assert garage.text.startswith("I don't know a place called 'garage'. I know: dock,")
+    assert garage.text.startswith(
+        "I don't know a place called 'garage'. I know: the charging dock,"
+    )
 
 
 @pytest.mark.parametrize(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sqlite3
 from typing import Any
 
 import structlog
@@ -27,6 +28,7 @@ from robot_voice_chat.api.ingress import (
     read_limited,
     single_header,
 )
+from robot_voice_chat.api.seen_events import SeenEvents
 from robot_voice_chat.settings import ApiConfig
 
 logger = structlog.get_logger(__name__)
@@ -51,9 +53,20 @@ def _rate_limited(scope: str, key: str) -> JSONResponse:
     return JSONResponse({"status": "rate_limited"}, status_code=429, headers={"Retry-After": "60"})
 
 
-def build_router(api: ApiConfig) -> APIRouter:
+def build_router(api: ApiConfig, stored: SeenEvents | None = None) -> APIRouter:
+    """``stored``: where handled event ids outlive the process (None: this life only)."""
     router = APIRouter(prefix="/api/agent", tags=["agent"])
     seen = DedupeLRU(api.dedupe_size)
+    loaded = stored is None
+
+    async def remembered() -> DedupeLRU:
+        nonlocal loaded
+        if not loaded and stored is not None:
+            for event_id in await stored.newest(api.dedupe_size):
+                seen.add(event_id)
+            loaded = True
+        return seen
+
     per_server = RateLimit(api.event_rate_limit)
     per_client = RateLimit(api.unsigned_rate_limit)
 
@@ -104,7 +117,7 @@ def build_router(api: ApiConfig) -> APIRouter:
         owner = container.executor.task_server(event.task_id)
         if owner is not None and owner != server:
             return _reject(400, "task_of_another_server", server)
-        if not seen.reserve(event.event_id):
+        if not (await remembered()).reserve(event.event_id):
             return JSONResponse({"status": "duplicate"})
         try:
             handled = await container.executor.on_task_event(event)
@@ -112,6 +125,11 @@ def build_router(api: ApiConfig) -> APIRouter:
             seen.release(event.event_id)
             logger.exception("agent_event_handling_failed", event_id=event.event_id)
             return JSONResponse({"status": "retry"}, status_code=503)
+        if stored is not None:
+            try:
+                await stored.add(event.event_id)
+            except sqlite3.Error:  # handled already: a restart may take a replay as new
+                logger.exception("agent_event_id_not_stored", event_id=event.event_id)
         logger.info("agent_event_accepted", server=server, type=event.type, task_id=event.task_id)
         return JSONResponse({"status": "accepted" if handled else "orphan"})
 

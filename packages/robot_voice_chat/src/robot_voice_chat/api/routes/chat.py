@@ -12,6 +12,7 @@ from robot_voice_chat.socket_events import SendMessage
 
 router = APIRouter(prefix="/api/chat", tags=["chat"])
 MAX_AUDIO_BYTES = 10 * 1024 * 1024
+BODY_LIMITS = {"/api/chat/audio": MAX_AUDIO_BYTES}  # above api.max_body_bytes (BodyLimit)
 
 
 @router.post("", operation_id="send_message")

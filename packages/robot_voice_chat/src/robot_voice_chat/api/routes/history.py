@@ -29,6 +29,8 @@ from robot_voice_chat.api.episodic_history import (
     sighting_rows,
     tool_failure,
 )
+from robot_voice_chat.api.tool_json import BACKGROUND_READ
+from robot_voice_chat.control.context import dispatching
 from robot_voice_chat.services.tools.base import ToolBackend
 
 logger = structlog.get_logger(__name__)
@@ -89,7 +91,8 @@ async def _call(
 ) -> dict[str, Any]:
     if tools.server_states().get(SERVER) != "connected":
         raise not_connected()
-    outcome = await tools.call_tool(f"{SERVER}.{tool}", arguments, timeout_s=timeout_s)
+    with dispatching(BACKGROUND_READ):
+        outcome = await tools.call_tool(f"{SERVER}.{tool}", arguments, timeout_s=timeout_s)
     if outcome.is_error:
         if tools.server_states().get(SERVER) != "connected":
             raise not_connected()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import abc
 
+from robot_voice_chat.robot_words import sentences_of, witness
 from robot_voice_chat.socket_events import SocketEvent
 
 
@@ -19,6 +20,7 @@ class FakeEventEmitter(EventEmitter):
 
     async def emit(self, event: SocketEvent) -> None:
         self.events.append(event)
+        witness(sentences_of(event))
 
     def of(self, cls: type[SocketEvent]) -> list[SocketEvent]:
         return [e for e in self.events if isinstance(e, cls)]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from robot_voice_chat.robot_words import witness
 from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
 
 
@@ -12,6 +13,7 @@ class FakeSpeechOutput(SpeechOutput):
 
     async def speak_sentence(self, sentence: str) -> None:
         self.spoken.append(sentence)
+        witness([sentence])
 
     async def interrupt(self) -> None:
         self.interrupts += 1

@@ -56,12 +56,20 @@ class FakeToolBackend(ToolBackend):
         )
 
     def list_tools(self) -> list[ToolDefinition]:
-        return list(self._definitions.values())
+        """Like the MCP backend: a server that is not connected lists no tools."""
+        return [
+            d
+            for name, d in self._definitions.items()
+            if self.states.get(name.split(".", 1)[0], "connected") == "connected"
+        ]
 
     async def call_tool(
         self, name: str, arguments: dict[str, object], timeout_s: float | None = None
     ) -> ToolOutcome:
         self.calls.append((name, dict(arguments)))
+        server = name.split(".", 1)[0]
+        if self.states.get(server, "connected") != "connected":
+            return ToolOutcome(text=f"error: server {server!r} is not connected", is_error=True)
         handler = self._handlers.get(name)
         if handler is None:
             return ToolOutcome(text=f"unknown tool {name}", is_error=True)

@@ -11,7 +11,14 @@ from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCA
 
 RECALL_TOOLS = [
     ToolDefinition(name=n)
-    for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT, LIST_LOCATIONS, "start_mission")
+    for n in (
+        WHAT_HAPPENED,
+        LAST_SEEN,
+        POSE_AT,
+        LIST_LOCATIONS,
+        "skill_control.instantiate_skill",
+        "start_mission",
+    )
 ]
 SIGHTINGS_ONLY = {"kinds": ["sightings"], "max_items": 100}
 

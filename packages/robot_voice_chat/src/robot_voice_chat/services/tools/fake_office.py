@@ -36,6 +36,7 @@ PLACES: dict[str, list[str]] = {
     "mailroom": ["mail_room", "post_room"],
 }
 SEEN_AT = {"mailroom": ["yellow package"], "kitchen": ["scissors", "red mug"]}
+"""What stands where when the office starts (each OfficeWorld keeps its own copy)."""
 DOOR_SUGGESTIONS = [
     'ask someone to open the mailroom door, then call navigate_to("mailroom") again',
     "use the east entrance via corridor_b "
@@ -53,9 +54,12 @@ class OfficeWorld:
         self.deliver: Deliver | None = None
         self.tasks: dict[str, dict[str, Any]] = {}
         self.driving: asyncio.Task[None] | None = None
+        self.arm: Any = None  # an OfficeArm when the robot has one
         self._ids = itertools.count(1)
         self._background: set[asyncio.Task[None]] = set()
         self.last_query = ""
+        self.objects = {place: list(SEEN_AT.get(place, [])) for place in PLACES}
+        self.stamps = itertools.count(1_700_000_000)
         nav = {
             "navigate_to": (self.navigate_to, {"location": "string", "triggers": "array"}),
             "list_locations": (self.list_locations, {}),
@@ -142,6 +146,8 @@ class OfficeWorld:
         server, tool = (
             ("perception", "instantiate_skill")
             if task_id.startswith("watch-")
+            else ("manipulation", str(self.tasks[task_id]["tool"]))
+            if task_id.startswith("manip-")
             else ("navigation", "navigate_to")
         )
         event = TaskEvent(
@@ -215,7 +221,7 @@ class OfficeWorld:
 
     def wait_for_result(self, args: dict[str, Any]) -> dict[str, Any]:
         skill = str(args.get("skill"))
-        seen = SEEN_AT.get(self.at, [])
+        seen = self.objects.get(self.at, [])
         if skill == "describe_scene":
             text = f"an office room with {', '.join(seen) or 'nothing special'}"
             return {
@@ -225,7 +231,17 @@ class OfficeWorld:
             }
         head = self.last_query.split()[-1] if self.last_query else ""
         hits = [label for label in seen if head and label.split()[-1] == head]
-        detections = [{"label": label, "score": 0.91, "box": [10, 10, 50, 50]} for label in hits]
+        stamp = float(next(self.stamps))
+        topic = f"/vision/{skill}/detections"
+        detections = [
+            {
+                "label": label,
+                "score": 0.91,
+                "box": [10, 10, 50, 50],
+                "mask_ref": {"topic": topic, "stamp": stamp, "index": i, "url": None},
+            }
+            for i, label in enumerate(hits)
+        ]
         return {
             "skill": skill,
             "detections": detections,
@@ -259,10 +275,15 @@ class Office:
         return {s.id: s.status for s in mission.steps}
 
 
-def office(tmp_path: Path, drive_s: float = 0.05, **agent: Any) -> Office:
-    """An executor on the rules planner in the simulated office (swap ``executor.planner``)."""
-    tools = FakeToolBackend(nav_servers())
+def office(tmp_path: Path, drive_s: float = 0.05, arm: bool = False, **agent: Any) -> Office:
+    """An executor on the rules planner in the simulated office (swap ``executor.planner``);
+    ``arm``: the robot has one (the manipulation server's tools, fake_office_arm.py)."""
+    from robot_voice_chat.services.tools.fake_office_arm import OfficeArm, arm_server
+
+    tools = FakeToolBackend(nav_servers() + ([arm_server()] if arm else []))
     world = OfficeWorld(tools, drive_s=drive_s)
+    if arm:
+        world.arm = OfficeArm(world)
     emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
     trace = TraceRecorder(tmp_path / "missions")
     memory = MemoryClient(tools, "")

@@ -35,6 +35,7 @@ from mcp.types import RequestParamsMeta
 from robot_mcp_kit.caller import approval_meta
 from robot_mcp_kit.correlation import mission_meta
 from robot_voice_chat.services.llm.base import ToolDefinition
+from robot_voice_chat.services.tools import mcp_logs
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
     ElicitationHandler,
@@ -143,6 +144,7 @@ class McpToolBackend(ToolBackend):
         self._closing = False
         self._listener_tasks: set[asyncio.Task[None]] = set()
         self._elicitation: ElicitationHandler | None = None
+        self._transport_errors = mcp_logs.install()
 
     def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
         """Before ``start``: sessions then declare elicitation and route questions here."""
@@ -258,8 +260,10 @@ class McpToolBackend(ToolBackend):
 
     async def _supervise(self, conn: _Connection) -> None:
         name = conn.config.name
+        mcp_logs.current_server.set(name)  # the SDK's tasks started from here inherit it
         while not self._closing:
             conn.state, conn.refused = "connecting", False
+            failure: Exception | None = None
             try:
                 async with AsyncExitStack() as stack:
                     # asyncio.timeout, not wait_for: anyio scopes must stay in this task.
@@ -292,7 +296,14 @@ class McpToolBackend(ToolBackend):
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
-                error = _describe(exc)
+                failure = exc
+            finally:
+                lost = conn.state == "connected"
+                conn.session, conn.state = None, "disconnected"
+            # one line per loss or failed attempt, with the transport's reason if it had one
+            reason = self._transport_errors.take(name)
+            if failure is not None and not lost:
+                error = reason or mcp_logs.describe(failure)
                 if conn.refused:
                     logger.warning(
                         "mcp_server_unauthorized",
@@ -303,12 +314,10 @@ class McpToolBackend(ToolBackend):
                     )
                 else:
                     logger.warning("mcp_server_unavailable", server=name, error=error)
-            finally:
-                lost = conn.state == "connected"
-                conn.session, conn.state = None, "disconnected"
-                if lost and not self._closing:
-                    logger.warning("mcp_server_disconnected", server=name)
-                    self._notify(name, self._lost_listeners)
+            if lost and not self._closing:
+                error = reason or (mcp_logs.describe(failure) if failure else "closed")
+                logger.warning("mcp_server_disconnected", server=name, error=error)
+                self._notify(name, self._lost_listeners)
             if self._closing:
                 break
             conn.wake.clear()
@@ -336,9 +345,3 @@ class McpToolBackend(ToolBackend):
             await listener(server)
         except Exception:
             logger.exception("mcp_connect_listener_failed", server=server)
-
-
-def _describe(exc: BaseException) -> str:
-    if isinstance(exc, BaseExceptionGroup) and exc.exceptions:
-        return _describe(exc.exceptions[0])
-    return f"{type(exc).__name__}: {exc}"

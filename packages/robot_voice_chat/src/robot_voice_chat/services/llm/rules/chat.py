@@ -25,6 +25,7 @@ from robot_voice_chat.services.llm.base import (
 )
 from robot_voice_chat.services.llm.rules import answers
 from robot_voice_chat.services.llm.rules.commands import Command, normalise
+from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
     Names,
@@ -58,7 +59,8 @@ _TOLD = ("time", "doing", "distance", "smalltalk", "thanks", "resume")  # issue 
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
 UNDERSTOOD = (
     "go to a place, find something (in a place), fetch something from a place and bring it "
-    "somewhere, watch for something, tell you what I see, where I am and which places I know, "
+    "somewhere (with my arm: pick it up, put it down, hand it over), watch for something, "
+    "tell you what I see, where I am and which places I know, "
     "what I saw or did earlier ('when did you last see the mug?') — "
     "also several steps in a row ('go to the kitchen, then to reception')"
 )
@@ -78,6 +80,10 @@ def ack(command: Command) -> str:
         return f"I'll look for the {command.obj}."
     if command.kind == "watch":
         return f"I'll watch for {command.obj}."
+    if command.kind == "pick":
+        return f"I'll pick up the {command.obj}."
+    if command.kind in ("put", "release"):
+        return "I'll put it down." if command.kind == "put" else "Here you are."
     return "Let me look."
 
 
@@ -154,7 +160,7 @@ class RulesChat(LLMProvider):
                 text = f"{text} {self._pending.text}"
             return LLMResponse(text=text)
         if result.is_error:
-            return LLMResponse(text=f"That didn't work: {result.content}")
+            return LLMResponse(text=f"That didn't work: {reason_of(result.content)}.")
         if purpose == "stop":  # what the stop could confirm, never more (issue 27)
             return LLMResponse(text=result.content or "Stopped.")
         return LLMResponse(text="Done.")
@@ -172,6 +178,9 @@ class RulesChat(LLMProvider):
             reading = self.understanding.understand(text, places)
         if reading.kind == "act" and "start_mission" in names:
             said = saying.plan(reading.actions, places)
+            missing = _missing_service(reading.actions, names)
+            if missing is not None:  # refused now, not after an "OK" the mission takes back
+                return LLMResponse(text=f"I can't {said} right now: my {missing} is not connected.")
             arguments = {"instruction": instruction_of(reading.actions), "ack": f"OK, I'll {said}."}
             return self._call("start_mission", arguments, "mission")
         if reading.kind == "ask" and reading.question is not None:
@@ -213,7 +222,7 @@ class RulesChat(LLMProvider):
                 return LLMResponse(
                     text="I don't know any places: the navigation server is not connected."
                 )
-            listed = "; ".join(p.label() for p in places.places)
+            listed = ", ".join(p.spoken() for p in places.places)
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
         return LLMResponse(text=INTRO)
 
@@ -293,6 +302,24 @@ class RulesChat(LLMProvider):
         yield StreamEvent(response=response)
 
 
+# the services a request needs, by the tool-name prefix of the servers the missions call
+_DRIVES, _LOOKS = ("navigation.", "navigation"), ("skill_control.", "camera")
+
+
+def _missing_service(actions: list[Action], names: set[str]) -> str | None:
+    """The service a request needs that lists no tools now (its server is down), if any."""
+    needed = []
+    for action in actions:
+        if action.place is not None or action.to is not None or action.kind == "goto":
+            needed.append(_DRIVES)
+        if action.kind in ("find", "fetch", "watch"):
+            needed.append(_LOOKS)
+    for prefix, service in needed:
+        if not any(name.startswith(prefix) for name in names):
+            return service
+    return None
+
+
 def _asked(question: Question, messages: list[Message]) -> bool:
     """Our question is the conversation's last reply (or the pipeline keeps no history)."""
     replies = [m.content for m in messages if m.role == "assistant" and m.content]
@@ -313,7 +340,7 @@ def _told(sent: _Sent, result: ToolResult) -> str:
 
 def _where(result: ToolResult, names: Names = by_id) -> str:
     if result.is_error:
-        return f"I can't tell where I am right now: {result.content[:200]}"
+        return f"I can't tell where I am right now: {reason_of(result.content)}."
     try:
         pose = json.loads(result.content)
     except ValueError:
@@ -377,8 +404,8 @@ def _look_offer(obj: str) -> Question:
 
 def _unsure_place(phrase: str, names: list[str], places: PlaceIndex) -> str:
     if names:
-        return f"Which place do you mean: {', '.join(n.replace('_', ' ') for n in names)}?"
-    known = ", ".join(p.name.replace("_", " ") for p in places.places)
+        return f"Which place do you mean: {', '.join(places.spoken(n) for n in names)}?"
+    known = ", ".join(p.spoken() for p in places.places)
     return f"I don't know a place called '{phrase}'. I know: {known}."
 
 

@@ -2,7 +2,9 @@
 
 Understood: "go / drive / head / navigate to <place>", "find / look for / search for <thing>
 [in the <place>]", "what do you see", "watch for <thing>", "fetch / bring / get <thing>
-from <place>". Anything else is ``unknown`` and the planner says so.
+from <place>", and for the arm: "pick up / grab <thing> [at <place>]" (with a place: a fetch),
+"put / place / set <it | thing> [down] [on / at / in <place>]", "hand it over / drop it / give it
+to me / let go". Anything else is ``unknown`` and the planner says so.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-Kind = Literal["goto", "find", "see", "watch", "fetch", "unknown"]
+Kind = Literal["goto", "find", "see", "watch", "fetch", "pick", "put", "release", "unknown"]
 
 _ARTICLE = r"(?:(?:the|a|an|my|our|some)\s+)?"
 _POLITE = re.compile(
@@ -25,6 +27,29 @@ _PATTERNS: list[tuple[Kind, re.Pattern[str]]] = [
         re.compile(
             rf"^(?:fetch|bring(?:\s+me)?|get(?:\s+me)?|pick\s+up|collect|grab)\s+{_ARTICLE}"
             rf"(?P<obj>.+?)\s+from\s+{_ARTICLE}(?P<place>.+)$"
+        ),
+    ),
+    (
+        "pick",
+        re.compile(
+            rf"^(?:pick\s+up|grab|take\s+hold\s+of)\s+{_ARTICLE}(?P<obj>.+?)"
+            rf"(?:\s+(?:in|at|from|on)\s+{_ARTICLE}(?P<place>.+))?$"
+        ),
+    ),
+    (
+        "put",
+        re.compile(
+            rf"^(?:put|place|set|leave)\s+(?:it|that|this|{_ARTICLE}(?P<obj>.+?))"
+            rf"(?:\s+(?:back\s+)?down)?(?:\s+(?:here|there))?"
+            rf"(?:\s+(?:on|at|in|onto|into)\s+{_ARTICLE}(?P<place>.+))?$"
+        ),
+    ),
+    (
+        "release",
+        re.compile(
+            r"^(?:hand\s+(?:it|that|this|(?:the\s+)?\w+(?:\s+\w+)?)\s+over|hand\s+over\b.*|"
+            r"give\s+(?:it|that|this|me\s+.+|.+\s+to\s+me)|drop\s+(?:it|that|this|.+)|"
+            r"let\s+(?:it\s+|that\s+)?go)(?:\s+(?:here|now|to\s+me))?$"
         ),
     ),
     (
@@ -89,7 +114,12 @@ def parse(text: str) -> Command:
             match = pattern.match(words)
             if match is not None:
                 groups = match.groupdict()
-                return Command(kind, text, _strip(groups.get("obj")), _strip(groups.get("place")))
+                obj, place = _strip(groups.get("obj")), _strip(groups.get("place"))
+                if kind == "pick" and place is not None:
+                    kind = "fetch"  # "pick up the parcel at the mailroom": go there first
+                if kind == "release":
+                    obj = None  # what is held; the arm's server knows
+                return Command(kind, text, obj, place)
     return Command("unknown", text)
 
 

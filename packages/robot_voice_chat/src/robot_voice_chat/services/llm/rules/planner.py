@@ -34,15 +34,12 @@ from robot_voice_chat.services.llm.rules.program import (
     LIST_LOCATIONS,
     NAVIGATE,
     TASK_EVENT,
-    Act,
-    Call,
     MissionProgram,
-    Observation,
-    Program,
     Settings,
 )
 from robot_voice_chat.services.llm.rules.recall_program import recall_program
 from robot_voice_chat.services.llm.rules.recollection import names_of
+from robot_voice_chat.services.llm.rules.steps import Act, Call, Observation, Program
 from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
 from robot_voice_chat.services.llm.understanding.legs import legs_of
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
@@ -65,6 +62,18 @@ class _Session:
     serial: int = 0
     # drives this conversation started (also by a planner it took over from) still running
     own_drives: set[str] = field(default_factory=set)
+    answered: list[str] | None = None  # the tools of our last answer (None: none given yet)
+
+
+def _continues(session: _Session, messages: list[Message]) -> bool:
+    """Whether ``messages`` is the session's conversation: our last answer is in it, where
+    we gave it (a gateway may rename call ids, so the tools are compared, in order)."""
+    if session.answered is None:
+        return session.seen <= len(messages)
+    if len(messages) < session.seen:
+        return False
+    ours = messages[session.seen - 1]
+    return ours.role == "assistant" and [c.name for c in ours.tool_calls] == session.answered
 
 
 def _instruction(messages: list[Message]) -> Message | None:
@@ -139,10 +148,12 @@ class RulesPlanner(LLMProvider):
     def _session(
         self, instruction: Message, messages: list[Message], tools: list[ToolDefinition]
     ) -> _Session:
-        # One mission = one conversation: the same instruction, and it only ever grows.
+        # One mission = one conversation: the same instruction, and it only ever grows past
+        # our last answer. The same words in a new conversation (a new mission) start afresh:
+        # what failed before (a server down) may work now.
         key = instruction.content
         session = self._sessions.get(key)
-        if session is not None and session.seen <= len(messages) + 1:
+        if session is not None and _continues(session, messages):
             return session
         resumed = any(m.role == "assistant" and m.tool_calls for m in messages)
         self._serial += 1
@@ -206,6 +217,7 @@ class RulesPlanner(LLMProvider):
             session.calls += 1
             calls.append(_tool_call(call, f"rules_{session.serial}_{session.calls}"))
         session.pending = calls
+        session.answered = [c.name for c in calls]
         return LLMResponse(text=act.text, tool_calls=calls, stop_reason="tool_use")
 
     async def chat_stream(

@@ -9,25 +9,44 @@ yields the tool calls of one planner step (:class:`Act`) and receives what came 
 
 from __future__ import annotations
 
+import json
 import re
-from collections.abc import Generator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
-from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
+from robot_voice_chat.robot_words import service_name
+from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
+from robot_voice_chat.services.llm.rules.carry import (
+    GET_HELD,
+    NO_ARM,
+    PICK,
+    PLACE,
+    RELEASE,
+    Carrying,
+)
 from robot_voice_chat.services.llm.rules.commands import Command
+from robot_voice_chat.services.llm.rules.plain import reason_of, suggestion_of
 from robot_voice_chat.services.llm.rules.recollection import (
     Names,
     by_id,
     last_sightings_sentence,
     names_of,
 )
+from robot_voice_chat.services.llm.rules.steps import (
+    Act,
+    Call,
+    Finished,
+    Observation,
+    Outcome,
+    PlanStep,
+    Program,
+    Steps,
+)
 from robot_voice_chat.services.llm.rules.surface import (
     Failure,
     Locations,
     as_json,
     detour_legs,
-    error_of,
     has_tool,
     task_id_of,
 )
@@ -48,7 +67,8 @@ WHAT_HAPPENED = "episodic.what_happened"
 LAST_SIGHTINGS = {"start": "-1d", "kinds": ["sightings"], "max_items": 3}
 UNDERSTOOD = (
     "go to <place>, find <thing> [in <place>], what do you see, watch for <thing>, "
-    "fetch <thing> from <place>"
+    "fetch <thing> from <place> [and bring it to <place>], pick up <thing>, put it down "
+    "[at <place>], hand it over"
 )
 TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
@@ -61,25 +81,6 @@ _ABORT = ("abort", "no", "cancel", "give up", "forget it", "never mind", "quit")
 
 
 @dataclass
-class Call:
-    name: str
-    arguments: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class Act:
-    calls: list[Call]
-    text: str = ""
-
-
-@dataclass
-class Observation:
-    results: list[ToolResult] = field(default_factory=list)
-    lines: list[str] = field(default_factory=list)
-    paused_reply: str | None = None
-
-
-@dataclass
 class Settings:
     prewarm: bool = True
     eta_trigger_s: float = 10.0
@@ -87,30 +88,7 @@ class Settings:
     max_legs: int = 6
 
 
-@dataclass
-class Outcome:
-    kind: str  # done | failed | watch_event | paused
-    line: str = ""
-
-
-Program = Generator[Act, Observation, None]
-Steps = Generator[Act, Observation, Any]
-
-
-class _Finished(Exception):
-    def __init__(self, outcome: str, summary: str) -> None:
-        super().__init__(summary)
-        self.outcome, self.summary = outcome, summary
-
-
-@dataclass
-class _Step:
-    id: str
-    title: str
-    tool: str | None = None
-
-
-class MissionProgram:
+class MissionProgram(Carrying):
     """One mission's program; ``resumed`` = taking over a conversation another planner began,
     ``own_drives`` = the drives that conversation started and that may still run."""
 
@@ -133,7 +111,7 @@ class MissionProgram:
         self.settings = settings or Settings()
         self.resumed = resumed
         self.prefix = "r" if resumed else "s"
-        self.steps: list[_Step] = []
+        self.steps: list[PlanStep] = []
         self.terminal: dict[str, Outcome] = {}
         self.pause_reply: str | None = None
         self.reactions_fired: list[str] = []
@@ -143,15 +121,20 @@ class MissionProgram:
         self.own_drives: set[str] = set(own_drives or ())
         self.user_turns: list[str] = []  # what people said mid-mission, not answered yet
         self.doing = ""  # what the robot is busy with, for those answers
+        self.told_busy: str | None = None  # the activity the busy answer was said for
+        self.say: Names = by_id  # how sentences say the map's places (the live list's names)
+        self.known: list[str] = []  # the map's place ids (said by name inside server text)
         self.unreachable: dict[str, set[str]] = {}  # server → its tasks we can't hear from
         self.timeouts = 0  # "[timeout] still waiting" wakeups seen
+        self.seen: Any = None  # the last look's result (its detections carry mask_refs)
+        self.holding: str | None = None  # what the arm's server said it holds
 
     # --- plumbing --------------------------------------------------------------------------
     def run(self) -> Program:
         try:
             yield from self._main()
-            raise _Finished("failed", "I stopped without reaching the goal.")  # not reached
-        except _Finished as end:
+            raise Finished("failed", "I stopped without reaching the goal.")  # not reached
+        except Finished as end:
             calls = [Call("finish_mission", {"outcome": end.outcome, "summary": end.summary})]
             tell = next((s for s in self.steps if s.tool is None), None)
             if tell is not None and end.outcome == "succeeded":
@@ -162,15 +145,23 @@ class MissionProgram:
     def act(self, *calls: Call, text: str = "") -> Steps:
         """One planner step; a person who spoke since the last one is answered with it (a
         brief ``say``, spec §5.1), and the callers see the results of their own calls only."""
-        answer = [Call("say", {"text": self.busy_answer()})] if self.user_turns else []
+        answer = []
+        if self.user_turns and self.told_busy != self.activity():
+            # said once per activity: every turn already got its own answer on screen, and
+            # twenty messages must not make the robot say the same thing twenty times
+            answer = [Call("say", {"text": self.busy_answer()})]
+            self.told_busy = self.activity()
         self.user_turns.clear()
         observation: Observation = yield Act([*answer, *calls], text)
         self.absorb(observation)
         return observation.results[len(answer) :]
 
+    def activity(self) -> str:
+        return self.doing or f"working on: {self.command.text.strip()}"
+
     def busy_answer(self) -> str:
         heard = self.user_turns[-1]
-        doing = self.doing or f"working on: {self.command.text.strip()}"
+        doing = self.activity()
         return (
             f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
             "mission: say stop to halt me, then give me the new task."
@@ -210,24 +201,26 @@ class MissionProgram:
         missing = [n for n in names if not has_tool(self.tools, n)]
         if missing:
             server = missing[0].split(".")[0]
-            raise _Finished(
-                "failed",
-                f"I can't do that right now: the {server} server is not connected "
-                f"(missing {', '.join(missing)}).",
+            raise Finished(
+                "failed", f"I can't do that right now: my {service_name(server)} is not connected."
             )
+
+    def reason(self, content: str) -> str:
+        """A tool error as the robot says it (codes and tool names stay in the step)."""
+        return reason_of(content, self.say, self.known)
 
     # --- the missions ------------------------------------------------------------------------
     def _main(self) -> Steps:
         c = self.command
         if self.refusal is not None:
-            raise _Finished("failed", self.refusal)
+            raise Finished("failed", self.refusal)
         if len(self.legs) > 1 and any(leg.kind in ("see", "watch") for leg in self.legs):
-            raise _Finished(
+            raise Finished(
                 "failed",
                 "Offline I chain drives, searches and fetches; ask me to look or watch on its own.",
             )
         if c.kind == "unknown":
-            raise _Finished(
+            raise Finished(
                 "failed",
                 f"I can't do that offline: I didn't understand {c.text.strip()!r}. "
                 f"Offline I understand: {UNDERSTOOD}.",
@@ -241,32 +234,38 @@ class MissionProgram:
         yield from self._run_legs()
 
     def _run_legs(self) -> Steps:
-        """Every leg in order: drive to its place, look for its object, bring it on. All places
-        are resolved before the first drive, so a request is never cut short halfway."""
-        plan: list[tuple[Command, str | None, str | None, str | None]] = []
+        """Every leg in order: drive to its place, look for its object, pick it up, bring it
+        on, put it down and look that it is there. All places are resolved before the first
+        drive, so a request is never cut short halfway."""
+        carry = self.can_carry()
+        plan: list[tuple[Command, dict[str, str]]] = []
         at: str | None = None  # where the legs before this one leave the robot
         for leg in self.legs:
-            drive = look = deliver = None
+            ids: dict[str, str] = {}
+            takes = leg.kind in ("fetch", "pick") and leg.obj is not None
+            if leg.kind in ("pick", "put", "release") and not carry:
+                raise Finished("failed", f"{NO_ARM}, so I can't pick things up or put them down.")
             if leg.place is not None and not _already_there(leg, at):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
-                drive = self.step_id(len(self.steps) + 1)
-                self.steps.append(_Step(drive, f"Drive to the {leg.place}", NAVIGATE))
-            if leg.obj is not None:
+                ids["drive"] = self.add_step(f"Drive to the {leg.place}", NAVIGATE)
+            if leg.obj is not None and leg.kind in ("find", "fetch", "pick"):
                 self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
-                n = len(self.steps)
-                look = self.step_id(n + 1)
-                self.steps += [
-                    _Step(look, f"Look for the {leg.obj}", INSTANTIATE),
-                    _Step(self.step_id(n + 2), "Read what the camera found", WAIT_RESULT),
-                    _Step(self.step_id(n + 3), "Stop the vision skill", STOP_SKILL),
-                ]
-            if leg.to is not None:
+                ids["look"] = self.add_look(leg.obj, f"Look for the {leg.obj}")
+            if takes and carry:
+                ids["pick"] = self.add_step(f"Pick up the {leg.obj}", PICK)
+                ids["held"] = self.add_step("Check what I hold", GET_HELD)
+            if leg.to is not None and (carry or not takes):
                 self.needs(NAVIGATE, LIST_LOCATIONS)
-                deliver = self.step_id(len(self.steps) + 1)
-                self.steps.append(_Step(deliver, f"Bring it to the {leg.to}", NAVIGATE))
-            plan.append((leg, drive, look, deliver))
+                ids["deliver"] = self.add_step(f"Bring it to the {leg.to}", NAVIGATE)
+            if leg.kind == "release":
+                ids["release"] = self.add_step("Hand it over", RELEASE)
+            elif leg.kind == "put" or (takes and carry and leg.to is not None):
+                what = f"the {leg.obj}" if leg.obj else "it"
+                ids["put"] = self.add_step(f"Put {what} down", PLACE)
+                ids["confirm"] = self.add_look(leg.obj or "it", "Look that it is there")
+            plan.append((leg, ids))
             at = leg.to or leg.place or at
-        self.steps.append(_Step(self.step_id(len(self.steps) + 1), "Tell the user", None))
+        self.add_step("Tell the user", None)
         names: dict[str, str] = {}
         spoken: Names = by_id
         phrases = [p for leg in self.legs for p in (leg.place, leg.to) if p is not None]
@@ -279,43 +278,85 @@ class MissionProgram:
             yield from self.act(self.plan_call())
         said: list[str] = []
         place: str | None = None
-        for leg, drive, look, deliver in plan:
-            if drive is not None and leg.place is not None:
+        for leg, ids in plan:
+            if "drive" in ids and leg.place is not None:
                 place = names[leg.place]
-                yield from self._drive(place, drive, prepare=leg.obj)
-            if look is not None and leg.obj is not None:
+                yield from self._drive(place, ids["drive"], prepare=leg.obj)
+            where: str = f" {located(spoken(place))}" if place else ""
+            if "look" in ids and leg.obj is not None:
                 if not self.planned:
                     yield from self.act(self.plan_call())
-                found = yield from self._look_for(leg.obj, look)
-                where = f" {located(spoken(place))}" if place and leg.place else ""
+                found = yield from self._look_for(leg.obj, ids["look"])
                 if not found:
-                    missed = f"I couldn't see the {leg.obj}{where}."
-                    raise _Finished("failed", " ".join([*said, missed]))
-                said.append(f"I found the {leg.obj}{where}: {found}.")
-            if deliver is not None and leg.to is not None:
+                    missed = f"I couldn't see the {leg.obj}{where if leg.place else ''}."
+                    raise Finished("failed", " ".join([*said, missed]))
+                if leg.kind in ("fetch", "pick") and "pick" not in ids:
+                    said.append(
+                        f"I found the {leg.obj}{where}: {found}. But I can't carry it: "
+                        f"{NO_ARM}. It is still{where}."
+                    )
+                    raise Finished("failed", " ".join(said))
+                if "pick" not in ids:
+                    said.append(f"I found the {leg.obj}{where if leg.place else ''}: {found}.")
+            if "pick" in ids and leg.obj is not None:
+                held: str = yield from self._pick(leg.obj, where, ids["pick"], ids["held"])
+                self.holding = held
+                said.append(f"I picked up the {held}{where}.")
+            if "deliver" in ids and leg.to is not None:
                 place = names[leg.to]
-                yield from self._drive(place, deliver, prepare=None)
-                said.append(f"I brought it to {spoken(place)}.")
-            elif look is None and place is not None:
+                yield from self._drive(place, ids["deliver"], prepare=None)
+                where = f" {located(spoken(place))}"
+                if not self.holding:
+                    said.append(f"I'm {located(spoken(place))}.")
+            thing: str | None = self.holding or leg.obj
+            if ({"put", "release"} & set(ids)) and self.holding is None:
+                thing = yield from self._held_now()  # a put on its own: what is in the gripper?
+                if thing is None:
+                    raise Finished("failed", " ".join([*said, "I'm not holding anything."]))
+            phrase = f"the {thing}" if thing else "it"
+            if "release" in ids:
+                yield from self._put(phrase.removeprefix("the "), "release", ids["release"], where)
+                said.append(f"I let go of {phrase}{where}.")
+                self.holding = None
+            if "put" in ids:
+                if not self.planned:
+                    yield from self.act(self.plan_call())
+                yield from self._put(phrase.removeprefix("the "), "place", ids["put"], where)
+                self.holding = None
+                if not thing or not (yield from self._confirm(thing, ids["confirm"])):
+                    said.append(
+                        f"I put {phrase} down{where}, but the camera doesn't show it there, "
+                        "so I can't confirm it arrived."
+                    )
+                    raise Finished("failed", " ".join(said))
+                verb = "brought" if leg.kind == "fetch" else "put"
+                said.append(f"I {verb} {phrase} {'to' if verb == 'brought' else 'down'}"
+                            f"{(' ' + spoken(place)) if verb == 'brought' and place else where}: "
+                            "I can see it there.")  # fmt: skip
+            elif "pick" in ids and "deliver" not in ids and "release" not in ids:
+                said.append("I'm holding it; tell me where to bring it.")
+            bare_drive = not ({"look", "put", "release", "deliver"} & set(ids))
+            if bare_drive and place is not None:
                 said.append(f"I'm {located(spoken(place))}.")
-        raise _Finished("succeeded", " ".join(said))
+        raise Finished("succeeded", " ".join(said))
 
     def _places(self, listed: str, phrases: list[str]) -> tuple[dict[str, str], Names]:
         """Each phrase's place on the live map (unknown or ambiguous ends before any drive),
         and how sentences say the map's places."""
         locations = Locations.from_result(listed)
         index = PlaceIndex.from_result(listed)
+        self.say, self.known = names_of(index), locations.known()
         names: dict[str, str] = {}
         for phrase in phrases:
             exact = locations.resolve(phrase)
             match = index.resolve(phrase)
             if exact is None and not match.sure:
-                known = ", ".join(locations.known()) or "none"
+                known = ", ".join(self.say(n) for n in self.known) or "none"
                 if match.names:
-                    options = " or ".join(n.replace("_", " ") for n in match.names)
+                    options = " or ".join(self.say(n) for n in match.names)
                     known = f"did you mean {options}? Tell me again with the place"
-                    raise _Finished("failed", f"I'm not sure which place {phrase!r} is: {known}.")
-                raise _Finished(
+                    raise Finished("failed", f"I'm not sure which place {phrase!r} is: {known}.")
+                raise Finished(
                     "failed", f"I don't know a place called {phrase!r}. I know: {known}."
                 )
             names[phrase] = exact or match.names[0]
@@ -329,7 +370,9 @@ class MissionProgram:
             leg = route[0]
             legs += 1
             if legs > self.settings.max_legs:
-                raise _Finished("failed", f"I could not reach the {place} after {legs - 1} drives.")
+                raise Finished(
+                    "failed", f"I could not reach {self.say(place)} after {legs - 1} drives."
+                )
             args: dict[str, Any] = {"step_id": current, "location": leg}
             calls = [*before, Call(NAVIGATE, args)]
             before = []
@@ -338,7 +381,7 @@ class MissionProgram:
                 calls.insert(-1, self._prewarm_reaction(prepare))
             result = (yield from self.act(*calls))[-1]
             if result.is_error and HELD_BY_SAFETY_STOP in result.content:  # a stop came first
-                yield from self._until_resumed(f"stopped before driving to the {leg}")
+                yield from self._until_resumed(f"stopped before driving to {self.say(leg)}")
                 legs -= 1
                 current = self._add_step(current, f"Resume the drive to the {leg}")
                 before = [self.plan_call()]
@@ -346,14 +389,17 @@ class MissionProgram:
             if result.is_error and "BUSY" in result.content:
                 result = yield from self._replace_own_drive(leg, args)
             if result.is_error:
-                raise _Finished(
-                    "failed", f"I couldn't drive to the {leg}: {error_of(result.content)}"
+                raise Finished(
+                    "failed", f"I couldn't drive to {self.say(leg)}: {self.reason(result.content)}."
                 )
             task_id = task_id_of(result.content)
             if task_id is None:
-                raise _Finished("failed", f"navigate_to gave no task id: {result.content[:200]}")
+                raise Finished(
+                    "failed",
+                    f"I couldn't drive to {self.say(leg)}: my navigation gave no answer I can use.",
+                )
             self.own_drives.add(task_id)
-            outcome = yield from self._await(task_id, f"driving to the {leg}")
+            outcome = yield from self._await(task_id, f"driving to {self.say(leg)}")
             if outcome.kind == "done":
                 route.pop(0)
                 if route:
@@ -378,30 +424,38 @@ class MissionProgram:
                 # is not busy (its task ended); a second such failure gives up below
                 retried.add(leg)
                 current = self._add_step(current, f"Retry the drive to the {leg}")
-                said = f"{failure.message or failure.code}. I'll try the drive once more."
+                said = f"{_capital(self._failure_said(failure))}. I'll try the drive once more."
                 before = [self.plan_call(), Call("say", {"text": said})]
                 continue
             if detour is None:
-                advice = "; ".join(failure.suggestions)
-                raise _Finished(
+                advice = [a for s in failure.suggestions if (a := self._suggestion(s))]
+                raise Finished(
                     "failed",
-                    f"I couldn't reach the {place}: {failure.code} {failure.message}".strip()
-                    + (f" Suggestions I can't follow alone: {advice}" if advice else ""),
+                    f"I couldn't reach {self.say(place)}: {self._failure_said(failure)}."
+                    + (f" What could help: {'; '.join(advice)}." if advice else ""),
                 )
             suggestion, route = detour
             tried.add(suggestion)
             current = self._add_step(current, f"Detour via the {route[0]}")
-            said = f"{failure.message or failure.code} I'll {suggestion}."
+            plan = self._suggestion(suggestion) or f"drive via {self.say(route[0])}"
+            said = f"{_capital(self._failure_said(failure))}. I'll {plan}."
             before = [self.plan_call(), Call("say", {"text": said})]
+
+    def _failure_said(self, failure: Failure) -> str:
+        """A drive's failure as the robot says it ("the mailroom door is closed")."""
+        return self.reason(json.dumps({"error": failure.code, "detail": failure.message}))
+
+    def _suggestion(self, text: str) -> str | None:
+        return suggestion_of(text, self.say, self.known)
 
     def _replace_own_drive(self, leg: str, args: dict[str, Any]) -> Steps:
         """The base is busy. Only a drive of this mission (begun before a planner takeover)
         is cancelled and replaced; a drive someone else started is never stopped here."""
         mine = sorted(t for t in self.own_drives if t not in self.terminal)
         if not mine or not has_tool(self.tools, CANCEL_TASK):
-            raise _Finished(
+            raise Finished(
                 "failed",
-                f"I couldn't drive to the {leg}: the robot is already driving on a task this "
+                f"I couldn't drive to {self.say(leg)}: the robot is already driving on a task this "
                 "mission did not start, and I won't stop someone else's drive. Say stop to "
                 "halt it, then ask me again.",
             )
@@ -414,7 +468,7 @@ class MissionProgram:
         index = next(i for i, s in enumerate(self.steps) if s.id == after)
         self.extra_steps += 1
         new_id = f"{self.steps[0].id}{chr(ord('a') + self.extra_steps)}"
-        self.steps.insert(index + 1, _Step(new_id, title, NAVIGATE))
+        self.steps.insert(index + 1, PlanStep(new_id, title, NAVIGATE))
         return new_id
 
     def _prewarm_reaction(self, obj: str) -> Call:
@@ -441,11 +495,11 @@ class MissionProgram:
             if lost is None:
                 timeouts = self.timeouts
             elif self.timeouts > timeouts:  # a whole wakeup period and it is still gone
-                raise _Finished(
+                raise Finished(
                     "failed",
-                    f"I lost contact with the {lost} server while {reason} and it has not "
+                    f"I lost contact with my {service_name(lost)} while {reason} and it has not "
                     "come back, so I can't tell or control what that task does; I stopped "
-                    "waiting. Check that server, then ask me again.",
+                    "waiting. Check that service, then ask me again.",
                 )
             # the answer is used up here even when the task ended meanwhile: left pending,
             # it would read as a new pause at the next wait and halt the next drive
@@ -474,14 +528,14 @@ class MissionProgram:
             return None
         reply, self.pause_reply = self.pause_reply.lower(), None
         if any(re.search(rf"\b{w}\b", reply) for w in _ABORT):
-            raise _Finished("failed", "Stopped by the user; mission aborted.")
+            raise Finished("failed", "Stopped by the user; mission aborted.")
         if any(re.search(rf"\b{w}\b", reply) for w in _CONTINUE):
             return "continue"
         return "unclear"
 
-    def _failure(self, task_id: str, line: str) -> Steps:
-        if has_tool(self.tools, GET_TASK):
-            [result] = yield from self.act(Call(GET_TASK, {"task_id": task_id}))
+    def _failure(self, task_id: str, line: str, get_task: str = GET_TASK) -> Steps:
+        if has_tool(self.tools, get_task):
+            [result] = yield from self.act(Call(get_task, {"task_id": task_id}))
             failure = Failure.from_task_info(result.content)
             if failure is not None:
                 return failure
@@ -503,8 +557,8 @@ class MissionProgram:
             )
         )
         if started.is_error:
-            raise _Finished(
-                "failed", f"I couldn't start looking for the {obj}: {error_of(started.content)}"
+            raise Finished(
+                "failed", f"I couldn't start looking for the {obj}: {self.reason(started.content)}."
             )
         data = as_json(started.content)
         skill = (
@@ -522,19 +576,19 @@ class MissionProgram:
             stops.append(Call(STOP_SKILL, {"skill_id": "prewarm_find_object"}))
         yield from self.act(*stops)
         if down is not None:  # not "I couldn't see it": the camera could not look at all
-            raise _Finished(
-                "failed",
-                f"I couldn't look for the {obj}: the camera/vision is unavailable ({down}).",
+            raise Finished(
+                "failed", f"I couldn't look for the {obj}: my camera is unavailable ({down})."
             )
         if seen.is_error:
             return ""
         looked = as_json(seen.content)
         if isinstance(looked, dict) and looked.get("cannot_see"):  # never "it isn't there"
-            raise _Finished(
+            raise Finished(
                 "failed",
                 f"I can't see right now ({_cannot_see(looked.get('cannot_see_reason'))}), "
                 f"so I don't know whether the {obj} is there.",
             )
+        self.seen = looked  # the arm takes its detection from here
         return _labels(looked)
 
     def _vision_down(self) -> Steps:
@@ -543,14 +597,14 @@ class MissionProgram:
         if not has_tool(self.tools, LIST_SKILLS):
             return None
         [listed] = yield from self.act(Call(LIST_SKILLS))
-        return error_of(listed.content) if listed.is_error else None
+        return self.reason(listed.content) if listed.is_error else None
 
     def _remembered(self) -> Steps:
         """What the robot saw last, when and where (the episodic memory), or "" without it."""
         if not has_tool(self.tools, WHAT_HAPPENED):
             return ""
         recall = self.step_id(6)
-        self.steps.insert(max(0, len(self.steps) - 1), _Step(recall, "Recall what I saw last",
+        self.steps.insert(max(0, len(self.steps) - 1), PlanStep(recall, "Recall what I saw last",
                                                               WHAT_HAPPENED))  # fmt: skip
         [remembered] = (
             yield from self.act(
@@ -564,16 +618,16 @@ class MissionProgram:
 
     def _see(self) -> Steps:
         if not has_tool(self.tools, WHAT_DO_YOU_SEE) and has_tool(self.tools, WHAT_HAPPENED):
-            self.steps = [_Step(self.step_id(2), "Tell the user", None)]
+            self.steps = [PlanStep(self.step_id(2), "Tell the user", None)]
             memory = yield from self._remembered()
-            raise _Finished(
+            raise Finished(
                 "succeeded", f"I can't look right now (perception is not connected). {memory}"
             )
         self.needs(WHAT_DO_YOU_SEE)
         self.doing = "looking around"
         self.steps = [
-            _Step(self.step_id(1), "Check what the camera sees", WHAT_DO_YOU_SEE),
-            _Step(self.step_id(2), "Tell the user", None),
+            PlanStep(self.step_id(1), "Check what the camera sees", WHAT_DO_YOU_SEE),
+            PlanStep(self.step_id(2), "Tell the user", None),
         ]
         [view] = (
             yield from self.act(
@@ -585,9 +639,9 @@ class MissionProgram:
         if not text and has_tool(self.tools, INSTANTIATE) and has_tool(self.tools, WAIT_RESULT):
             look, read, stop = (self.step_id(n) for n in (3, 4, 5))
             self.steps[1:1] = [
-                _Step(look, "Take a fresh look", INSTANTIATE),
-                _Step(read, "Read the description", WAIT_RESULT),
-                _Step(stop, "Stop the vision skill", STOP_SKILL),
+                PlanStep(look, "Take a fresh look", INSTANTIATE),
+                PlanStep(read, "Read the description", WAIT_RESULT),
+                PlanStep(stop, "Stop the vision skill", STOP_SKILL),
             ]
             [started] = (
                 yield from self.act(
@@ -620,28 +674,27 @@ class MissionProgram:
                 down = (yield from self._vision_down()) if fresh.is_error else None
                 if down is not None:
                     memory = yield from self._remembered()
-                    raise _Finished(
+                    raise Finished(
                         "failed",
-                        f"I can't look right now: the camera/vision is unavailable ({down}). "
-                        + memory,
+                        f"I can't look right now: my camera is unavailable ({down}). " + memory,
                     )
         if not text:
             memory = yield from self._remembered()
             if memory:
-                raise _Finished("succeeded", f"I see nothing new right now. {memory}")
-            raise _Finished(
+                raise Finished("succeeded", f"I see nothing new right now. {memory}")
+            raise Finished(
                 "failed", "I can't tell what I see right now: the camera gave me nothing."
             )
-        raise _Finished("succeeded", f"I see {_mid_sentence(text)}")
+        raise Finished("succeeded", f"I see {_mid_sentence(text)}")
 
     def _watch(self, thing: str) -> Steps:
         self.needs(INSTANTIATE)
         start, wait, stop = (self.step_id(n) for n in (1, 2, 3))
         self.steps = [
-            _Step(start, f"Start watching for {thing}", INSTANTIATE),
-            _Step(wait, f"Wait until {thing}", None),
-            _Step(stop, "Stop the watcher", STOP_SKILL),
-            _Step(self.step_id(4), "Tell the user", None),
+            PlanStep(start, f"Start watching for {thing}", INSTANTIATE),
+            PlanStep(wait, f"Wait until {thing}", None),
+            PlanStep(stop, "Stop the watcher", STOP_SKILL),
+            PlanStep(self.step_id(4), "Tell the user", None),
         ]
         [started] = (
             yield from self.act(
@@ -654,8 +707,8 @@ class MissionProgram:
         )[1:]
         task_id = None if started.is_error else task_id_of(started.content)
         if task_id is None:
-            raise _Finished(
-                "failed", f"I couldn't start watching for {thing}: {error_of(started.content)}"
+            raise Finished(
+                "failed", f"I couldn't start watching for {thing}: {self.reason(started.content)}."
             )
         info = as_json(started.content)
         skill = str(info.get("skill_id", "watch_for")) if isinstance(info, dict) else "watch_for"
@@ -675,8 +728,20 @@ class MissionProgram:
             Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}),
         )
         if outcome.kind == "failed":
-            raise _Finished("failed", f"Watching for {thing} stopped: {outcome.line}")
-        raise _Finished("succeeded", f"I saw it: {thing}.")
+            failed = _failed_event(outcome.line)
+            raise Finished("failed", f"Watching for {thing} stopped: {self.reason(failed)}.")
+        raise Finished("succeeded", f"I saw it: {thing}.")
+
+
+def _capital(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _failed_event(line: str) -> str:
+    """A ``[task …] failed CODE (…): message`` line as the error JSON ``reason_of`` reads."""
+    match = re.search(r"failed (\S+)[^:]*:\s*(.*?)(?: suggestions: .*)?$", line)
+    code, message = (match[1], match[2]) if match is not None else ("", "")
+    return json.dumps({"error": code, "detail": message})
 
 
 def _already_there(leg: Command, at: str | None) -> bool:

@@ -8,6 +8,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
+from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
 from robot_voice_chat.services.llm.understanding.recall import (
     LAST_SEEN,
@@ -79,7 +80,7 @@ def last_seen_sentence(data: dict[str, Any], recall: Recall | None, names: Names
         f"I last saw {_the(label)}{read_as}{_at(top.get('place'), names)} "
         f"{last.get('ago', '')} ({_clock(last)})"
     )
-    if top.get("seen_for"):
+    if top.get("seen_for") and not _glimpse(top):
         sentence += f", for {top['seen_for']}"
     sentence += "."
     absent = top.get("absent_since")
@@ -325,6 +326,14 @@ def _capital(text: str) -> str:
     return text[:1].upper() + text[1:]
 
 
+def _glimpse(result: dict[str, Any]) -> bool:
+    """Seen for under a second: nothing worth a "for …" (never "for 0 s")."""
+    seconds = result.get("seen_for_s")
+    if isinstance(seconds, int | float):
+        return seconds < 1
+    return str(result.get("seen_for", "")).strip() in ("0 s", "less than a second")
+
+
 def _json(content: str) -> Any:
     try:
         return json.loads(content)
@@ -333,7 +342,5 @@ def _json(content: str) -> Any:
 
 
 def _error_detail(content: str) -> str:
-    data = _json(content)
-    if isinstance(data, dict) and data.get("detail"):
-        return str(data["detail"])
-    return content.strip()[:200] or "the episodic server failed"
+    """The memory server's reason in plain words (its own sentence, or what its code means)."""
+    return reason_of(content) if content.strip() else "my episodic memory could not answer"

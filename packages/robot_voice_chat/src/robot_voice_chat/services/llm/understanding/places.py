@@ -86,7 +86,8 @@ class Place:
     def spoken(self) -> str:
         """How a sentence names it: the description's head when it names this place ("Alice's
         desk", "the charging dock"), else the id with spaces ("the desk bob")."""
-        head = _HEAD_END.split(self.description.replace('"', ""), maxsplit=1)[0].strip()
+        description = self.description.replace('"', "").replace("_", " ")  # never an id
+        head = _HEAD_END.split(description, maxsplit=1)[0].strip()
         ours = {stem(w) for w in words(" ".join([self.name, *self.aliases]))}
         said = words(head)
         if not head or len(said) > 4 or not ours & {stem(w) for w in said}:

@@ -499,7 +499,7 @@ class Understanding:
                 else "get"
             )
             return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
-        known = f" I know: {', '.join(places.known())}." if places and places.places else ""
+        known = f" I know: {_known(places)}." if places and places.places else ""
         ask = (
             "Where should I go?"
             if action.kind == "goto"
@@ -508,7 +508,7 @@ class Understanding:
         return Question(ask + known, "fill", actions, index=index, slot="place")
 
     def _unknown_place(self, phrase: str, places: PlaceIndex | None) -> str:
-        known = ", ".join(places.known()) if places and places.places else "none"
+        known = _known(places) if places and places.places else "none"
         return f"I don't know a place called {phrase!r}. I know: {known}."
 
     def _unclear(self, text: str) -> Reading:
@@ -527,6 +527,11 @@ class Understanding:
         """The request completed by ``answer``; a cancel; or None (not an answer: read it as a
         new request)."""
         return follow_up(question, answer, places)
+
+
+def _known(places: PlaceIndex) -> str:
+    """The map's places as a sentence lists them (their human names, never ids)."""
+    return ", ".join(places.spoken(name) for name in places.known())
 
 
 def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action]:

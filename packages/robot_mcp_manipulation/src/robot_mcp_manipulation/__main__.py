@@ -1,0 +1,3 @@
+from robot_mcp_manipulation.server import main
+
+main()

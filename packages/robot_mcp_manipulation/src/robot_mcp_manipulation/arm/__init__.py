@@ -1,0 +1,1 @@
+"""The arm port (pick/place actions + what is held) and its adapters."""

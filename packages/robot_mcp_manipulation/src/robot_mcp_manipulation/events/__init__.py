@@ -1,0 +1,1 @@
+"""The event-sink port (where task events go) and its adapters."""

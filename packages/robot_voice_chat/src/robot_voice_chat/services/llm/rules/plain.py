@@ -1,0 +1,107 @@
+"""What the servers answered, as the robot says it (issue 31): a tool error's reason, a
+failure's suggestions, a server's name, a map id inside free text. Codes and tool names stay
+in step details and logs; a sentence gets the words a person needs, or nothing.
+
+The servers' own sentences are used when they are already plain words (``robot_words.leaks``
+finds nothing in them); otherwise the known codes have sentences here, and anything else is
+said generically rather than read out raw.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable, Iterable
+
+from robot_voice_chat.robot_words import SERVICES, leaks, service_name
+
+Names = Callable[[str], str]  # a map id → how a sentence says it ("Alice's desk")
+# What a code means to a person; keys upper case (servers send both cases).
+REASONS = {
+    "SAFETY_STOP_LATCHED": (
+        "a software stop is latched, and an operator must press Clear stop before I move"
+    ),
+    "HELD_BY_SAFETY_STOP": "a stop paused the mission",
+    "POLICY_DENIED": "the operator's policy does not allow it without a yes",
+    "OUT_OF_BOUNDS": "that is outside what the operator allows",
+    "UNKNOWN_LOCATION": "the map has no such place",
+    "NAVIGATION_BUSY": "the robot is busy with another drive",
+    "NAVIGATION_TIMEOUT": "the drive took too long",
+    "BASE_UNAVAILABLE": "the robot base is not answering",
+    "SERVER_RESTARTED": "it restarted and lost track of the task",
+    "SERVICE_UNAVAILABLE": "the vision node is not answering",
+    "TIMEOUT": "it took too long",
+    "CANCELLED": "it was cancelled",
+    "UNKNOWN_TASK": "it no longer knows that task",
+    "UNKNOWN_TEMPLATE": "it has no such camera skill",
+}
+_NOT_CONNECTED = re.compile(r"server '?(?P<server>[\w-]+)'? is not connected")
+_TIMED_OUT = re.compile(r"timed out after")
+_SERVER_TOOL = re.compile(r"\b(?P<server>[a-z_]+)\.[a-z_]+\b")
+# navigate_to("corridor_b") inside a suggestion; "call navigate_to(...) again"
+_NAV_CALL = re.compile(r"""navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\)""")
+_AGAIN = re.compile(r"""call navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\) again""")
+
+
+def _parts(content: str) -> tuple[str, str]:
+    """(code, sentence) of a tool error: the servers' ``{"error", "detail"}`` JSON, a task
+    failure's ``{"error_code", "message"}``, or the backend's ``error: ...`` text."""
+    try:
+        data = json.loads(content)
+    except ValueError:
+        data = None
+    if isinstance(data, dict):
+        code = str(data.get("error") or data.get("error_code") or "")
+        detail = str(data.get("detail") or data.get("message") or "")
+        return code, detail
+    return "", content.strip().removeprefix("error:").strip()
+
+
+def reason_of(content: str, names: Names | None = None, known: Iterable[str] = ()) -> str:
+    """Why a call failed, in plain words (no code, tool name or raw text)."""
+    code, detail = _parts(content)
+    lost = _NOT_CONNECTED.search(detail)
+    if lost is not None:
+        return f"my {service_name(lost['server'])} is not connected"
+    said = plain_text(detail, names, known) if detail else ""
+    if said and not leaks(said):
+        return said.rstrip(".")
+    first = detail.split(" ", 1)[0]
+    if code.upper() == "SERVER_RESTARTED" and first in SERVICES:
+        return f"my {service_name(first)} restarted and lost track of the task"
+    if code.upper() in REASONS:
+        return REASONS[code.upper()]
+    if _TIMED_OUT.search(detail):
+        return REASONS["TIMEOUT"]
+    server = _SERVER_TOOL.search(detail)
+    if server is not None and server["server"] in SERVICES:
+        return f"my {service_name(server['server'])} could not do it"
+    return "something went wrong there"
+
+
+def by_id(place: str) -> str:
+    """Without the live place list: the map id with spaces ("the corridor b")."""
+    return f"the {place.replace('_', ' ')}"
+
+
+def plain_text(text: str, names: Names | None = None, known: Iterable[str] = ()) -> str:
+    """``text`` with the snake_case map ids in ``known`` said by their names ("via
+    corridor_b" → "via the corridor B")."""
+    say = names or by_id
+    for place in sorted((k for k in known if "_" in k), key=len, reverse=True):
+        spoken = say(place).replace("\\", "\\\\")  # a literal replacement
+        text = re.sub(rf"(?:\bthe\s+)?\b{re.escape(place)}\b", spoken, text)
+    return text
+
+
+def suggestion_of(text: str, names: Names | None = None, known: Iterable[str] = ()) -> str | None:
+    """A server's suggestion as something the robot can say, or None when it is only for a
+    planner (``retry``, ``retry_after_s:300``) or cannot be said plainly."""
+    say = names or by_id
+    said = _AGAIN.sub(lambda m: f"send me to {say(m['place'])} again", text)
+    said = _NAV_CALL.sub(lambda m: f"a drive to {say(m['place'])}", said)
+    said = re.sub(r"\s*\([^()]*\)", "", said)  # the calls a planner would make
+    said = plain_text(said.strip().rstrip("."), say, known)
+    if not said or said.lower().startswith("retry") or leaks(said):
+        return None
+    return said

@@ -157,3 +157,26 @@ async def test_a_motion_call_right_after_a_reconnect_waits_for_the_first_lease(
 
     order = [name for name, _ in tools.calls if name.startswith("navigation.")]
     assert order.index("navigation.supervise") < order.index("navigation.navigate_to")
+
+
+async def test_a_motion_server_without_a_lease_tool_is_not_counted_nor_waited_for(
+    tools: FakeToolBackend, latch: SafetyLatch, server: Server
+) -> None:
+    arm = McpServerConfig(name="manipulation", url="http://127.0.0.1:9/sse", motion=True)
+    backend = FakeToolBackend([*tools.servers().values(), arm])
+    backend.add("navigation.supervise", server.supervise, holder="string")
+    backend.add("manipulation.pick", lambda a: {"task_id": "pick-1"}, label="string")
+    supervisor = MotionSupervisor(backend, latch, period_s=0.05, ttl_s=0.2)
+    await supervisor.start()
+    try:
+        await async_wait_until(lambda: supervisor.fresh("navigation"), 5, "navigation leased")
+        await async_wait_until(
+            lambda: supervisor.summary()["servers"]["manipulation"]["state"] == "unsupported",
+            5,
+            "the arm's server seen without a lease tool",
+        )
+
+        assert supervisor.all_fresh()
+        assert await supervisor.ensure_fresh("manipulation", timeout_s=60) is False
+    finally:
+        await supervisor.aclose()

@@ -7,7 +7,10 @@ kitchen through ``NavigateToPose``, creates a continuous find_object skill ("the
 ``/vision/find_object/detections``, receive wall time − the source frame's header stamp (the
 sim stamps each frame as it publishes it): camera topic (rgb8 640×480, 5 fps) → result.
 Also: the camera topic's own delivery latency and rate seen here, and the CPU (% of one core)
-of robot-sim and of the vision node over the window. Bounded: < 2 min with defaults.
+of robot-sim and of the vision node over the window. Both processes run with the local
+stack's environment (``deploy/local-stack.yaml``'s ``env:``: the Fast DDS profile that carries
+the frames over shared memory); ``--no-fastdds-profile`` leaves it out. Bounded: < 2 min with
+defaults.
 """
 
 from __future__ import annotations
@@ -28,6 +31,9 @@ from typing import Any
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 199)))
+# a profile from the shell (a robot's) never reaches the processes started here: only the stack's
+os.environ.pop("FASTDDS_DEFAULT_PROFILES_FILE", None)
+os.environ.pop("FASTRTPS_DEFAULT_PROFILES_FILE", None)
 
 import rclpy
 from nav2_msgs.action import NavigateToPose
@@ -39,6 +45,9 @@ from ros2_vision_interfaces.msg import VisionDetectionArray
 from ros2_vision_interfaces.srv import VisionTask
 from sensor_msgs.msg import Image
 
+from robot_stack_testing.stack import stack_environment
+
+ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
 CAMERA_QOS = QoSProfile(
     depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.BEST_EFFORT
@@ -68,6 +77,12 @@ def wait_for(check: Any, timeout_s: float, what: str) -> None:
         if time.monotonic() > deadline:
             raise TimeoutError(f"timed out waiting for {what}")
         time.sleep(0.05)
+
+
+def stack_env(var: Path) -> dict[str, str]:
+    """What every service of the local stack gets (its Fast DDS profile)."""
+    substitutions = {"python": sys.executable, "root": str(ROOT), "var": str(var)}
+    return stack_environment(ROOT / "deploy" / "local-stack.yaml", substitutions)
 
 
 def start(argv: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
@@ -147,13 +162,20 @@ class Client:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--no-fastdds-profile", action="store_true")
     args = parser.parse_args()
     load_at_start = Path("/proc/loadavg").read_text().split()[:3]
     work = Path(tempfile.mkdtemp(prefix="sim_camera_bench_"))
     scenes, ready, port = work / "scenes", work / "sim.pid", free_port()
+    common = {} if args.no_fastdds_profile else stack_env(work)
     sim = start(
         [sys.executable, "-m", "robot_sim"],
-        {"SIM_SCENES_DIR": str(scenes), "SIM_READY_FILE": str(ready), "SIM_TIME_SCALE": "20"},
+        {
+            **common,
+            "SIM_SCENES_DIR": str(scenes),
+            "SIM_READY_FILE": str(ready),
+            "SIM_TIME_SCALE": "20",
+        },
         work / "robot_sim.log",
     )
     vision: subprocess.Popen[bytes] | None = None
@@ -163,6 +185,7 @@ def main() -> None:
         vision = start(
             [sys.executable, "-m", "robot_mcp_perception.vision_node"],
             {
+                **common,
                 "PERCEPTION_DEPLOYMENT": "",
                 "PERCEPTION_CONFIG_DIR": "",
                 "PERCEPTION_CONFIG_OVERRIDES": (
@@ -209,6 +232,7 @@ def main() -> None:
             "p99": round(percentile(results, 99), 1),
             "max": round(max(results), 1),
         },
+        "fastdds_profile": common.get("FASTDDS_DEFAULT_PROFILES_FILE"),
         "camera_frames_received": len(camera),
         "camera_fps_received": round(len(camera) / window, 2),
         "camera_delivery_ms": {

@@ -14,10 +14,15 @@ mission (the e2e load).
 4. **stack**: the whole local stack (deploy/local-stack.yaml, every service a process) running
    the mailroom mission through the brain, while this process counts camera frames and
    robot-sim's CPU over the mission.
-"published" counts ``/camera/camera_info`` (small, sent with every image), "received" the
-images (921 KB each, BEST_EFFORT: under load the transport drops some), "rendered" the new
-views robot-sim rendered (its DEBUG log).
-JSON in benchmarks/results/sim_world.json. Bounded: about 3 minutes with the defaults.
+"published" counts ``/camera/camera_info`` (small, sent with every image under the same
+stamp), "received" the images with those stamps (921 KB each, BEST_EFFORT) by a depth-1 reader
+(the camera's QoS, as the vision node reads it) and a depth-10 one (what the transport
+delivered); under the stack also the frames the vision node received (its ``/healthz``
+``frame.seq``); "rendered" the new views robot-sim rendered (its DEBUG log).
+3 and 4 run with the local stack's Fast DDS profile (``deploy/fastdds-local.xml``: the frames
+over shared memory) and without it (Fast DDS's default 512 KB segment), one after the other on
+the same machine load (``--fastdds-profile on|off|both``, default both).
+JSON in benchmarks/results/sim_world.json. Bounded: about 6 minutes with the defaults.
 """
 
 from __future__ import annotations
@@ -41,28 +46,26 @@ from typing import Any
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 199)))
 
-import rclpy
-from nav2_msgs.action import NavigateToPose
-from rclpy.action.client import ActionClient
-from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
-from sensor_msgs.msg import CameraInfo, Image
+import urllib.error
+import urllib.request
+
+import yaml
 
 from robot_mcp_navigation.motion.base import Pose
 from robot_sim.camera import Camera
 from robot_sim.config import default_world_path
-from robot_sim.node import CAMERA_QOS
 from robot_sim.planner import GridPlanner
 from robot_sim.render.renderer import MujocoRenderer
 from robot_sim.store import SceneStore
 from robot_sim.world import load_world
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sim_camera_vision import cpu_s, percentile, start, stop, wait_for
+from _camera_counter import CameraCounter
+from sim_camera_vision import cpu_s, percentile, stack_env, start, stop, wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
-FAR = ["meeting_room", "kitchen", "mailroom", "dock"]
+STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 
 
 def stats(values: list[float]) -> dict[str, float]:
@@ -121,66 +124,6 @@ def render_times(count: int = 30) -> dict[str, Any]:
     return {"render_rgb_and_segmentation_ms": stats(render_ms), "frame_total_ms": stats(shot_ms)}
 
 
-class CameraCounter:
-    """Counts /camera/image_raw frames and keeps the robot driving between far places."""
-
-    def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node("sim_world_bench", context=self.context)
-        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
-        self.executor.add_node(self.node)
-        self.frames: list[float] = []
-        self.infos: list[float] = []
-        self.node.create_subscription(Image, "/camera/image_raw", self._on_image, CAMERA_QOS)
-        # CameraInfo goes with every image and is small: its rate is the rate published
-        self.node.create_subscription(
-            CameraInfo,
-            "/camera/camera_info",
-            lambda m: self.infos.append(time.monotonic()),
-            CAMERA_QOS,  # best effort, as the sim publishes it
-        )
-        self.navigate = ActionClient(self.node, NavigateToPose, "/navigate_to_pose")
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-        self.driving = False
-
-    def _on_image(self, msg: Image) -> None:
-        self.frames.append(time.monotonic())
-
-    def fps(self, t0: float, t1: float) -> float:
-        return sum(1 for t in self.frames if t0 <= t <= t1) / (t1 - t0)
-
-    def published_fps(self, t0: float, t1: float) -> float:
-        return sum(1 for t in self.infos if t0 <= t <= t1) / (t1 - t0)
-
-    def keep_driving(self, world: Any, until: float) -> None:
-        """Goals between far places until ``until`` (the robot is always moving)."""
-        if not self.navigate.wait_for_server(timeout_sec=30.0):
-            raise TimeoutError("no NavigateToPose server")
-        for name in itertools.cycle(FAR):
-            if time.monotonic() > until:
-                return
-            place = world.map.locations[name]
-            goal = NavigateToPose.Goal()
-            goal.pose.header.frame_id = "map"
-            goal.pose.pose.position.x, goal.pose.pose.position.y = place.x, place.y
-            goal.pose.pose.orientation.z = math.sin(place.theta / 2)
-            goal.pose.pose.orientation.w = math.cos(place.theta / 2)
-            sent = self.navigate.send_goal_async(goal)
-            wait_for(sent.done, 10.0, "goal response")
-            result = sent.result().get_result_async()
-            wait_for(lambda r=result: r.done() or time.monotonic() > until, 120.0, "arrival")
-            if not result.done():
-                sent.result().cancel_goal_async()
-                return
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
-
 def rendered_frames(log: Path, start: float, end: float) -> list[float]:
     """Durations of the frames robot-sim rendered (its ``camera_rendered`` log) in a window
     of wall-clock time."""
@@ -195,13 +138,14 @@ def rendered_frames(log: Path, start: float, end: float) -> list[float]:
     return durations
 
 
-def alone(seconds: float) -> dict[str, Any]:
+def alone(seconds: float, profile: bool) -> dict[str, Any]:
     work = Path(tempfile.mkdtemp(prefix="sim_world_alone_"))
     ready = work / "sim.pid"
     log = work / "robot_sim.log"
     sim = start(
         [sys.executable, "-m", "robot_sim"],
         {
+            **(stack_env(work) if profile else {}),
             "SIM_SCENES_DIR": str(work / "scenes"),
             "SIM_READY_FILE": str(ready),
             "SIM_TIME_SCALE": "1",
@@ -222,25 +166,47 @@ def alone(seconds: float) -> dict[str, Any]:
         time.sleep(seconds)
         t1 = time.monotonic()
         cpu = (cpu_s(sim.pid) - cpu0) / (t1 - t0) * 100
-        fps = counter.fps(t0, t1)
         wall0, wall1 = time.time() - (time.monotonic() - t0), time.time() - (time.monotonic() - t1)
+        time.sleep(1.0)  # the last frames of the window arrive
+        frames = counter.window(t0, t1)
         driver.join(timeout=15)
     finally:
         counter.close()
         stop(sim)
     rendered = rendered_frames(log, wall0, wall1)
     return {
-        "camera_fps_published": round(counter.published_fps(t0, t1), 2),
+        **frames,
         "camera_fps_rendered": round(len(rendered) / (t1 - t0), 2),
         "frame_ms_in_robot_sim": stats(rendered) if rendered else None,
-        "camera_fps_received": round(fps, 2),
         "robot_sim_cpu_percent": round(cpu, 1),
         "seconds": round(t1 - t0, 1),
         "robot": "driving all the time (time scale 1)",
     }
 
 
-def under_stack() -> dict[str, Any]:
+def stack_file(profile: bool) -> Path:
+    """The shipped stack file, or a copy without its common ``env:`` (no Fast DDS profile)."""
+    if profile:
+        return STACK_FILE
+    document = yaml.safe_load(STACK_FILE.read_text())
+    document.pop("env", None)
+    copy = Path(tempfile.mkdtemp(prefix="sim_world_stack_file_")) / "local-stack.yaml"
+    copy.write_text(yaml.safe_dump(document, sort_keys=False))
+    return copy
+
+
+def vision_frames(url: str) -> int:
+    """Frames the vision node has received so far (``/healthz`` ``frame.seq``; its body comes
+    with HTTP 503 too, when the node calls itself degraded)."""
+    try:
+        with urllib.request.urlopen(url, timeout=5.0) as response:
+            body = response.read()
+    except urllib.error.HTTPError as error:
+        body = error.read()
+    return int(json.loads(body)["frame"]["seq"] or 0)
+
+
+def under_stack(profile: bool) -> dict[str, Any]:
     from robot_stack_testing.mission_driver import (
         MAILROOM_REQUEST,
         MissionDriver,
@@ -249,36 +215,41 @@ def under_stack() -> dict[str, Any]:
     )
     from robot_stack_testing.stack import free_port_overrides
 
-    stack_file = ROOT / "deploy" / "local-stack.yaml"
-    overrides = {**free_port_overrides(stack_file), "nav_time_scale": "2"}
+    path = stack_file(profile)
+    overrides = {**free_port_overrides(path), "nav_time_scale": "2"}
     var = Path(tempfile.mkdtemp(prefix="sim_world_stack_"))
     counter = CameraCounter()
     try:
-        with mailroom_stack(ROOT, var, overrides) as stack:
+        with mailroom_stack(ROOT, var, overrides, stack_file=path) as stack:
             sim_pid = stack.services["robot_sim"].popen.pid
+            processes = len(stack.services)
+            healthz = stack.url("vision", "/healthz")
 
             async def mission() -> Any:
                 await seed_memory(stack)
                 async with MissionDriver(stack.brain_url) as user:
                     await user.wait_servers_connected(60.0)
-                    cpu0, t0 = cpu_s(sim_pid), time.monotonic()
+                    cpu0, seq0, t0 = cpu_s(sim_pid), vision_frames(healthz), time.monotonic()
                     record = await user.run_mission(MAILROOM_REQUEST, timeout_s=180.0)
                     t1 = time.monotonic()
-                    return record, cpu0, t0, t1
+                    return record, cpu0, seq0, t0, t1
 
-            record, cpu0, t0, t1 = asyncio.run(mission())
+            record, cpu0, seq0, t0, t1 = asyncio.run(mission())
             cpu = (cpu_s(sim_pid) - cpu0) / (t1 - t0) * 100
-            fps = counter.fps(t0, t1)
-            published = counter.published_fps(t0, t1)
+            seen = vision_frames(healthz) - seq0
+            time.sleep(1.0)  # the last frames of the window arrive
+            frames = counter.window(t0, t1)
     finally:
         counter.close()
     return {
-        "camera_fps_published": round(published, 2),
-        "camera_fps_received": round(fps, 2),
+        **frames,
+        "frames_received_vision_node": seen,
+        "camera_fps_received_vision_node": round(seen / (t1 - t0), 2),
         "robot_sim_cpu_percent": round(cpu, 1),
         "mission_seconds": round(t1 - t0, 1),
         "mission_outcome": record.outcome,
-        "load": "the whole local stack (8 processes) running the mailroom mission, time scale 2",
+        "load": f"the whole local stack ({processes} processes) running the mailroom mission, "
+        "time scale 2",
     }
 
 
@@ -286,17 +257,26 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--skip-stack", action="store_true")
+    parser.add_argument("--skip-render", action="store_true", help="no plan/render figures")
+    parser.add_argument("--fastdds-profile", choices=["on", "off", "both"], default="both")
     args = parser.parse_args()
-    load_at_start = Path("/proc/loadavg").read_text().split()[:3]
+    profiles = {"on": [True], "off": [False], "both": [False, True]}[args.fastdds_profile]
     result: dict[str, Any] = {
         "machine": f"{os.cpu_count()} cores",
-        "loadavg_at_start": load_at_start,
+        "loadavg_at_start": Path("/proc/loadavg").read_text().split()[:3],
     }
-    result["plan"] = plan_times()
-    result["render"] = render_times()
-    result["alone"] = alone(args.seconds)
+    if not args.skip_render:
+        result["plan"] = plan_times()
+        result["render"] = render_times()
+    for profile in profiles:
+        key = "with_profile" if profile else "without_profile"
+        result.setdefault("alone", {})[key] = alone(args.seconds, profile)
+        print(key, "alone", json.dumps(result["alone"][key]), flush=True)
     if not args.skip_stack:
-        result["stack"] = under_stack()
+        for profile in profiles:
+            key = "with_profile" if profile else "without_profile"
+            result.setdefault("stack", {})[key] = under_stack(profile)
+            print(key, "stack", json.dumps(result["stack"][key]), flush=True)
     result["loadavg_at_end"] = Path("/proc/loadavg").read_text().split()[:3]
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / "sim_world.json"

@@ -39,6 +39,7 @@ from robot_stack_testing import (
     wait_for_tcp_port,
     wait_until,
 )
+from robot_stack_testing.stack import stack_environment
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -62,10 +63,19 @@ def start_stack(
     server process, its MCP URL, the vision node's name and the episodic data dir (the
     launcher stops every process by PID at teardown, also on failure)."""
     scenes, ready = tmp_path / "scenes", tmp_path / "robot-sim.pid"
+    root = Path(__file__).resolve().parents[4]
+    substitutions = {"python": sys.executable, "root": str(root), "var": str(tmp_path)}
+    # the local stack's environment: its Fast DDS profile carries the camera's frames
+    common = stack_environment(root / "deploy" / "local-stack.yaml", substitutions)
     sim = launcher.start(
         "robot_sim",
         [sys.executable, "-m", "robot_sim"],
-        env={"SIM_SCENES_DIR": str(scenes), "SIM_READY_FILE": str(ready), "SIM_TIME_SCALE": "3"},
+        env={
+            **common,
+            "SIM_SCENES_DIR": str(scenes),
+            "SIM_READY_FILE": str(ready),
+            "SIM_TIME_SCALE": "3",
+        },
     )
     wait_until(lambda: ready.is_file() and ready.read_text() == str(sim.pid), 60.0, "robot-sim")
     node = f"vision_{uuid.uuid4().hex[:6]}"

@@ -2,7 +2,10 @@
 
 It makes loopback-only ROS discovery impossible to forget: before any test imports rclpy,
 the run gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and a ROS domain id of its own, and
-child processes inherit both.
+child processes inherit both. A Fast DDS profile from the shell (``FASTDDS_`` /
+``FASTRTPS_DEFAULT_PROFILES_FILE``, e.g. a robot's, which may name peers or a discovery server)
+is dropped too: a test that wants the local stack's profile takes it from the stack file
+(``robot_stack_testing.stack.stack_environment``).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from robot_stack_testing.postgres import PostgresServer
 from robot_stack_testing.processes import ProcessLauncher
 
 _DOMAIN_OVERRIDE = "ROBOT_TEST_ROS_DOMAIN_ID"
+_DROPPED = ("ROS_STATIC_PEERS", "FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")
 
 
 def pick_ros_domain_id() -> int:
@@ -35,7 +39,8 @@ def pick_ros_domain_id() -> int:
 def pytest_configure(config: pytest.Config) -> None:
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ["ROS_DOMAIN_ID"] = str(pick_ros_domain_id())
-    os.environ.pop("ROS_STATIC_PEERS", None)
+    for name in _DROPPED:
+        os.environ.pop(name, None)
 
 
 def pytest_report_header(config: pytest.Config) -> str:

@@ -10,6 +10,10 @@ tokens per run and expands ``{mcp_token_<name>}`` (the brain's: the server's
 ``MCP_AUTH_TOKEN`` and the brain's ``<NAME>_MCP_TOKEN``) and ``{mcp_operator_token_<name>}``
 (an operator's tool's: the server's ``MCP_OPERATOR_TOKEN``); :attr:`LocalStack.credentials`
 and :attr:`LocalStack.operator_credentials` hand them to the test.
+
+The file's top-level ``env:`` goes to every service (a service's own ``env:`` wins): the local
+stack's Fast DDS profile (``deploy/fastdds-local.xml``: camera frames over shared memory).
+:func:`stack_environment` gives it to processes a test or benchmark starts beside the stack.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ import sys
 import urllib.error
 import urllib.parse
 import urllib.request
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -104,12 +108,12 @@ def free_port_overrides(path: Path) -> dict[str, str]:
     return {name: str(free_tcp_port()) for name in port_placeholders(path)}
 
 
-def load_stack(
-    path: Path, substitutions: Mapping[str, str], overrides: Mapping[str, str] | None = None
-) -> list[ServiceSpec]:
-    """Parse the stack file, expanding ``{python}``, ``{root}``, ``{var}`` and the
-    ``defaults:`` placeholders (each replaced by ``overrides`` when given there)."""
-    document: dict[str, Any] = yaml.safe_load(path.read_text())
+def _expander(
+    path: Path,
+    document: dict[str, Any],
+    substitutions: Mapping[str, str],
+    overrides: Mapping[str, str] | None,
+) -> Callable[[object], str]:
     defaults = _defaults(document)
     unknown = set(overrides or {}) - set(defaults)
     if unknown:
@@ -126,6 +130,28 @@ def load_stack(
                 f"{path}: no value for the placeholder {{{missing.args[0]}}}"
             ) from None
 
+    return expand
+
+
+def stack_environment(
+    path: Path, substitutions: Mapping[str, str], overrides: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """The file's top-level ``env:`` (what every service gets), expanded: for a process that
+    runs as the stack's would (a benchmark's robot-sim, a test's)."""
+    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    expand = _expander(path, document, substitutions, overrides)
+    return {key: expand(value) for key, value in (document.get("env") or {}).items()}
+
+
+def load_stack(
+    path: Path, substitutions: Mapping[str, str], overrides: Mapping[str, str] | None = None
+) -> list[ServiceSpec]:
+    """Parse the stack file, expanding ``{python}``, ``{root}``, ``{var}`` and the
+    ``defaults:`` placeholders (each replaced by ``overrides`` when given there); each
+    service's environment is the file's ``env:`` updated with its own."""
+    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    expand = _expander(path, document, substitutions, overrides)
+    common = {key: expand(value) for key, value in (document.get("env") or {}).items()}
     services = []
     for entry in document.get("services", []):
         ready = entry.get("ready", {})
@@ -133,7 +159,10 @@ def load_stack(
             ServiceSpec(
                 name=entry["name"],
                 argv=[expand(arg) for arg in entry["argv"]],
-                env={key: expand(value) for key, value in entry.get("env", {}).items()},
+                env={
+                    **common,
+                    **{key: expand(value) for key, value in entry.get("env", {}).items()},
+                },
                 ready=Readiness(
                     tcp=int(expand(ready["tcp"])) if "tcp" in ready else None,
                     http=expand(ready["http"]) if "http" in ready else None,

@@ -18,13 +18,30 @@ from robot_stack_testing import (
     wait_for_tcp_port,
     wait_until,
 )
-from robot_stack_testing.plugin import pick_ros_domain_id
+from robot_stack_testing.plugin import pick_ros_domain_id, pytest_configure
 
 
 def test_every_run_discovers_only_on_loopback_in_its_own_domain(ros_domain_id: int) -> None:
     assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
     assert 1 <= ros_domain_id <= 100
     assert os.environ["ROS_DOMAIN_ID"] == str(ros_domain_id)
+
+
+def test_a_fast_dds_profile_or_static_peers_from_the_shell_are_dropped_for_the_run(
+    monkeypatch: pytest.MonkeyPatch, pytestconfig: pytest.Config
+) -> None:
+    for name in (
+        "ROS_STATIC_PEERS",
+        "FASTDDS_DEFAULT_PROFILES_FILE",
+        "FASTRTPS_DEFAULT_PROFILES_FILE",
+    ):
+        monkeypatch.setenv(name, "/etc/robot/fastdds.xml")
+    # restored after the test: configuring again draws a new domain id
+    monkeypatch.setenv("ROS_DOMAIN_ID", os.environ["ROS_DOMAIN_ID"])
+    pytest_configure(pytestconfig)
+    assert "ROS_STATIC_PEERS" not in os.environ
+    assert "FASTDDS_DEFAULT_PROFILES_FILE" not in os.environ
+    assert "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ
 
 
 def test_domain_override_wins_over_random_choice(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -20,6 +20,7 @@ from robot_stack_testing.stack import (
     local_stack,
     stack_credentials,
     stack_defaults,
+    stack_environment,
 )
 
 HTTP_SERVER = (
@@ -307,3 +308,41 @@ def test_the_shipped_stack_gives_every_mcp_server_and_the_brain_the_same_credent
     assert not set(operators.values()) & set(services["brain"].env.values())
     http_servers = {s for s, spec in services.items() if spec.env.get("MCP_TRANSPORT") == "sse"}
     assert http_servers == set(names)  # no MCP server of the stack runs open
+
+
+def test_the_files_common_env_reaches_every_service_and_a_services_own_wins(
+    tmp_path: Path,
+) -> None:
+    path = write_stack(
+        tmp_path / "stack.yaml",
+        "defaults:\n"
+        '  profile: "{root}/p.xml"\n'
+        "env:\n"
+        '  PROFILE: "{profile}"\n'
+        '  SHARED: "common"\n'
+        "services:\n"
+        '  - name: a\n    argv: ["{python}"]\n'
+        '  - name: b\n    argv: ["{python}"]\n    env: {SHARED: "own", B: "{var}/b"}\n',
+    )
+    a, b = load_stack(path, SUBSTITUTIONS)
+    assert a.env == {"PROFILE": "/r/p.xml", "SHARED": "common"}
+    assert b.env == {"PROFILE": "/r/p.xml", "SHARED": "own", "B": "/v/b"}
+    assert stack_environment(path, SUBSTITUTIONS, {"profile": "/o.xml"}) == {
+        "PROFILE": "/o.xml",
+        "SHARED": "common",
+    }
+
+
+def test_the_shipped_stack_hands_every_service_the_fast_dds_profile() -> None:
+    root = Path(__file__).resolve().parents[4]
+    path = root / "deploy" / "local-stack.yaml"
+    names = stack_credentials(path)
+    tokens = credential_placeholders(dict.fromkeys(names, "t"), dict.fromkeys(names, "o"))
+    substitutions = {"python": "py", "root": str(root), "var": "v", **tokens}
+    profile = str(root / "deploy" / "fastdds-local.xml")
+    for service in load_stack(path, substitutions):
+        # Fast DDS 3 (the Kilted wheels) reads the first, Fast DDS 2 (Humble, Jazzy) the second
+        assert service.env["FASTDDS_DEFAULT_PROFILES_FILE"] == profile, service.name
+        assert service.env["FASTRTPS_DEFAULT_PROFILES_FILE"] == profile, service.name
+    assert Path(profile).is_file()
+    assert stack_environment(path, substitutions)["FASTDDS_DEFAULT_PROFILES_FILE"] == profile

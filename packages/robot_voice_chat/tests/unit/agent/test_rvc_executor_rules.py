@@ -448,3 +448,26 @@ def _codes_ids_or_tool_names(said: str) -> list[str]:
     tool names, task ids (nav-1a2b)."""
     patterns = (r"\b\w+_\w+\b", r"\b[A-Z]{2,}\b", r"\b[a-z_]+\.[a-z_]+\b", r"\b[a-z]+-\w*\d\w*\b")
     return [hit for pattern in patterns for hit in re.findall(pattern, said)]
+
+
+def test_the_plan_names_places_as_people_say_them_never_by_map_id() -> None:
+    """The steps are titled before the map is read ("Drive to the desk_alice"); once the live
+    places are known the plan is sent again with their names, before the first drive."""
+    tools = [
+        ToolDefinition(name=n) for n in ("navigation.navigate_to", "navigation.list_locations")
+    ]
+    program = MissionProgram(parse("go to desk_alice"), tools).run()
+    first = next(program)
+    assert [c.name for c in first.calls] == ["set_plan", "navigation.list_locations"]
+    places = json.dumps(
+        {"locations": [{"name": "desk_alice", "description": "Alice's desk in the open plan."}]}
+    )
+    ok = ToolResult(tool_call_id="", content="ok")
+    act = program.send(Observation(results=[ok, ToolResult(tool_call_id="", content=places)]))
+    assert [c.name for c in act.calls] == ["update_plan"]
+    titles = [s["title"] for s in act.calls[0].arguments["steps"]]
+    assert titles[0] == "Drive to Alice's desk", titles
+    assert not any("desk_alice" in t for t in titles)
+    act = program.send(Observation(results=[ok]))
+    assert [c.name for c in act.calls] == ["navigation.navigate_to"]
+    assert act.calls[0].arguments["location"] == "desk_alice"

@@ -30,9 +30,9 @@ from robot_voice_chat.services.llm.base import (
 )
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
+from robot_voice_chat.services.llm.rules.driving import NAVIGATE
 from robot_voice_chat.services.llm.rules.program import (
     LIST_LOCATIONS,
-    NAVIGATE,
     TASK_EVENT,
     MissionProgram,
     Settings,

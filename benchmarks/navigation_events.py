@@ -163,6 +163,7 @@ def main() -> None:
             "NAV_OUTBOX": str(Path(tmp) / "outbox.sqlite3"),
             "NAV_TIME_SCALE": str(args.time_scale),
             "NAV_FAILURES": "off",
+            "NAV_SUPERVISION": "off",  # no brain: nobody holds a lease
             "NAV_PROGRESS_INTERVAL_S": "0.5",
             "NAV_TICK_S": "0.01",
             "LOG_LEVEL": "WARNING",

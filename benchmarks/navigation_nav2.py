@@ -160,6 +160,7 @@ def main() -> None:
                         env={
                             **env,
                             "NAV_MOTION": "nav2",
+                            "NAV_SUPERVISION": "off",  # no brain: nobody holds a lease
                             "MCP_TRANSPORT": "streamable-http",
                             "MCP_AUTH_TOKEN": TOKEN,
                             "MCP_PORT": str(port),

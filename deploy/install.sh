@@ -193,8 +193,11 @@ write_env_files() {
   env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
   # The robot's Nav2 drives the base (README "Deploying on a robot"); NAV_MAP is the robot's map
   # file of named places (default: the office sample map), NAV_MOTION=simulated for a dry run.
+  # Supervision (issue 27): no motion without the brain's lease; the dead-man lock topic goes
+  # into the robot's twist_mux (deploy/twist_mux/supervisor_lock.yaml, RUNBOOK "Supervision").
   env_file navigation "RVC_EVENT_SECRET=$nav" NAV_MOTION=nav2 NAV2_ACTION=/navigate_to_pose \
-    NAV_POSE_TOPIC=/amcl_pose LOG_LEVEL=INFO
+    NAV_POSE_TOPIC=/amcl_pose NAV_SUPERVISION=required NAV_LOCK_TOPIC=/robot/supervisor_lock \
+    LOG_LEVEL=INFO
   # The robot's arm: its Pick/Place action servers (robot_manipulation_interfaces).
   env_file manipulation "RVC_EVENT_SECRET=$manip" MANIP_PICK_ACTION=/manipulation/pick \
     MANIP_PLACE_ACTION=/manipulation/place MANIP_HELD_TOPIC=/manipulation/held LOG_LEVEL=INFO

@@ -19,6 +19,7 @@ from mcp_skill_control.composition import build_app as build_skill_control
 from mcp_skill_control.config import SkillControlConfig
 from robot_mcp_episodic.composition import build_app as build_episodic
 from robot_mcp_episodic.config import EpisodicConfig
+from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.fake import FakeArm
 from robot_mcp_manipulation.events.fake import FakeEventSink as FakeArmEvents
@@ -42,7 +43,9 @@ MAP = {"start": "dock", "locations": {"dock": {"x": 0, "y": 0}}, "speed_mps": 2.
 
 @pytest.fixture
 async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] | None]]:
-    navigator = Navigator(parse_map(MAP), FakeMotionBase(), FakeEventSink(), TaskTable())
+    navigator = Navigator(
+        parse_map(MAP), FakeMotionBase(), FakeEventSink(), TaskTable(), supervision=Supervision()
+    )
     manipulator = Manipulator(FakeArm(), FakeArmEvents(), TaskTable())
     memory = build_memory(MemoryConfig(db_path=tmp_path / "m.sqlite3", robot_id="r1"))
     episodic = build_episodic(

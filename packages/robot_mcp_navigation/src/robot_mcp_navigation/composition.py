@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.poster import EventPoster
+from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision_tools import watch_supervision
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import ConfigError, NavigationSettings
 from robot_mcp_navigation.confirmation import MotionConfirmer
@@ -38,12 +43,27 @@ class NavigationApp:
     navigator: Navigator
     server: MCPServer
     closers: list[Callable[[], None]] = field(default_factory=list)
+    supervision: Supervision | None = None
+    publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[NavigationApp]:
-        """Start the event sink; on exit halt the robot and flush the events."""
+        """Start the event sink and the supervision watchdog; on exit halt the robot and flush
+        the events."""
         started = time.monotonic()
         await self.events.start()
+        await self.base.cancel_stale_goals()  # before a lease can open the lock (issue 27)
+        watchdog = None
+        if self.supervision is not None:
+            watchdog = asyncio.create_task(
+                watch_supervision(
+                    self.supervision,
+                    self.navigator.stop,
+                    lambda: self.navigator.moving,
+                    publish_lock=self.publish_lock,
+                ),
+                name="supervision",
+            )
         logger.info(
             "navigation_ready",
             map=self.nav_map.name,
@@ -56,6 +76,10 @@ class NavigationApp:
         try:
             yield self
         finally:
+            if watchdog is not None:
+                watchdog.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await watchdog
             try:
                 await self.navigator.close()
                 await self.events.close()
@@ -104,14 +128,17 @@ def build_motion_base(
         site_hints={f.location: tuple(f.suggestions) for f in nav_map.failures},
         server_timeout_s=settings.nav2_server_timeout_s,
         cancel_timeout_s=settings.nav2_cancel_timeout_s,
+        feedback_timeout_s=settings.nav2_feedback_timeout_s,
+        pose_max_age_s=settings.pose_max_age_s,
     )
 
 
 def build_nav2_action(
-    settings: NavigationSettings,
-) -> tuple[Nav2Action, MapView, Callable[[], None]]:
-    """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions, and how
-    to close them.
+    settings: NavigationSettings, supervision: Supervision | None = None
+) -> tuple[Nav2Action, MapView, RosSide]:
+    """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions — and,
+    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` — and the ROS side that
+    closes them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
     """
@@ -119,6 +146,7 @@ def build_nav2_action(
         from robot_mcp_navigation.mapview.rclpy_view import RclpyMapView
         from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
         from robot_ros_bridge import RosBridge
+        from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
     except ImportError as exc:
         raise ConfigError(
             f"NAV_MOTION=nav2 needs rclpy and nav2_msgs ({exc}): run `make setup`, or on a "
@@ -128,10 +156,32 @@ def build_nav2_action(
     try:
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
         view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
+        lock = None
+        if supervision is not None:
+            lock = SupervisorLockPublisher(
+                bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
+            )
     except BaseException:
         bridge.close()
         raise
-    return action, view, bridge.close
+    return action, view, RosSide(bridge, lock)
+
+
+@dataclass
+class RosSide:
+    """The process's ROS side: its bridge and (with supervision) the dead-man lock."""
+
+    bridge: Any
+    lock: Any = None
+
+    def publish_lock(self) -> None:
+        if self.lock is not None:
+            self.lock.publish()
+
+    def close(self) -> None:
+        if self.lock is not None:
+            self.lock.close()  # the lock falls silent first: twist_mux locks
+        self.bridge.close()
 
 
 def build_app(
@@ -145,12 +195,19 @@ def build_app(
     if not settings.failures_enabled:
         nav_map = nav_map.without_failures()
     closers: list[Callable[[], None]] = []
+    supervision = Supervision(
+        required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
+    )
     view: MapView = map_view or NoMapView()
+    publish_lock = None
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
-            nav2_action, view, close = build_nav2_action(settings)
-            closers.append(close)
+            # the lock only where it means something: a robot's twist_mux (or robot-sim)
+            locking = supervision if supervision.required else None
+            nav2_action, view, ros = build_nav2_action(settings, locking)
+            closers.append(ros.close)
+            publish_lock = ros.publish_lock
         base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
     navigator = Navigator(
@@ -163,6 +220,7 @@ def build_app(
             progress_interval_s=settings.progress_interval_s,
             progress_pct_step=settings.progress_pct_step,
         ),
+        supervision=supervision,
     )
     confirmer = MotionConfirmer(nav_map) if settings.confirm_motion == "elicit" else None
     return NavigationApp(
@@ -173,4 +231,6 @@ def build_app(
         navigator,
         build_mcp_server(navigator, settings.log_level, confirmer, view),
         closers,
+        supervision,
+        publish_lock,
     )

@@ -71,18 +71,30 @@ class NavigationSettings(BaseModel):
     )
     # elicit: ask the MCP client's person to confirm each navigate_to (third-party hosts)
     confirm_motion: Literal["off", "elicit"] = Field(default="off", alias="NAV_CONFIRM_MOTION")
+    # issue 27: the brain's lease (required: no motion without a fresh one) and the dead-man
+    # lock on the robot's twist_mux (published with NAV_MOTION=nav2 and required supervision)
+    supervision: Literal["required", "off"] = Field(default="required", alias="NAV_SUPERVISION")
+    lock_topic: str = Field(default="/robot/supervisor_lock", alias="NAV_LOCK_TOPIC")
+    lock_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="NAV_LOCK_HZ")
+    lease_max_ttl_s: float = Field(default=2.0, gt=0.0, le=10.0, alias="NAV_LEASE_MAX_TTL_S")
+    nav2_feedback_timeout_s: float = Field(
+        default=3.0, ge=0.0, le=60.0, alias="NAV2_FEEDBACK_TIMEOUT_S"
+    )
+    pose_max_age_s: float = Field(default=0.0, ge=0.0, le=3600.0, alias="NAV_POSE_MAX_AGE_S")
 
     @field_validator("event_secret", mode="before")
     @classmethod
     def _empty_secret_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
 
-    @field_validator("motion", mode="before")
+    @field_validator("motion", "supervision", mode="before")
     @classmethod
     def _lower(cls, value: object) -> object:
         return value.strip().lower() if isinstance(value, str) else value
 
-    @field_validator("nav2_action", "pose_topic", "map_topic", "costmap_topic", "plan_topic")
+    @field_validator(
+        "nav2_action", "pose_topic", "map_topic", "costmap_topic", "plan_topic", "lock_topic"
+    )
     @classmethod
     def _ros_name(cls, value: str) -> str:
         if not _ROS_NAME.match(value):

@@ -29,3 +29,12 @@ class BaseUnavailableNavigationError(NavigationError):
     """The base's driver (e.g. Nav2) is absent or refused the goal; nothing moved."""
 
     code = "BASE_UNAVAILABLE"
+
+
+class MotionRefusedError(NavigationError):
+    """Supervision refuses motion now: ``SAFETY_STOP_LATCHED`` (the brain's software stop is
+    latched) or ``NOT_SUPERVISED`` (no fresh lease from a supervising brain)."""
+
+    def __init__(self, code: str, detail: str) -> None:
+        super().__init__(detail)
+        self.code = code

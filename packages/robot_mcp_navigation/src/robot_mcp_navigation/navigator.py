@@ -16,6 +16,10 @@ Policy (documented in the README):
   ``progress_pct_step`` or ``progress_interval_s`` robot-seconds passed. Triggers fire once.
 - All durations (ETA, est_duration_s, elapsed) are robot-time seconds; with the simulated
   base that is simulated time (wall time × NAV_TIME_SCALE).
+- Supervision (issue 27): with a ``Supervision``, ``navigate_to`` is refused while it refuses
+  motion (SAFETY_STOP_LATCHED, NOT_SUPERVISED) — checked before the goal is sent and again
+  once the base took it (a stop that came meanwhile cancels it at once). The composition
+  root's watchdog calls :meth:`Navigator.stop` when the lease lapses or latches.
 """
 
 from __future__ import annotations
@@ -31,9 +35,11 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.errors import (
     BaseUnavailableNavigationError,
+    MotionRefusedError,
     NavigationBusyError,
     UnknownLocationError,
     UnknownTaskError,
@@ -93,6 +99,7 @@ class Navigator:
         tasks: TaskTable,
         settings: NavigatorSettings | None = None,
         task_ids: Callable[[], str] = new_task_id,
+        supervision: Supervision | None = None,
     ) -> None:
         self._map = nav_map
         self._base = base
@@ -101,6 +108,7 @@ class Navigator:
         self._settings = settings or NavigatorSettings()
         self._task_ids = task_ids
         self._active: _Drive | None = None
+        self.supervision = supervision
 
     # -- queries -------------------------------------------------------------------------
 
@@ -124,6 +132,11 @@ class Navigator:
             ],
         }
 
+    @property
+    def moving(self) -> bool:
+        """A drive is under way (it may be being stopped)."""
+        return self._active is not None
+
     def pose(self) -> dict[str, Any]:
         pose = self._base.current_pose()
         at = next(
@@ -135,13 +148,15 @@ class Navigator:
             None,
         )
         active = self._active
+        status = self._base.pose_status()
         return {
             **pose.as_dict(),
             "frame": self._map.frame,
             "at_location": at,
-            "moving": active is not None,
+            "moving": active is not None and not status.stale,  # a stale pose shows no motion
             "task_id": active.task_id if active else None,
             "destination": active.goal.name if active else None,
+            **status.as_dict(),
         }
 
     def drive_started_at(self) -> float | None:
@@ -163,7 +178,15 @@ class Navigator:
 
     # -- commands ------------------------------------------------------------------------
 
+    def refuse_unsupervised(self) -> None:
+        """Raise MotionRefusedError while supervision refuses motion (latched, unsupervised)."""
+        refused = self.supervision.refusal() if self.supervision is not None else None
+        if refused is not None:
+            logger.warning("navigation_refused", code=refused.code, detail=refused.detail)
+            raise MotionRefusedError(refused.code, refused.detail)
+
     async def navigate_to(self, location: str, triggers: Iterable[Trigger] = ()) -> TaskInfo:
+        self.refuse_unsupervised()
         name = self._map.resolve(location)
         if name is None:
             known = ", ".join(sorted(self._map.locations))
@@ -197,6 +220,10 @@ class Navigator:
             triggers=[t.model_dump() for t in trigger_list],
         )
         drive.runner = asyncio.create_task(self._run(drive, outcome), name=f"drive-{info.task_id}")
+        refused = self.supervision.refusal() if self.supervision is not None else None
+        if refused is not None:  # latched or lapsed while the base took the goal
+            await self.stop(reason=refused.detail)
+            raise MotionRefusedError(refused.code, refused.detail)
         logger.info(
             "navigation_started",
             task_id=info.task_id,
@@ -289,15 +316,28 @@ class Navigator:
     ) -> TaskInfo:
         pose = self._base.current_pose().as_dict()
         common = {"destination": drive.goal.name, "pose": pose}
+        refused = self.supervision.refusal() if self.supervision is not None else None
+        if refused is not None and drive.cancel_reason is None and result is not None:
+            # the lock stopped the base before the watchdog's cancel (robot-sim aborts its goal
+            # the moment its lock engages): the drive ended because supervision ended
+            drive.cancel_reason = refused.reason
         if result is not None and result.status == "arrived":
             done = {**common, "duration_s": round(result.elapsed_s, 2)}
             info = self._tasks.finish(drive.task_id, "succeeded", result=done)
             await self._emit(drive, "task_done", done)
             return info
         state: TaskState = "failed"
-        if result is not None and result.status == "failed":
+        ours = (
+            result is not None
+            and result.status == "failed"
+            and drive.cancel_reason is not None
+            and (result.failure is None or result.failure.error_code != "BASE_UNAVAILABLE")
+        )
+        if result is not None and result.status == "failed" and not ours:
             failure = result.failure
-        elif result is not None and result.status == "stopped":
+        elif result is not None and result.status in ("stopped", "failed"):
+            # stopped, or a drive we asked to stop that the base ended its own way (robot-sim
+            # aborts the goal when its supervisor lock engages, as Nav2's progress checker would)
             if drive.cancel_reason is not None:
                 state = "cancelled"
                 failure = DriveFailure(

@@ -10,6 +10,7 @@ from mcp.server.mcpserver import Context, MCPServer
 from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskState
+from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.errors import NavigationError
 from robot_mcp_navigation.mapview.base import MapView, NoMapView
@@ -38,6 +39,10 @@ async def _guard(call: Awaitable[T]) -> T:
         raise tool_error(exc.code, exc.detail) from exc
 
 
+async def _refused_now(navigator: Navigator) -> None:
+    navigator.refuse_unsupervised()
+
+
 def build_mcp_server(
     navigator: Navigator,
     log_level: LogLevel = "INFO",
@@ -49,6 +54,8 @@ def build_mcp_server(
     view = map_view or NoMapView()
     server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
     install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
+    if navigator.supervision is not None:
+        add_supervise_tool(server, navigator.supervision)  # the brain's lease (issue 27)
 
     @server.tool(annotations=MOVES_ROBOT)
     async def navigate_to(
@@ -63,9 +70,12 @@ def build_mcp_server(
         event: {"type": "eta_below", "seconds": 10} fires when the ETA drops below 10 s,
         {"type": "distance_below", "meters": 2} when less than 2 m remain — use them to
         prepare the next step before arrival. Refused with NAVIGATION_BUSY while another
-        navigation runs: call stop_navigation or cancel_task first.
+        navigation runs: call stop_navigation or cancel_task first; with SAFETY_STOP_LATCHED
+        while the software stop is latched, NOT_SUPERVISED while no supervising brain holds
+        this server's lease.
         """
         if confirmer is not None:
+            await _guard(_refused_now(navigator))  # never ask a person about a refused drive
             await confirmer.confirm(ctx, location)
         info = await _guard(navigator.navigate_to(location, triggers or []))
         return info.model_dump(mode="json")
@@ -87,7 +97,8 @@ def build_mcp_server(
     @server.tool(annotations=READ_ONLY)
     async def get_pose() -> dict[str, Any]:
         """Where the robot is: x, y, theta (map frame), the named location it is at (or
-        null), whether it is moving and towards which destination."""
+        null), whether it is moving and towards which destination; stale (with pose_note)
+        when no live pose comes from the base, relocated when it came back elsewhere."""
         return navigator.pose()
 
     @server.tool(annotations=READ_ONLY)

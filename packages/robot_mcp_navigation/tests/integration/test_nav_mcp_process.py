@@ -63,6 +63,7 @@ def start_navigation(
         "NAV_TIME_SCALE": "40",
         "NAV_TICK_S": "0.02",
         "NAV_PROGRESS_INTERVAL_S": "1.0",
+        "NAV_SUPERVISION": "off",  # no brain here to hold a lease: a dry run, unsupervised
         **extra_env,
     }
     process = launcher.start("navigation", [sys.executable, "-m", "robot_mcp_navigation"], env=env)

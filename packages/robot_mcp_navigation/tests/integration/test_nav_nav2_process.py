@@ -58,6 +58,7 @@ def start_navigation(
         [sys.executable, "-m", "robot_mcp_navigation"],
         env={
             "NAV_MOTION": "nav2",
+            "NAV_SUPERVISION": "off",  # no brain here to hold a lease
             "MCP_TRANSPORT": "streamable-http",
             "MCP_AUTH_TOKEN": TOKEN,
             "MCP_PORT": str(port),

@@ -44,7 +44,12 @@ def test_the_shipped_office_map_scripts_no_failure() -> None:
 
 async def test_the_mailroom_door_is_closed_once_then_the_robot_gets_in() -> None:
     events = FakeEventSink()
-    settings = {"NAV_TIME_SCALE": "400", "NAV_TICK_S": "0.005", "NAV_MAP": str(CLOSED_DOOR_MAP)}
+    settings = {
+        "NAV_TIME_SCALE": "400",
+        "NAV_TICK_S": "0.005",
+        "NAV_MAP": str(CLOSED_DOOR_MAP),
+        "NAV_SUPERVISION": "off",
+    }
     app = build_app(load_settings(settings), events=events)
 
     async with app.running():

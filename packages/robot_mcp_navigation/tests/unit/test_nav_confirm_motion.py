@@ -146,3 +146,25 @@ def test_the_setting_reads_nav_confirm_motion_and_refuses_other_values() -> None
     assert NavigationSettings.model_validate({}).confirm_motion == "off"
     with pytest.raises(ValueError, match=r"NAV_CONFIRM_MOTION|confirm_motion"):
         NavigationSettings.model_validate({"NAV_CONFIRM_MOTION": "yes"})
+
+
+async def test_a_latched_server_refuses_without_asking_anyone_to_confirm() -> None:
+    """Issue 27: a drive supervision refuses is never put to a person first."""
+    from robot_mcp_kit.supervision import Supervision
+
+    nav_map: NavMap = parse_map(MAP)
+    base = FakeMotionBase(speed_mps=2.0)
+    supervision = Supervision(required=False)
+    supervision.renew("brain", 1.0, latched=True)
+    navigator = Navigator(nav_map, base, FakeEventSink(), TaskTable(), supervision=supervision)
+    server = build_mcp_server(navigator, confirmer=MotionConfirmer(nav_map))
+    person = Person("accept")
+
+    async with Client(server, elicitation_callback=person) as client:
+        result = await client.call_tool("navigate_to", {"location": "kitchen"})
+
+    assert result.is_error
+    assert json.loads(result.content[0].text)["error"] == "SAFETY_STOP_LATCHED"  # type: ignore[union-attr]
+    assert person.questions == []
+    assert base.goals == []
+    await navigator.close()

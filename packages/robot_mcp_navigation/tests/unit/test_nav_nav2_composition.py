@@ -48,8 +48,9 @@ async def test_nav2_mode_builds_the_rclpy_adapter_and_closes_it_on_shutdown() ->
     assert len(app.closers) == 1
     async with app.running():
         assert app.navigator.pose()["x"] == 0.0  # the map's start until a pose arrives
-    bridge = app.closers[0].__self__  # type: ignore[attr-defined]
-    assert bridge.closed
+    ros = app.closers[0].__self__  # type: ignore[attr-defined]
+    assert ros.bridge.closed
+    assert ros.lock is not None  # required supervision: the dead-man lock is published
 
 
 def test_nav2_mode_without_rclpy_exits_2_with_one_line(

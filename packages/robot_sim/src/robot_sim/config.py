@@ -52,6 +52,19 @@ class SimSettings(BaseModel):
     pick_s: float = Field(default=3.0, gt=0.0, le=120.0, alias="SIM_PICK_S")
     place_s: float = Field(default=2.0, gt=0.0, le=120.0, alias="SIM_PLACE_S")
     pick_max_age_s: float = Field(default=30.0, gt=0.0, le=3600.0, alias="SIM_PICK_MAX_AGE_S")
+    # issue 27: honour the motion servers' dead-man locks like a robot's twist_mux (on in the
+    # local stack, whose navigation server publishes one; off for robot-sim driven alone)
+    supervisor_lock: bool = Field(default=False, alias="SIM_SUPERVISOR_LOCK")
+    supervisor_lock_topics: tuple[str, ...] = Field(
+        default=("/robot/supervisor_lock",), alias="SIM_SUPERVISOR_LOCK_TOPICS"
+    )
+    supervisor_lock_timeout_s: float = Field(
+        default=0.5, gt=0.0, le=5.0, alias="SIM_SUPERVISOR_LOCK_TIMEOUT_S"
+    )
+    # Nav2's movement_time_allowance: a goal whose base the lock holds this long is aborted
+    progress_timeout_s: float = Field(
+        default=10.0, gt=0.0, le=600.0, alias="SIM_PROGRESS_TIMEOUT_S"
+    )
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
         default="INFO", alias="LOG_LEVEL"
     )
@@ -60,6 +73,20 @@ class SimSettings(BaseModel):
     @classmethod
     def _empty_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
+
+    @field_validator("supervisor_lock_topics", mode="before")
+    @classmethod
+    def _topic_list(cls, value: object) -> object:
+        if isinstance(value, str):
+            return tuple(t.strip() for t in value.split(",") if t.strip())
+        return value
+
+    @field_validator("supervisor_lock_topics")
+    @classmethod
+    def _lock_topics(cls, value: tuple[str, ...]) -> tuple[str, ...]:
+        if not value or any(not t.startswith("/") or " " in t for t in value):
+            raise ValueError("comma-separated absolute ROS names such as /robot/supervisor_lock")
+        return value
 
     @field_validator("scenes_dir")
     @classmethod

@@ -41,6 +41,14 @@ from robot_sim.drive import DriveSim, DriveState
 
 logger = structlog.get_logger(__name__)
 
+FAILED_TO_MAKE_PROGRESS = 105
+"""``nav2_msgs/action/FollowPath`` FAILED_TO_MAKE_PROGRESS: what Nav2's controller reports when
+its progress checker sees the robot not moving (a twist_mux lock holding the base)."""
+HELD_MESSAGE = "Failed to make progress: the base's velocity commands are held by its lock"
+PROGRESS_TIMEOUT_S = 10.0
+"""Nav2's progress checker ``movement_time_allowance`` (default 10 s): how long a goal waits for a
+base held by its lock before it is aborted FAILED_TO_MAKE_PROGRESS."""
+
 NO_VALID_PATH = 208
 """``nav2_msgs/action/ComputePathToPose`` NO_VALID_PATH (Nav2 1.4, Kilted): bt_navigator
 reports the failing planner's code in NavigateToPose's ``error_code``."""
@@ -78,6 +86,8 @@ class NavigateToPoseServer:
         self._active: _Run | None = None
         self._runs: dict[bytes, _Run] = {}
         self.accepting = True
+        self.held: Callable[[], bool] = lambda: False  # the supervisor lock holds the base
+        self.progress_timeout_s = PROGRESS_TIMEOUT_S
         self._server = ActionServer(
             node,
             NavigateToPose,
@@ -96,6 +106,13 @@ class NavigateToPoseServer:
             run.cancel = True
             run.wake.set()
         self._server.destroy()
+
+    def wake(self) -> None:
+        """Look at the drive now (the supervisor lock halted it)."""
+        with self._lock:
+            run = self._active
+        if run is not None:
+            run.wake.set()
 
     @property
     def driving(self) -> bool:
@@ -155,6 +172,11 @@ class NavigateToPoseServer:
                 f"behavior tree {request.behavior_tree!r} not loaded: the sim runs none",
             )
         goal = messages.pose_from_msg(request.pose.pose)
+        if self.held():  # accepted; the controller's commands go nowhere until the lock opens
+            self._halt_if_active(run)
+            ended = self._hold(run, self._clock())
+            if ended is not None:
+                return ended
         with self._lock:
             if self._active is not run:
                 return self._abort(run, NavigateToPose.Result.NONE, "preempted by a newer goal")
@@ -183,8 +205,38 @@ class NavigateToPoseServer:
                 self._stopped()
                 code = state.error_code or NO_VALID_PATH
                 return self._abort(run, code, state.error_msg or "no valid path")
+            if state.status == "halted":  # the supervisor lock stopped the base
+                ended = self._hold(run, started)
+                if ended is not None:
+                    return ended
+                with self._lock:  # the lock opened: Nav2's controller drives on to the goal
+                    if self._active is run:
+                        self._drive.start(goal, self._clock())
+                continue
             run.wake.wait(self._period)
             run.wake.clear()
+
+    def _hold(self, run: _Run, started: float) -> Any | None:
+        """While the lock holds the base, the goal stays (Nav2 does not see twist_mux): no
+        progress, feedback goes on; None once the lock opens, else how the goal ended — the
+        progress checker's FAILED_TO_MAKE_PROGRESS after ``progress_timeout_s``, a cancel or a
+        newer goal."""
+        since = self._clock()
+        while self.held():
+            with self._lock:
+                preempted = self._active is not run
+                state = self._drive.state(self._clock())
+            if preempted:
+                return self._abort(run, NavigateToPose.Result.NONE, "preempted by a newer goal")
+            if run.cancel:
+                return self._cancel(run, started)
+            if self._clock() - since >= self.progress_timeout_s:
+                self._stopped()
+                return self._abort(run, FAILED_TO_MAKE_PROGRESS, HELD_MESSAGE)
+            run.handle.publish_feedback(self._feedback(state))
+            run.wake.wait(self._period)
+            run.wake.clear()
+        return None
 
     def _halt_if_active(self, run: _Run) -> None:
         """A goal that ends before driving leaves no earlier (preempted) route running."""

@@ -30,6 +30,7 @@ from robot_sim.gripper import Gripper
 from robot_sim.manipulation_server import ManipulationServer
 from robot_sim.nav2_server import NavigateToPoseServer
 from robot_sim.render.renderer import camera_matrix
+from robot_sim.supervisor_lock import SupervisorLockGate
 from robot_sim.world_params import HELD, WorldParameters, objects_parameter
 
 logger = structlog.get_logger(__name__)
@@ -84,6 +85,18 @@ class SimNode(Node):
             self._world_changed,
             wall,
         )
+        self.lock: SupervisorLockGate | None = None
+        if settings.supervisor_lock:  # twist_mux's locks in front of the drive (issue 27)
+            self.lock = SupervisorLockGate(
+                self,
+                drive,
+                settings.supervisor_lock_topics,
+                settings.supervisor_lock_timeout_s,
+                wall,
+                self.navigator.wake,
+            )
+            self.navigator.held = self.lock.locked
+            self.navigator.progress_timeout_s = settings.progress_timeout_s
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)
         self._odom = self.create_publisher(Odometry, "/odom", 10)
         self._map = self.create_publisher(OccupancyGrid, MAP_TOPIC, LATCHED_QOS)
@@ -134,6 +147,8 @@ class SimNode(Node):
         self._publish_image()
 
     def _publish_pose(self) -> None:
+        if self.lock is not None:  # never a pose past the moment twist_mux held the base
+            self.lock.enforce()
         state = self.drive.state(self._wall())
         stamp = self.get_clock().now().to_msg()
         self._amcl.publish(messages.amcl_pose(state.pose, stamp))

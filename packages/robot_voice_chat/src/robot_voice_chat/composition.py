@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from pydantic import ValidationError
 
+from robot_mcp_kit.supervision import SUPERVISE_TOOL
 from robot_voice_chat.agent.archive import SqliteMissionArchive
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
@@ -34,6 +35,7 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
 from robot_voice_chat.control.policy import PolicyError, ToolPolicy
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
@@ -138,6 +140,7 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         connect_timeout_s=config.tools.connect_timeout_s,
         reconnect_interval_s=config.tools.reconnect_interval_s,
         health_interval_s=config.tools.health_interval_s,
+        quiet_tools=frozenset({SUPERVISE_TOOL}),
     )
     return Adapters(
         llm=llm,
@@ -173,6 +176,7 @@ class Container:
     sio: Any = None
     auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
     history: ChatHistory = field(default_factory=ChatHistory)
+    supervisor: MotionSupervisor | None = None  # the lease on every motion server
     seen_events: SeenEvents | None = None  # handled event ids across restarts (the ingress)
 
     def policy_summary(self) -> dict[str, Any] | None:
@@ -187,6 +191,8 @@ class Container:
         self.adapters.tools.add_connect_listener(self.executor.reconcile)
         self.adapters.tools.add_disconnect_listener(self.executor.on_server_lost)
         await self.adapters.tools.start()
+        if self.supervisor is not None:
+            await self.supervisor.start()
         logger.info(
             "app_started",
             deployment=self.config.deployment,
@@ -196,6 +202,8 @@ class Container:
 
     async def stop(self) -> None:
         await self.executor.shutdown()
+        if self.supervisor is not None:
+            await self.supervisor.aclose()
         await self.adapters.tools.aclose()
         await self.adapters.speech_output.aclose()
         await self.adapters.llm.aclose()
@@ -223,8 +231,15 @@ def assemble(
         audit_path=state_path(agent, config.control.audit_log, "approvals.jsonl"),
         timeout_s=config.control.approval_timeout_s,
     )
+    # the lease is the brain's own control traffic: the supervisor alone holds the raw backend
+    supervisor = MotionSupervisor(
+        adapters.tools,
+        latch,
+        period_s=config.control.lease_period_s,
+        ttl_s=config.control.lease_ttl_s,
+    )
     # the one choke point: everything below holds the guarded backend, never the raw one
-    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals)
+    guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals, supervisor)
     adapters = replace(adapters, tools=guarded)
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
     memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
@@ -243,6 +258,7 @@ def assemble(
         archive=archive,
         latch=latch,
         approvals=approvals,
+        supervisor=supervisor,
     )
     guarded.set_elicitation_handler(
         approval_elicitation(
@@ -270,6 +286,7 @@ def assemble(
         trace,
         sio,
         history=history,
+        supervisor=supervisor,
         seen_events=seen,
     )
 

@@ -217,6 +217,16 @@ class ControlConfig(BaseModel):
     policy_file: str = "config/policy.yaml"
     approval_timeout_s: float = Field(60.0, gt=0)  # no answer within this → denied
     audit_log: str = ""  # "" = <data_dir>/approvals.jsonl (append-only)
+    # issue 27: the lease on every motion server (renewed every period, lapses after the TTL;
+    # a brain killed mid-drive halts the robot within about one TTL)
+    lease_period_s: float = Field(0.25, gt=0, le=1.0)
+    lease_ttl_s: float = Field(0.8, gt=0, le=2.0)
+
+    @model_validator(mode="after")
+    def _period_within_ttl(self) -> ControlConfig:
+        if self.lease_period_s > self.lease_ttl_s / 2:
+            raise ValueError("lease_period_s must be at most half of lease_ttl_s")
+        return self
 
 
 class AppConfig(BaseModel):

@@ -31,6 +31,7 @@ async def asking_navigation(tmp_path: Path) -> AsyncIterator[tuple[McpToolBacken
         args=["-m", "robot_mcp_navigation"],
         env={
             "NAV_CONFIRM_MOTION": "elicit",
+            "NAV_SUPERVISION": "off",  # a host asking its person, no supervising brain
             "MCP_TRANSPORT": "stdio",
             "NAV_OUTBOX": str(tmp_path / "outbox.sqlite3"),
             "NAV_TIME_SCALE": "20",

@@ -131,3 +131,32 @@ describe('map: the robot\'s own map', () => {
     expect(within(map).queryByTestId('plan')).toBeNull();
   });
 });
+
+describe('map: a robot base that is lost or came back', () => {
+  const servePose = (pose: object) => serveMap(pose);
+
+  it('dims the marker and says the position is not live while the base sends none', async () => {
+    servePose({ ...POSE, at_location: null, x: 3, stale: true, pose_note: 'no pose from the robot base since it stopped answering 4 s ago' });
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    const robot = await within(map).findByTestId('robot');
+    expect(robot).toHaveAttribute('data-stale', 'true');
+    expect(robot).toHaveAccessibleName('Robot last seen 3.0, 0.0');
+    expect(await within(map).findByRole('status')).toHaveTextContent(
+      'Position not live: no pose from the robot base since it stopped answering 4 s ago',
+    );
+  });
+
+  it('says the marker jumped when the base came back elsewhere', async () => {
+    servePose({
+      ...POSE,
+      stale: false,
+      pose_note: 'the robot base came back 9.5 m from where it was last seen, 3 s ago',
+      relocated: { from: { x: 9, y: -3 }, to: { x: 0, y: 0 }, distance_m: 9.5 },
+    });
+    render(<MapView />);
+    const map = screen.getByRole('region', { name: 'Map' });
+    expect(await within(map).findByRole('status')).toHaveTextContent('Position jumped: the robot base came back 9.5 m');
+    expect(within(map).getByTestId('robot')).not.toHaveAttribute('data-stale');
+  });
+});

@@ -192,8 +192,10 @@ export function MapView() {
                   data-x={pose.x}
                   data-y={pose.y}
                   data-moving={pose.moving}
-                  aria-label={`Robot at ${pose.x.toFixed(1)}, ${pose.y.toFixed(1)}${pose.moving && destinationName ? ` driving to ${placeName(destinationName)}` : ''}`}
+                  data-stale={pose.stale || undefined}
+                  aria-label={`Robot ${pose.stale ? 'last seen' : 'at'} ${pose.x.toFixed(1)}, ${pose.y.toFixed(1)}${pose.moving && destinationName ? ` driving to ${placeName(destinationName)}` : ''}`}
                   role="img"
+                  opacity={pose.stale ? 0.4 : undefined}
                   transform={`translate(${x} ${y}) rotate(${deg})`}
                 >
                   <g transform={`scale(${markerScale})`}>
@@ -219,6 +221,13 @@ export function MapView() {
               · <span className="text-map-blocked">■</span> blocked
             </>
           )}
+        </p>
+      )}
+      {pose?.pose_note && (
+        // the robot's position is not live, or it jumped when the base came back: said, not hidden
+        <p role="status" data-testid="pose-note" className="border-t border-line bg-warn-bg px-3 py-1 text-xs text-fg">
+          {pose.stale ? 'Position not live: ' : 'Position jumped: '}
+          {pose.pose_note}
         </p>
       )}
       {past && (

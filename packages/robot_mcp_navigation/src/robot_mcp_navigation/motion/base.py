@@ -12,7 +12,7 @@ import asyncio
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 
 @dataclass(frozen=True)
@@ -63,6 +63,31 @@ class DriveResult:
     pose: Pose
     elapsed_s: float
     failure: DriveFailure | None = None
+
+
+@dataclass(frozen=True)
+class PoseStatus:
+    """How much to trust ``current_pose`` (get_pose reports it beside the pose).
+
+    ``stale``: no pose from the base now (never one, or none since the base stopped
+    answering, or older than the configured age); ``note`` says why in words. ``relocated``:
+    the base's pose came back after a silence far from where it was last seen (a restarted
+    base), ``{"from": {x, y}, "to": {x, y}, "distance_m", "ago_s"}``, so a display never
+    moves the robot without saying so.
+    """
+
+    stale: bool = False
+    age_s: float | None = None
+    note: str | None = None
+    relocated: dict[str, Any] | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "stale": self.stale,
+            "pose_age_s": None if self.age_s is None else round(self.age_s, 2),
+            "pose_note": self.note,
+            "relocated": self.relocated,
+        }
 
 
 ProgressCallback = Callable[[DriveProgress], Awaitable[None]]
@@ -118,3 +143,11 @@ class MotionBase(abc.ABC):
     @abc.abstractmethod
     def estimate_duration_s(self, goal: Pose) -> float:
         """Expected robot-time seconds from the current pose to ``goal``."""
+
+    def pose_status(self) -> PoseStatus:
+        """Whether ``current_pose`` is live; a base that always knows its pose keeps this."""
+        return PoseStatus()
+
+    async def cancel_stale_goals(self) -> None:  # noqa: B027 - optional hook
+        """At start-up, before any lease opens the lock: end goals an earlier life of this
+        server left running at the base (a base with nothing left over keeps the default)."""

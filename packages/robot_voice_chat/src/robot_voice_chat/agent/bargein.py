@@ -5,22 +5,26 @@ from __future__ import annotations
 import asyncio
 import re
 from collections.abc import Callable
+from typing import Any
 
 import structlog
 
 from robot_voice_chat.agent.dispatch import TaskDispatcher
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.run import MissionRun
+from robot_voice_chat.agent.supervision_words import unconfirmed_stop
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.latch import SafetyLatch, acting
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.speech.base import SpeechOutput
-from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.services.tools.base import ToolBackend, ToolOutcome
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 STOP_QUESTION = "Stopped. Should I continue or abort?"
+LATCHED_QUESTION = "The software stop is latched. Should I continue or abort?"
 
 
 class BargeIn:
@@ -37,6 +41,7 @@ class BargeIn:
         current_run: Callable[[], MissionRun | None],
         latch: SafetyLatch,
         approvals: ApprovalBroker | None = None,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.tools = tools
         self.registry = registry
@@ -48,6 +53,7 @@ class BargeIn:
         self.current_run = current_run
         self.latch = latch
         self.approvals = approvals
+        self.supervisor = supervisor
 
     def is_stop(self, text: str) -> bool:
         """A stop word anywhere in the utterance stops — negations included ("don't stop"):
@@ -55,12 +61,14 @@ class BargeIn:
         words = re.findall(r"[^\W\d_]+", text.lower())
         return any(word in self.config.stop_words for word in words)
 
-    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> str:
         """(0) latch the software stop and pause (state only, no await), (1) persist the
         latch while cancelling motion tasks +
         safety_stop_tool, (2) interrupt speech, (2b) end watchers and stop the vision skills
         the brain started, (3) mark their steps failed, (4) ask; the loop stays suspended
-        until the user answers."""
+        until the user answers. Returns what the person is told: "Stopped. …" only when
+        every motion server confirmed the stop; otherwise what is known of each one it could
+        not reach (supervision_words)."""
         by = by or acting()
         self.latch.engage(by, reason)  # from here every motion call is refused (guard)
         if self.approvals is not None:  # nothing waiting for a yes may run after a stop
@@ -77,6 +85,7 @@ class BargeIn:
             run.awaiting_user = True
         calls = [self._latch(by, reason)]
         cancelled = []
+        stops: dict[str, Any] = {}
         for server in self.tools.servers().values():
             if not server.motion:
                 continue
@@ -84,8 +93,10 @@ class BargeIn:
                 cancelled.append(self.registry.drop(handle.task_id) or handle)
                 calls.append(self.dispatcher.cancel_task(server.name, handle.task_id))
             if server.safety_stop_tool:
-                calls.append(self._safety_tool(f"{server.name}.{server.safety_stop_tool}"))
-        await asyncio.gather(*calls)
+                stops[server.name] = self._safety_tool(f"{server.name}.{server.safety_stop_tool}")
+        results = await asyncio.gather(*calls, *stops.values())
+        answers: list[ToolOutcome] = list(results[len(calls) :])
+        unconfirmed = [name for name, out in zip(stops, answers, strict=True) if out.is_error]
         await self.speech.interrupt()
         watchers = [h for h in self.registry.live() if h.skill_id is not None]
         watched = {(h.skill_server, h.skill_id) for h in watchers}
@@ -114,17 +125,28 @@ class BargeIn:
             cancelled=[h.task_id for h in cancelled],
             skills_stopped=[s.skill_id for s in skills] + [h.skill_id for h in watchers],
         )
+        told = await self._told(unconfirmed)
         if run is None or not active:
-            return
+            return told
         self.trace.record(
             run.mission.id, "safety_stop", reason=reason, cancelled=[h.task_id for h in cancelled]
         )
         await self.output.emit_plan(run)
-        await self.output.say(run, STOP_QUESTION)
+        question = STOP_QUESTION if not unconfirmed else f"{told} {LATCHED_QUESTION}"
+        await self.output.say(run, question)
+        return question
+
+    async def _told(self, unconfirmed: list[str]) -> str:
+        if not unconfirmed:
+            return "Stopped."
+        said = [await unconfirmed_stop(self.supervisor, server) for server in unconfirmed]
+        logger.warning("safety_stop_unconfirmed", servers=unconfirmed)
+        return " ".join(said)
 
     async def _latch(self, by: str, reason: str) -> None:
         await self.latch.stop(by, reason)
 
-    async def _safety_tool(self, tool: str) -> None:
+    async def _safety_tool(self, tool: str) -> ToolOutcome:
         outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)
         logger.info("safety_stop_tool_called", tool=tool, is_error=outcome.is_error)
+        return outcome

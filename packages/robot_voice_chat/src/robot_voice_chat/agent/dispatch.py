@@ -19,6 +19,7 @@ from robot_voice_chat.agent.reactions import Reaction
 from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
+from robot_voice_chat.agent.supervision_words import lost_motion_server, stop_hint
 from robot_voice_chat.agent.task_registry import (
     TaskHandle,
     TaskRegistry,
@@ -30,6 +31,7 @@ from robot_voice_chat.agent.task_registry import (
 )
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
@@ -37,6 +39,7 @@ from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 ORPHAN_GRACE_S = 30.0
+MOVING_EVENTS = frozenset({"progress", "trigger_fired"})  # the motion still runs
 
 
 def held_by_stop(run: MissionRun) -> bool:
@@ -72,6 +75,8 @@ class TaskDispatcher:
         output: MissionOutput,
         plan_tools: PlanTools,
         current_run: Callable[[], MissionRun | None],
+        latched: Callable[[], bool] = lambda: False,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.tools = tools
         self.registry = registry
@@ -90,6 +95,9 @@ class TaskDispatcher:
         self.interrupted: set[str] = set()
         self.lost_servers: set[str] = set()  # servers the running mission was told are gone
         self.fallback_notice = FallbackNotice()  # "I'm using the on-board detector", once
+        self.latched = latched
+        self.supervisor = supervisor
+        self.stopped_orphans: set[tuple[str, str]] = set()  # (server, task) stopped while latched
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -265,6 +273,8 @@ class TaskDispatcher:
                 "agent_event_orphan", task_id=event.task_id, server=event.server, type=event.type
             )
             self.early_events.append((time.monotonic(), event))
+            if handle is None:
+                self._stop_orphan_if_latched(event)
             return False
         for reaction in run.reactions.take(event):
             await self._react(run, reaction, event)
@@ -292,6 +302,29 @@ class TaskDispatcher:
             await self.output.log_line(run, "task_event", text)
             run.post(text)
         return True
+
+    def _stop_orphan_if_latched(self, event: TaskEvent) -> None:
+        """Motion the brain did not start, reported while the software stop is latched: stop
+        it (its cancel_task and the server's stop tool), whoever started it (issue 27)."""
+        cfg = self.tools.servers().get(event.server)
+        key = (event.server, event.task_id)
+        if (
+            cfg is None
+            or not cfg.motion
+            or event.type not in MOVING_EVENTS
+            or not self.latched()
+            or key in self.stopped_orphans
+        ):
+            return
+        self.stopped_orphans.add(key)
+        logger.warning("orphan_motion_stopped", server=event.server, task_id=event.task_id)
+        self.spawn(self.cancel_task(event.server, event.task_id))
+        if cfg.safety_stop_tool:
+            self.spawn(self._stop_tool(f"{event.server}.{cfg.safety_stop_tool}"))
+
+    async def _stop_tool(self, tool: str) -> None:
+        outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)
+        logger.info("safety_stop_tool_called", tool=tool, is_error=outcome.is_error)
 
     async def _react(self, run: MissionRun, reaction: Reaction, event: TaskEvent) -> None:
         call = reaction.call
@@ -381,11 +414,15 @@ class TaskDispatcher:
         )
         self.trace.record(run.mission.id, "server_lost", server=server, tasks=ids, text=line)
         await self.output.log_line(run, "task_event", line)
-        await self.output.say(
-            run,
-            f"I lost contact with my {service_name(server)} and am waiting for it to come back. "
-            "Say stop to halt me.",
-        )
+        cfg = self.tools.servers().get(server)
+        if cfg is not None and cfg.motion:  # said only once the lease surely ran out
+            said = await lost_motion_server(self.supervisor, server)
+        else:
+            said = (
+                f"I lost contact with my {service_name(server)} and am waiting for it to come "
+                f"back.{stop_hint(self.supervisor)}"
+            )
+        await self.output.say(run, said)
         run.post(line)
 
     async def reconcile(self, server: str) -> None:

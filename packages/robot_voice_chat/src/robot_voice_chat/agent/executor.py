@@ -28,6 +28,7 @@ from robot_voice_chat.agent.run import (
     SafetyStopLatchedError,
 )
 from robot_voice_chat.agent.skills import SkillLedger
+from robot_voice_chat.agent.supervision_words import stop_hint
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
@@ -35,6 +36,7 @@ from robot_voice_chat.control.approvals import ApprovalBroker, PendingApproval
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch, acting, latched_sentence
 from robot_voice_chat.control.latch_store import MemoryLatchStore
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import plain_instruction
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
@@ -76,8 +78,10 @@ class MissionExecutor:
         archive: MissionArchive | None = None,
         latch: SafetyLatch | None = None,
         approvals: ApprovalBroker | None = None,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.planner = planner
+        self.supervisor = supervisor
         self.tools = tools
         self.emitter = emitter
         self.speech = speech
@@ -110,6 +114,8 @@ class MissionExecutor:
             output=self.output,
             plan_tools=self.plan_tools,
             current_run=lambda: self.run,
+            latched=lambda: self.latch.latched,
+            supervisor=supervisor,
         )
         self.bargein = BargeIn(
             tools=tools,
@@ -122,6 +128,7 @@ class MissionExecutor:
             current_run=lambda: self.run,
             latch=self.latch,
             approvals=approvals,
+            supervisor=supervisor,
         )
 
     @property
@@ -193,8 +200,7 @@ class MissionExecutor:
             return None
         mission = run.mission
         if self.is_stop(text):
-            await self.safety_stop(reason=f"user said {text!r}")
-            return "Stopped. Should I continue or abort?"
+            return await self.safety_stop(reason=f"user said {text!r}")
         if self.approvals is not None:  # a yes/no to the approval the mission waits for
             answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
             if answer is not None:
@@ -218,7 +224,7 @@ class MissionExecutor:
         run.post(f"[user] {text}")
         return (
             f"I'm busy with a mission ({plain_instruction(mission.instruction)}; it is "
-            f"{mission.state}); your message went to it. Say stop to halt me."
+            f"{mission.state}); your message went to it.{stop_hint(self.supervisor)}"
         )
 
     def _held_by_latch(self, run: MissionRun, text: str) -> str | None:
@@ -529,5 +535,6 @@ class MissionExecutor:
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)
 
-    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> None:
-        await self.bargein.safety_stop(reason, by)
+    async def safety_stop(self, reason: str = "stop", by: str | None = None) -> str:
+        """Latch the software stop and halt motion; what the person is told."""
+        return await self.bargein.safety_stop(reason, by)

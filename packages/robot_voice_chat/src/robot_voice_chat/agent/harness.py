@@ -18,6 +18,7 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import LatchStore, MemoryLatchStore
 from robot_voice_chat.control.policy import ToolPolicy
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
@@ -43,6 +44,7 @@ class Harness:
     trace: TraceRecorder
     teaching: Teaching
     latch: SafetyLatch
+    supervisor: MotionSupervisor | None = None
 
 
 def nav_servers() -> list[McpServerConfig]:
@@ -86,8 +88,11 @@ def make_harness(
     approvals: ApprovalBroker | None = None,
     emitter: FakeEventEmitter | None = None,
     trace: TraceRecorder | None = None,
+    supervisor: tuple[float, float] | None = None,
     **agent: Any,
 ) -> Harness:
+    """``supervisor``: (lease period, TTL) for a MotionSupervisor on the raw fake backend
+    (start it with ``await h.supervisor.start()``); None: none."""
     tools = harness_tools()
     emitter, speech = emitter or FakeEventEmitter(), FakeSpeechOutput()
     trace = trace or TraceRecorder(tmp_path / "missions")
@@ -95,6 +100,11 @@ def make_harness(
     teaching = Teaching(emitter, memory)
     config = AgentConfig(memory_server=memory_server, **agent)
     latch = SafetyLatch(latch_store or MemoryLatchStore())
+    leases = (
+        MotionSupervisor(tools, latch, period_s=supervisor[0], ttl_s=supervisor[1])
+        if supervisor is not None
+        else None
+    )
     executor = MissionExecutor(
         planner=planner,
         tools=GuardedToolBackend(tools, latch, policy, approvals),
@@ -107,5 +117,6 @@ def make_harness(
         prompt_path=CONFIG_DIR / "agent_prompt.yaml",
         latch=latch,
         approvals=approvals,
+        supervisor=leases,
     )
-    return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch)
+    return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch, leases)

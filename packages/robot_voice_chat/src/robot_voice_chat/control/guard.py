@@ -15,9 +15,11 @@ from typing import Any, Protocol
 
 import structlog
 
+from robot_mcp_kit.supervision import SUPERVISE_TOOL
 from robot_voice_chat.control.context import DispatchContext, current_dispatch
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch, latched_sentence
 from robot_voice_chat.control.policy import POLICY_DENIED, Decision, ToolPolicy
+from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ApprovedCall,
@@ -66,11 +68,20 @@ class GuardedToolBackend(ToolBackend):
         latch: SafetyLatch,
         policy: ToolPolicy | None = None,
         approvals: ApprovalGate | None = None,
+        supervisor: MotionSupervisor | None = None,
     ) -> None:
         self.inner = inner
         self.latch = latch
         self.policy = policy
         self.approvals = approvals
+        self.supervisor = supervisor  # a motion call waits for a fresh lease (issue 27)
+
+    def is_supervision_tool(self, name: str) -> bool:
+        """A motion server's lease tool: the brain's supervisor sends it on the raw backend;
+        no planner, reaction, fast path or route may (it could lift a server's latch)."""
+        server, _, tool = name.partition(".")
+        cfg = self.inner.servers().get(server)
+        return tool == SUPERVISE_TOOL and cfg is not None and cfg.motion
 
     def is_stop_tool(self, name: str) -> bool:
         server, _, tool = name.partition(".")
@@ -129,6 +140,9 @@ class GuardedToolBackend(ToolBackend):
     async def call_tool(
         self, name: str, arguments: dict[str, object], timeout_s: float | None = None
     ) -> ToolOutcome:
+        if self.is_supervision_tool(name):
+            logger.warning("tool_refused", tool=name, code=POLICY_DENIED)
+            return refusal(POLICY_DENIED, f"{name} is reserved for the robot's supervisor")
         refused = self.latched_refusal(name)
         if refused is not None:
             return refused
@@ -145,6 +159,7 @@ class GuardedToolBackend(ToolBackend):
             )
             extra = {"bound": decision.bound} if decision.bound else {}
             return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
+        approval: ApprovedCall | None = None
         if decision.action == "confirm" and current_dispatch().approved_by is not None:
             logger.info("tool_preapproved", tool=name, by=current_dispatch().approved_by)
         elif decision.action == "confirm":
@@ -160,12 +175,20 @@ class GuardedToolBackend(ToolBackend):
                 approval = ApprovedCall(
                     name, dict(arguments), answer.approval_id, answer.operator or "operator"
                 )
-                token = approved_call.set(approval)
-                try:
-                    return await self.inner.call_tool(name, arguments, timeout_s)
-                finally:
-                    approved_call.reset(token)
-        return await self.inner.call_tool(name, arguments, timeout_s)
+        if self.supervisor is not None and self.moves(name):
+            # right after a (re)connect the first lease may still be on its way: the server
+            # refuses motion without one (NOT_SUPERVISED), so let it land first
+            await self.supervisor.ensure_fresh(name.partition(".")[0])
+            refused = self.latched_refusal(name)
+            if refused is not None:
+                return refused
+        if approval is None:
+            return await self.inner.call_tool(name, arguments, timeout_s)
+        token = approved_call.set(approval)
+        try:
+            return await self.inner.call_tool(name, arguments, timeout_s)
+        finally:
+            approved_call.reset(token)
 
     async def _ask(
         self, name: str, arguments: dict[str, Any], decision: Decision
@@ -183,7 +206,7 @@ class GuardedToolBackend(ToolBackend):
 
     # --- the rest of the port, unchanged -------------------------------------------------
     def list_tools(self) -> list[ToolDefinition]:
-        return self.inner.list_tools()
+        return [t for t in self.inner.list_tools() if not self.is_supervision_tool(t.name)]
 
     def servers(self) -> dict[str, McpServerConfig]:
         return self.inner.servers()
@@ -198,7 +221,7 @@ class GuardedToolBackend(ToolBackend):
         self.inner.add_disconnect_listener(listener)
 
     def has_tool(self, name: str) -> bool:
-        return self.inner.has_tool(name)
+        return self.inner.has_tool(name) and not self.is_supervision_tool(name)
 
     def set_elicitation_handler(self, handler: ElicitationHandler) -> None:
         self.inner.set_elicitation_handler(handler)

@@ -47,11 +47,11 @@ class TurnResult:
     mission_id: str | None = None
 
 
-def busy_message(mission: Mission) -> str:
-    return (
-        f"I'm busy with a mission right now ({plain_instruction(mission.instruction)}; it is "
-        f"{mission.state}). Say stop if you want me to halt."
-    )
+def busy_message(mission: Mission, offer_stop: bool = True) -> str:
+    """``offer_stop``: every motion server answers, so a stop halts the robot (issue 27)."""
+    stop = " Say stop if you want me to halt." if offer_stop else ""
+    doing = f"{plain_instruction(mission.instruction)}; it is {mission.state}"
+    return f"I'm busy with a mission right now ({doing}).{stop}"
 
 
 class ChatPipeline:
@@ -87,14 +87,21 @@ class ChatPipeline:
             )
             return result
 
-    async def stop(self, reason: str = "Stop (operator request)") -> None:
+    async def stop(self, reason: str = "Stop (operator request)") -> str:
         """``stop_pipeline`` / stop_mission / ``POST /api/safety/stop``: end streaming replies,
-        safety stop (latched until an operator clears it), then quiet."""
+        safety stop (latched until an operator clears it), then quiet. Returns what the
+        person is told; a stop some motion server did not confirm is said even without a
+        mission (a paused mission says it itself)."""
         current = asyncio.current_task()
         for turn in list(self._fast_turns):
             if turn is not current:  # stop_mission called from inside a turn ends the rest
                 turn.cancel()
-        await self._executor.safety_stop(reason=reason)
+        mission = self._executor.active
+        told = await self._executor.safety_stop(reason=reason)
+        if mission is None and told != "Stopped.":
+            turn_id = uuid.uuid4().hex[:8]
+            await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=told))
+        return told
 
     async def _route(self, text: str, turn_id: str) -> TurnResult:
         mission = self._executor.active
@@ -194,8 +201,8 @@ class ChatPipeline:
         if call.name == "start_mission":
             return await self._start_mission(call, turn_id)
         if call.name == "stop_mission":
-            await self.stop("Stop (asked in chat)")
-            return ToolResult(tool_call_id=call.id, content="stopped"), None
+            told = await self.stop("Stop (asked in chat)")
+            return ToolResult(tool_call_id=call.id, content=told), None
         if call.name == "resume_mission":  # no mission runs here: the turn would have gone to it
             return ToolResult(
                 tool_call_id=call.id, content=self._executor.nothing_to_resume()
@@ -218,7 +225,8 @@ class ChatPipeline:
                 raise ValueError("I need to know what to do")
             mission = await self._executor.start(instruction)
         except MissionBusyError as exc:
-            reply = busy_message(exc.mission)
+            supervisor = self._executor.supervisor
+            reply = busy_message(exc.mission, supervisor is None or supervisor.all_fresh())
             route: Route = "error"
             mission_id = None
         except (MissionsDisabledError, ValueError) as exc:

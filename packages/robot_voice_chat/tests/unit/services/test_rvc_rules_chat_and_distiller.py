@@ -63,10 +63,10 @@ async def test_commands_go_to_start_mission_with_an_ack_and_stop_to_stop_mission
     stop = await chat.chat(user("Stop!"), TOOLS)
     assert [c.name for c in stop.tool_calls] == ["stop_mission"]
     after = [*user("stop"), stop.as_message()]
-    after.append(
-        Message(role="user", tool_results=[ToolResult(tool_call_id="x", content="stopped")])
-    )
-    assert (await chat.chat(after, TOOLS)).text == "Done."
+    told = "I could not reach my navigation, so it could not confirm the stop."
+    answer = ToolResult(tool_call_id=stop.tool_calls[0].id, content=told)
+    after.append(Message(role="user", tool_results=[answer]))
+    assert (await chat.chat(after, TOOLS)).text == told  # what the stop confirmed, no more
 
 
 async def test_greetings_help_and_anything_else_are_answered_honestly() -> None:
@@ -132,3 +132,26 @@ def test_the_distilled_document_is_valid_for_the_memory_server() -> None:
     doc = distill(f"{TRANSCRIPT_HEADER}\n{render_transcript(TRACE)}")
     parsed = parse_process(doc)  # the memory server's own validation
     assert parsed.id == "please-fetch-the-package-from-the-mailroom"
+
+
+async def test_where_are_you_with_a_stale_pose_says_the_position_is_not_live() -> None:
+    """Issue 27: a base that stopped answering leaves its last pose: never said as a place."""
+    chat = RulesChat()
+    tools = [*TOOLS, ToolDefinition(name="navigation.get_pose")]
+    asked = await chat.chat(user("where are you?"), tools)
+    [call] = asked.tool_calls
+    assert call.name == "navigation.get_pose"
+    pose = (
+        '{"x": 4.0, "y": 1.5, "theta": 0, "at_location": "reception", "moving": false, '
+        '"stale": true, "pose_note": "no pose from the robot base since it stopped answering '
+        '5 s ago: this is where it was last seen"}'
+    )
+    messages = [*user("where are you?"), asked.as_message()]
+    messages.append(
+        Message(role="user", tool_results=[ToolResult(tool_call_id=call.id, content=pose)])
+    )
+
+    answer = (await chat.chat(messages, tools)).text
+
+    assert answer.startswith("I can't tell where I am right now: no pose from the robot base")
+    assert "reception" not in answer

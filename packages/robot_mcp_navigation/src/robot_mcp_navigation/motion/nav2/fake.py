@@ -5,6 +5,8 @@
 - ``reject_next``: the server answers and rejects the goal (Nav2UnavailableError);
 - a goal the server already ended ignores a cancel (``cancel`` returns False), like rclpy;
 - ``cancel_answers = False``: the server never answers a cancel request (a hung Nav2).
+- ``vanish()``: the server process is gone (kill -9): no more feedback, no result, cancels
+  unanswered, new goals time out.
 The test plays the server: ``feedback``, ``succeed``, ``abort``, ``cancel_by_server``.
 """
 
@@ -24,6 +26,7 @@ from robot_mcp_navigation.motion.nav2.port import (
     Nav2UnavailableError,
     PoseSample,
 )
+from robot_mcp_navigation.motion.nav2.pose_watch import PoseContinuity, Relocation
 
 
 @dataclass
@@ -90,7 +93,9 @@ class FakeNav2Action(Nav2Action):
         self.goals: list[FakeGoal] = []
         self.closed = False
         self._pose: PoseSample | None = None
+        self._continuity = PoseContinuity()
         self.goal_sent = asyncio.Event()
+        self.cancel_all_calls = 0
 
     async def send_goal(
         self,
@@ -111,12 +116,32 @@ class FakeNav2Action(Nav2Action):
         self.goal_sent.set()
         return goal
 
-    def publish_pose(self, pose: Pose) -> None:
-        """A message on the pose topic."""
-        self._pose = PoseSample(pose, time.monotonic())
+    def publish_pose(self, pose: Pose, at: float | None = None) -> None:
+        """A message on the pose topic (``at``: its arrival, ``time.monotonic()`` by default)."""
+        self._pose = PoseSample(pose, time.monotonic() if at is None else at)
+        self._continuity.observe(pose, self._pose.received_at)
 
     def latest_pose(self) -> PoseSample | None:
         return self._pose
+
+    def last_relocation(self) -> Relocation | None:
+        return self._continuity.relocation
+
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        self.cancel_all_calls += 1
+        if not self.available:
+            return None
+        running = [g for g in self.goals if not g.done]
+        for goal in running:
+            goal.cancel_by_server()
+        return len(running)
+
+    def vanish(self) -> None:
+        """The action server's process died: it answers nothing any more."""
+        self.available = False
+        self.cancel_answers = False
+        for goal in self.goals:
+            goal.cancel_answers = False
 
     def close(self) -> None:
         self.closed = True

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from robot_mcp_navigation.motion.base import Pose
+from robot_mcp_navigation.motion.nav2.pose_watch import Relocation
 
 GoalStatus = Literal["succeeded", "aborted", "canceled", "unknown"]
 
@@ -86,6 +87,17 @@ class Nav2Action(abc.ABC):
     @abc.abstractmethod
     def latest_pose(self) -> PoseSample | None:
         """The last pose from the pose topic (``None`` before the first message)."""
+
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        """Ask the action server to cancel every goal it runs (the action protocol's
+        cancel-all: a zero goal id and stamp); how many it cancels, None if no server answered
+        within ``timeout_s``."""
+        return 0
+
+    def last_relocation(self) -> Relocation | None:
+        """The latest time the pose topic came back somewhere else after a silence
+        (``pose_watch.PoseContinuity``); None if it never did."""
+        return None
 
     def close(self) -> None:  # noqa: B027 - optional hook, nothing to release by default
         """Release the ROS side (idempotent)."""

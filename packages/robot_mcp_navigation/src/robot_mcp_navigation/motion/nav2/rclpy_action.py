@@ -15,6 +15,7 @@ from typing import Any
 
 import structlog
 from action_msgs.msg import GoalStatus
+from action_msgs.srv import CancelGoal
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav2_msgs.action import NavigateToPose
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -31,6 +32,7 @@ from robot_mcp_navigation.motion.nav2.port import (
     Nav2UnavailableError,
     PoseSample,
 )
+from robot_mcp_navigation.motion.nav2.pose_watch import PoseContinuity, Relocation
 from robot_ros_bridge import RosBridge, ServiceTimeoutError, ServiceUnavailableError
 
 logger = structlog.get_logger(__name__)
@@ -116,15 +118,38 @@ class RclpyNav2Action(Nav2Action):
         self._bridge = bridge
         self._action_name = action_name
         self._client = bridge.create_action_client(NavigateToPose, action_name)
+        self._cancel_goals = bridge.create_client(CancelGoal, f"{action_name}/_action/cancel_goal")
         self._pose: PoseSample | None = None
+        self._continuity = PoseContinuity()
         for qos in POSE_QOS:
             bridge.create_subscription(PoseWithCovarianceStamped, pose_topic, self._on_pose, qos)
 
     def _on_pose(self, msg: Any) -> None:  # executor thread; one reference assignment
-        self._pose = PoseSample(pose_of(msg.pose.pose), time.monotonic())
+        sample = PoseSample(pose_of(msg.pose.pose), time.monotonic())
+        self._pose = sample
+        relocation = self._continuity.observe(sample.pose, sample.received_at)
+        if relocation is not None:
+            logger.warning(
+                "pose_relocated",
+                distance_m=round(relocation.distance_m, 2),
+                silent_s=round(relocation.silent_s, 1),
+                to=relocation.after.as_dict(),
+            )
 
     def latest_pose(self) -> PoseSample | None:
         return self._pose
+
+    async def cancel_all(self, timeout_s: float) -> int | None:
+        try:
+            response = await self._bridge.call_service(
+                self._cancel_goals, CancelGoal.Request(), timeout_s, wait_for_service_s=timeout_s
+            )
+        except (ServiceUnavailableError, ServiceTimeoutError):
+            return None
+        return len(response.goals_canceling)
+
+    def last_relocation(self) -> Relocation | None:
+        return self._continuity.relocation
 
     async def send_goal(
         self,

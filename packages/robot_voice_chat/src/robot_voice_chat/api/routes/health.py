@@ -56,5 +56,7 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "servers_without_credential": container.config.tools.servers_without_credential(),
             "safety": container.executor.latch.state.model_dump(),
             "policy": container.policy_summary(),
+            # the lease on every motion server (issue 27): fresh, unreachable, unsupported
+            "supervision": container.supervisor.summary() if container.supervisor else None,
         },
     }

@@ -130,8 +130,10 @@ class McpToolBackend(ToolBackend):
         connect_timeout_s: float = 10.0,
         reconnect_interval_s: float = 30.0,
         health_interval_s: float = 15.0,
+        quiet_tools: frozenset[str] = frozenset(),
     ) -> None:
         self._connections = {s.name: _Connection(config=s) for s in servers}
+        self.quiet_tools = quiet_tools  # logged at debug level (the lease, several per second)
         self.blocking_tools = set(blocking_tools or [])
         self._call_timeout_s = call_timeout_s
         self._connect_timeout_s = connect_timeout_s
@@ -211,7 +213,8 @@ class McpToolBackend(ToolBackend):
             conn.wake.set()  # let the supervisor health-check the connection now
         else:
             outcome = ToolOutcome(text=_result_text(result), is_error=bool(result.is_error))
-        logger.info(
+        log = logger.debug if tool in self.quiet_tools and not outcome.is_error else logger.info
+        log(
             "mcp_tool_called",
             tool=name,
             is_error=outcome.is_error,

@@ -161,6 +161,8 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=text)
         if result.is_error:
             return LLMResponse(text=f"That didn't work: {reason_of(result.content)}.")
+        if purpose == "stop":  # what the stop could confirm, never more (issue 27)
+            return LLMResponse(text=result.content or "Stopped.")
         return LLMResponse(text="Done.")
 
     def _reply(
@@ -345,6 +347,9 @@ def _where(result: ToolResult, names: Names = by_id) -> str:
         pose = None
     if not isinstance(pose, dict):
         return "I can't tell where I am right now: the navigation server gave no pose."
+    if pose.get("stale"):  # the base sends no live pose: say so, not where it last was
+        note = str(pose.get("pose_note") or "the robot base sends no live pose")
+        return f"I can't tell where I am right now: {note}."
     if pose.get("moving") and pose.get("destination"):
         return f"I'm driving to {names(str(pose['destination']))}."
     if pose.get("at_location"):

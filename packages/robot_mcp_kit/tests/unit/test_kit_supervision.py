@@ -1,0 +1,226 @@
+import asyncio
+import json
+
+import pytest
+from mcp import Client
+from mcp.server.mcpserver import MCPServer
+
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors
+from robot_mcp_kit.supervision import (
+    NOT_SUPERVISED,
+    SAFETY_STOP_LATCHED,
+    LeaseError,
+    Supervision,
+)
+from robot_mcp_kit.supervision_tools import add_supervise_tool, watch_supervision
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def supervised(clock: Clock, **kwargs: object) -> Supervision:
+    return Supervision(clock=clock, **kwargs)  # type: ignore[arg-type]
+
+
+def test_a_server_that_just_started_refuses_motion_and_locks_until_a_lease_arrives() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+
+    refused = supervision.refusal()
+
+    assert refused is not None
+    assert refused.code == NOT_SUPERVISED
+    assert "since this server started" in refused.detail
+    assert supervision.locked()
+
+
+def test_a_fresh_lease_with_the_stop_clear_allows_motion_and_opens_the_lock() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    assert supervision.refusal() is None
+    assert not supervision.locked()
+    assert supervision.status()["lock"] == "open"
+
+
+def test_the_lease_lapses_after_its_ttl_and_motion_is_refused_again() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    clock.now += 0.79
+    assert not supervision.locked()
+    clock.now += 0.02
+
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == NOT_SUPERVISED
+    assert "lapsed" in refused.detail
+    assert supervision.locked()
+
+
+def test_a_latched_lease_refuses_motion_and_locks_even_while_fresh() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+
+    supervision.renew("brain-1", 0.8, latched=True, reason="person in the way")
+
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == SAFETY_STOP_LATCHED
+    assert "person in the way" in refused.detail
+    assert supervision.locked()
+
+
+def test_the_latch_outlives_its_lease_until_a_fresh_lease_clears_it() -> None:
+    clock = Clock()
+    supervision = supervised(clock, required=False)
+    supervision.renew("brain-1", 0.8, latched=True)
+    clock.now += 5
+
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == SAFETY_STOP_LATCHED
+
+    supervision.renew("brain-2", 0.8, latched=False)
+    assert supervision.refusal() is None
+
+
+def test_without_required_supervision_motion_needs_no_lease_but_the_lock_stays_locked() -> None:
+    clock = Clock()
+    supervision = supervised(clock, required=False)
+
+    assert supervision.refusal() is None
+    assert supervision.locked()
+
+
+@pytest.mark.parametrize(
+    ("holder", "ttl_s"), [("", 0.5), ("b", 0.0), ("b", -1.0), ("b", 2.5), ("b", float("nan"))]
+)
+def test_a_bad_renewal_is_refused_and_changes_nothing(holder: str, ttl_s: float) -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    with pytest.raises(LeaseError):
+        supervision.renew(holder, ttl_s, latched=False)
+
+    assert supervision.lease is not None
+    assert supervision.lease.holder == "brain-1"
+
+
+def test_poll_reports_a_lapse_once_when_motion_was_allowed() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    assert supervision.poll() is None  # never allowed: nothing to end
+    supervision.renew("brain-1", 0.8, latched=False)
+    assert supervision.poll() is None
+
+    clock.now += 1.0
+
+    assert supervision.poll() == "lapsed"
+    assert supervision.poll() is None
+
+
+def test_poll_reports_a_latch_even_when_it_was_cleared_before_the_poll() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    supervision.poll()
+
+    supervision.renew("brain-1", 0.8, latched=True)
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    assert supervision.poll() == "latched"
+    assert supervision.poll() is None
+
+
+def test_release_ends_only_the_holders_own_lease() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    assert not supervision.release("brain-2")
+    assert supervision.release("brain-1")
+    assert supervision.locked()
+
+
+async def test_the_supervise_tool_renews_the_lease_and_refuses_a_bad_ttl() -> None:
+    supervision = Supervision(max_ttl_s=2.0)
+    server = MCPServer("motion")
+    install_json_tool_errors(server)
+    add_supervise_tool(server, supervision)
+
+    async with Client(server) as client:
+        ok = await client.call_tool("supervise", {"holder": "brain-1", "latched": False})
+        bad = await client.call_tool(
+            "supervise", {"holder": "brain-1", "latched": False, "ttl_s": 9}
+        )
+
+    answer = json.loads(ok.content[0].text)  # type: ignore[union-attr]
+    assert answer["supervised"] is True
+    assert answer["lock"] == "open"
+    assert bad.is_error
+    assert json.loads(bad.content[0].text)["error"] == "INVALID_LEASE"  # type: ignore[union-attr]
+
+
+async def test_the_watchdog_ends_motion_with_the_reason_when_the_lease_latches() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    ended: list[str] = []
+    done = asyncio.Event()
+
+    async def end_motion(reason: str) -> None:
+        ended.append(reason)
+        done.set()
+
+    supervision.renew("brain-1", 0.8, latched=True)
+    watchdog = asyncio.create_task(
+        watch_supervision(supervision, end_motion, lambda: not ended, period_s=0.01)
+    )
+    try:
+        async with asyncio.timeout(5):
+            await done.wait()
+    finally:
+        watchdog.cancel()
+
+    assert ended == ["the software stop was latched"]
+
+
+async def test_the_watchdog_publishes_the_lock_at_once_whenever_its_value_changes() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    published: list[bool] = []
+    changed = asyncio.Event()
+
+    def publish() -> None:
+        published.append(supervision.locked())
+        changed.set()
+
+    async def never(reason: str) -> None:
+        raise AssertionError("nothing moves here")
+
+    watchdog = asyncio.create_task(
+        watch_supervision(supervision, never, lambda: False, 0.01, publish_lock=publish)
+    )
+    try:
+        async with asyncio.timeout(5):
+            await changed.wait()  # the first look: locked (no lease yet)
+            changed.clear()
+            supervision.renew("brain-1", 0.8, latched=False)
+            await changed.wait()
+            changed.clear()
+            clock.now += 1.0  # lapsed
+            await changed.wait()
+    finally:
+        watchdog.cancel()
+
+    assert published == [True, False, True]

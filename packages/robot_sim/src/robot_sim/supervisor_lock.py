@@ -1,0 +1,129 @@
+"""The robot's twist_mux, as far as its supervisor locks go: robot-sim's drive obeys them.
+
+A robot runs twist_mux in front of its base controller with a lock entry per motion server
+(``deploy/twist_mux/supervisor_lock.yaml``: ``std_msgs/Bool``, priority 255, a timeout). While a
+lock is locked — ``true``, or its publisher silent longer than the timeout, or never heard
+(``robot_ros_bridge.dead_man_lock``, twist_mux 4.3.0's rules) — twist_mux forwards no velocity
+command and the base controller's command timeout stops the wheels. Here that is: the drive
+halts (``DriveSim.halt``) within one check period of the lock engaging, and stays halted.
+
+The halt is dated like a separate twist_mux would date it, not by when this process gets round to
+it: the drive stops where it was when the lock engaged (the first ``true``, or the silent lock's
+timeout running out), never earlier than a pose already published as open — so a robot-sim
+starved of CPU under load does not simulate wheels that kept turning while twist_mux held them.
+The pose timer enforces the lock before each ``/amcl_pose``.
+
+Nav2 does not learn of a twist_mux lock: its controller keeps computing commands, the robot does
+not move, and the NavigateToPose goal stays active — it drives on if the lock opens again, and
+ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105) once the progress checker's
+``movement_time_allowance`` (10 s by default) ran out. robot-sim does the same
+(``nav2_server``, ``SIM_PROGRESS_TIMEOUT_S``); a goal sent while locked waits the same way. The
+motion servers cancel their own goals when supervision ends, so a goal resumes only after a
+brief lock its server never saw end (a starved host), never after a lapse or a latch.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import structlog
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
+from std_msgs.msg import Bool
+
+from robot_ros_bridge.dead_man_lock import LOCK_PRIORITY, TwistMuxLock
+from robot_ros_bridge.lock_publisher import LOCK_QOS
+from robot_sim.drive import DriveSim
+
+logger = structlog.get_logger(__name__)
+
+CHECK_HZ = 50.0
+"""How often a silent lock is looked for (a ``true`` halts at once, on arrival)."""
+
+
+class SupervisorLockGate:
+    def __init__(
+        self,
+        node: Node,
+        drive: DriveSim,
+        topics: Sequence[str],
+        timeout_s: float,
+        clock: Callable[[], float],
+        on_halt: Callable[[], None] = lambda: None,
+    ) -> None:
+        self._drive = drive
+        self._clock = clock
+        self._on_halt = on_halt
+        self._mutex = threading.Lock()
+        self._enforcing = threading.Lock()  # the gate's timer and the pose timer
+        self._locks = {topic: TwistMuxLock(timeout_s, LOCK_PRIORITY) for topic in topics}
+        self._was_locked: bool | None = None
+        self._started = clock()
+        self._last_open = self._started  # the last moment the locks were seen open
+        group = MutuallyExclusiveCallbackGroup()
+        for topic in topics:
+            node.create_subscription(
+                Bool, topic, self._subscriber(topic), LOCK_QOS, callback_group=group
+            )
+        node.create_timer(1.0 / CHECK_HZ, self.enforce, callback_group=group)
+        logger.info("supervisor_lock_honoured", topics=list(topics), timeout_s=timeout_s)
+
+    def _subscriber(self, topic: str) -> Callable[[Any], None]:
+        def on_message(msg: Any) -> None:
+            with self._mutex:
+                self._locks[topic].on_message(bool(msg.data), self._clock())
+            if msg.data:
+                self.enforce()
+
+        return on_message
+
+    def held_by(self) -> list[str]:
+        """The lock topics that hold the base now (empty: velocity commands pass)."""
+        now = self._clock()
+        with self._mutex:
+            return [topic for topic, lock in self._locks.items() if lock.is_locked(now)]
+
+    def locked(self) -> bool:
+        return bool(self.held_by())
+
+    def _engaged_at(self, now: float) -> float:
+        """When the locks that hold now engaged (twist_mux's view: a ``true`` when it came,
+        a silent lock when its timeout ran out, one never heard since we started)."""
+        with self._mutex:
+            times = [
+                lock.stamp
+                if lock.data and lock.stamp is not None
+                else (lock.stamp + lock.timeout_s if lock.stamp is not None else self._started)
+                for lock in self._locks.values()
+                if lock.is_locked(now)
+            ]
+        return min(times, default=now)
+
+    def enforce(self) -> None:
+        """Halt the drive while any lock is locked; log each change of the locks."""
+        with self._enforcing:
+            now = self._clock()
+            held = self.held_by()
+            if bool(held) != self._was_locked:
+                self._was_locked = bool(held)
+                if held:
+                    logger.warning("supervisor_lock_engaged", topics=held)
+                else:
+                    logger.info("supervisor_lock_released")
+            if not held:
+                self._last_open = now
+                return
+            at = min(now, max(self._engaged_at(now), self._last_open))
+            if not self._drive.state(at).driving:  # (advancing the drive no further than at)
+                return
+            state = self._drive.halt(at)
+            logger.warning(
+                "base_held_by_supervisor_lock",
+                topics=held,
+                late_ms=round((now - at) * 1000, 1),
+                x=round(state.pose.x, 2),
+                y=round(state.pose.y, 2),
+            )
+        self._on_halt()

@@ -112,7 +112,10 @@ async def run(rounds: int, log: SimLog) -> dict[str, Any]:
     from robot_sim.manipulation_server import RESULT_QOS
 
     work = Path(tempfile.mkdtemp(prefix="bench-manip-"))
-    app = build_app(load_settings({"MANIP_OUTBOX": str(work / "outbox.sqlite3")}))
+    # no brain here to hold a lease: the arm runs unsupervised (MANIP_SUPERVISION=off)
+    app = build_app(
+        load_settings({"MANIP_OUTBOX": str(work / "outbox.sqlite3"), "MANIP_SUPERVISION": "off"})
+    )
     bridge = RosBridge("manipulation_bench").start()
     pub = bridge.create_publisher(VisionDetectionArray, TOPIC, RESULT_QOS)
     nav = bridge.create_action_client(NavigateToPose, "/navigate_to_pose")

@@ -200,7 +200,8 @@ write_env_files() {
     LOG_LEVEL=INFO
   # The robot's arm: its Pick/Place action servers (robot_manipulation_interfaces).
   env_file manipulation "RVC_EVENT_SECRET=$manip" MANIP_PICK_ACTION=/manipulation/pick \
-    MANIP_PLACE_ACTION=/manipulation/place MANIP_HELD_TOPIC=/manipulation/held LOG_LEVEL=INFO
+    MANIP_PLACE_ACTION=/manipulation/place MANIP_HELD_TOPIC=/manipulation/held \
+    MANIP_SUPERVISION=required MANIP_LOCK_TOPIC=/robot/supervisor_lock/manipulation LOG_LEVEL=INFO
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -11,6 +12,8 @@ import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.poster import EventPoster
+from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision_tools import watch_supervision
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.port import ArmActions
 from robot_mcp_manipulation.config import ConfigError, ManipulationSettings
@@ -31,21 +34,38 @@ class ManipulationApp:
     manipulator: Manipulator
     server: MCPServer
     closers: list[Callable[[], None]] = field(default_factory=list)
+    supervision: Supervision | None = None
+    publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[ManipulationApp]:
-        """Start the event sink; on exit stop the arm and flush the events."""
+        """Start the event sink and the supervision watchdog (a lapsed or latched lease stops
+        the arm); on exit stop the arm and flush the events."""
         started = time.monotonic()
         await self.events.start()
+        watchdog = None
+        if self.supervision is not None:
+            watchdog = asyncio.create_task(
+                watch_supervision(
+                    self.supervision,
+                    self.manipulator.stop,
+                    lambda: self.manipulator.moving,
+                    publish_lock=self.publish_lock,
+                ),
+                name="supervision",
+            )
         logger.info(
             "manipulation_ready",
             pick_action=self.settings.pick_action,
             place_action=self.settings.place_action,
+            supervision=self.settings.supervision,
             duration_ms=round((time.monotonic() - started) * 1000, 1),
         )
         try:
             yield self
         finally:
+            if watchdog is not None:
+                watchdog.cancel()
             try:
                 await self.manipulator.close()
                 await self.events.close()
@@ -69,14 +89,18 @@ def build_event_sink(settings: ManipulationSettings) -> EventSink:
     return PosterEventSink(poster)
 
 
-def build_arm(settings: ManipulationSettings) -> tuple[ArmActions, Callable[[], None]]:
-    """The rclpy Pick/Place clients and the held subscription, and how to close them.
+def build_arm(
+    settings: ManipulationSettings, supervision: Supervision | None = None
+) -> tuple[ArmActions, Callable[[], None], Callable[[], object] | None]:
+    """The rclpy Pick/Place clients and the held subscription, with ``supervision`` the
+    dead-man lock on ``MANIP_LOCK_TOPIC``; how to close them, and how to publish the lock now.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or the interfaces cannot be imported.
     """
     try:
         from robot_mcp_manipulation.arm.rclpy_arm import RclpyArm
         from robot_ros_bridge import RosBridge
+        from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
     except ImportError as exc:
         raise ConfigError(
             f"the manipulation server needs rclpy and robot_manipulation_interfaces ({exc}): "
@@ -86,10 +110,21 @@ def build_arm(settings: ManipulationSettings) -> tuple[ArmActions, Callable[[], 
     bridge = RosBridge("robot_mcp_manipulation").start()
     try:
         arm = RclpyArm(bridge, settings.pick_action, settings.place_action, settings.held_topic)
+        lock = None
+        if supervision is not None:
+            lock = SupervisorLockPublisher(
+                bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
+            )
     except BaseException:
         bridge.close()
         raise
-    return arm, bridge.close
+
+    def close() -> None:
+        if lock is not None:
+            lock.close()  # the lock falls silent first: twist_mux locks
+        bridge.close()
+
+    return arm, close, (lock.publish if lock is not None else None)
 
 
 def build_app(
@@ -99,8 +134,15 @@ def build_app(
     events: EventSink | None = None,
 ) -> ManipulationApp:
     closers: list[Callable[[], None]] = []
+    supervision = Supervision(
+        required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
+    )
+    publish_lock = None
     if arm is None:
-        arm, close = build_arm(settings)
+        # the lock only where it means something: a robot's twist_mux (or robot-sim)
+        arm, close, publish_lock = build_arm(
+            settings, supervision if supervision.required else None
+        )
         closers.append(close)
     events = events or build_event_sink(settings)
     manipulator = Manipulator(
@@ -112,6 +154,9 @@ def build_app(
             cancel_timeout_s=settings.cancel_timeout_s,
             task_timeout_s=settings.task_timeout_s,
         ),
+        gate=supervision,
     )
-    server = build_mcp_server(manipulator, settings.log_level, settings.max_age_s)
-    return ManipulationApp(settings, arm, events, manipulator, server, closers)
+    server = build_mcp_server(manipulator, settings.log_level, settings.max_age_s, supervision)
+    return ManipulationApp(
+        settings, arm, events, manipulator, server, closers, supervision, publish_lock
+    )

@@ -35,6 +35,12 @@ class ManipulationSettings(BaseModel):
     cancel_timeout_s: float = Field(default=5.0, gt=0.0, le=60.0, alias="MANIP_CANCEL_TIMEOUT_S")
     task_timeout_s: float = Field(default=60.0, gt=0.0, le=3600.0, alias="MANIP_TASK_TIMEOUT_S")
     max_age_s: float = Field(default=0.0, ge=0.0, le=3600.0, alias="MANIP_MAX_DETECTION_AGE_S")
+    # issue 27: the brain's lease (required: no motion without a fresh one) and this server's
+    # own dead-man lock (never two publishers on one lock topic: navigation has the plain one)
+    supervision: Literal["required", "off"] = Field(default="required", alias="MANIP_SUPERVISION")
+    lock_topic: str = Field(default="/robot/supervisor_lock/manipulation", alias="MANIP_LOCK_TOPIC")
+    lock_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="MANIP_LOCK_HZ")
+    lease_max_ttl_s: float = Field(default=2.0, gt=0.0, le=10.0, alias="MANIP_LEASE_MAX_TTL_S")
     events_url: str = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
     event_secret: SecretStr | None = Field(default=None, alias="RVC_EVENT_SECRET")
     outbox_path: Path = Field(default_factory=default_outbox_path, alias="MANIP_OUTBOX")
@@ -52,7 +58,7 @@ class ManipulationSettings(BaseModel):
     def _empty_secret_is_none(cls, value: object) -> object:
         return None if value in ("", None) else value
 
-    @field_validator("pick_action", "place_action", "held_topic")
+    @field_validator("pick_action", "place_action", "held_topic", "lock_topic")
     @classmethod
     def _ros_name(cls, value: str) -> str:
         if not _ROS_NAME.match(value):
@@ -75,6 +81,11 @@ class ManipulationSettings(BaseModel):
         if not value.startswith(("http://", "https://")):
             raise ValueError("must be an http:// or https:// URL")
         return value
+
+    @field_validator("supervision", mode="before")
+    @classmethod
+    def _lower(cls, value: object) -> object:
+        return value.lower() if isinstance(value, str) else value
 
     @field_validator("log_level", mode="before")
     @classmethod

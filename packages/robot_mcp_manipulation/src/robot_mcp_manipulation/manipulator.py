@@ -97,6 +97,11 @@ class Manipulator:
 
     # -- queries ---------------------------------------------------------------------------
 
+    @property
+    def moving(self) -> bool:
+        """A pick or place is being taken or runs (what a lapsed lease must end)."""
+        return self._active is not None
+
     def held(self) -> dict[str, Any]:
         """What the gripper holds, as the robot last reported it (``known`` false before)."""
         held = self._arm.held()

@@ -11,6 +11,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskState
+from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_manipulation.arm.port import DetectionTarget
 from robot_mcp_manipulation.errors import ManipulationError
 from robot_mcp_manipulation.manipulator import Manipulator
@@ -52,10 +54,15 @@ async def _guard(call: Awaitable[T]) -> T:
 
 
 def build_mcp_server(
-    manipulator: Manipulator, log_level: LogLevel = "INFO", max_age_s: float = 0.0
+    manipulator: Manipulator,
+    log_level: LogLevel = "INFO",
+    max_age_s: float = 0.0,
+    supervision: Supervision | None = None,
 ) -> MCPServer:
     server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
     install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
+    if supervision is not None:
+        add_supervise_tool(server, supervision)  # the brain's lease (issue 27)
 
     @server.tool(annotations=MOVES_ROBOT)
     async def pick(label: str, mask_ref: MaskRef) -> dict[str, Any]:

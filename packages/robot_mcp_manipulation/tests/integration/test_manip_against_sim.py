@@ -5,6 +5,8 @@ a pick is cancelled mid-way."""
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import sys
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
@@ -29,7 +31,8 @@ TOPIC = "/vision/find_object/detections"
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """One robot-sim for the module: 8 robot seconds per wall second, a pick takes ~1 s."""
+    """One robot-sim for the module: 8 robot seconds per wall second, a pick takes ~2 s (a
+    lapsed lease, 0.4 s, ends it well before)."""
     root = tmp_path_factory.mktemp("sim")
     launcher = ProcessLauncher(root)
     ready = root / "ready"
@@ -37,7 +40,7 @@ def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
         "SIM_SCENES_DIR": str(root / "scenes"),
         "SIM_TIME_SCALE": "8",
         "SIM_FAILURES": "off",
-        "SIM_PICK_S": "8",
+        "SIM_PICK_S": "16",
         "SIM_PLACE_S": "4",
         "SIM_READY_FILE": str(ready),
     }
@@ -57,6 +60,27 @@ class Rig:
     publisher: Any
     params: AsyncParameterClient
     nav: Any
+    lease: asyncio.Task[None] | None = None
+
+    def hold_lease(self) -> None:
+        """Renew the brain's lease every 0.1 s (TTL 0.4 s) over the ``supervise`` tool."""
+
+        async def renew() -> None:
+            async with Client(self.app.server) as brain:
+                while True:
+                    await tool_answer(
+                        brain, "supervise", {"holder": "test-brain", "latched": False, "ttl_s": 0.4}
+                    )
+                    await asyncio.sleep(0.1)
+
+        self.lease = asyncio.create_task(renew())
+
+    async def drop_lease(self) -> None:
+        """The brain dies (kill -9): the renewals stop, nothing is released."""
+        if self.lease is not None:
+            self.lease.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self.lease
 
     async def world(self, *names: str) -> list[Any]:
         future = self.params.get_parameters(list(names))
@@ -130,7 +154,14 @@ async def rig(sim: Path, tmp_path: Path) -> AsyncIterator[Rig]:
                 Parameter("places.reception.objects", Parameter.Type.STRING_ARRAY, ["blue folder"]),
             )
             await rig.go_to(17.0, 3.0)  # the mailroom
-            yield rig
+            rig.hold_lease()
+            await async_wait_until(
+                lambda: app.manipulator.gate.refusal() is None, 10.0, "the first lease"
+            )
+            try:
+                yield rig
+            finally:
+                await rig.drop_lease()
     finally:
         bridge.close()
 
@@ -207,3 +238,39 @@ async def test_a_pick_cancelled_mid_way_leaves_the_world_as_it_was(rig: Rig) -> 
         assert stopped["cancelled_task"]["error"]["error_code"] == "CANCELLED"
         assert (await tool_answer(rig.client, "get_held"))["holding"] is False
         assert (await rig.objects("mailroom"))[0] == "yellow package"
+
+
+async def test_a_lapsed_lease_stops_the_pick_locks_the_arm_and_refuses_the_next(rig: Rig) -> None:
+    """Issue 27 on this motion server: the brain's lease lapses mid-pick (its renewals stop, as
+    when it is killed) — the pick is cancelled, the dead-man lock reads locked and a new pick is
+    refused NOT_SUPERVISED; robot-sim's world is unchanged."""
+    from std_msgs.msg import Bool
+
+    from robot_ros_bridge.lock_publisher import LOCK_QOS
+
+    values: list[bool] = []
+    rig.bridge.node.create_subscription(
+        Bool, "/robot/supervisor_lock/manipulation", lambda m: values.append(bool(m.data)), LOCK_QOS
+    )
+    await async_wait_until(lambda: values and values[-1] is False, 10.0, "the lock open")
+    async with rig.client:
+        await until_subscribed(rig)
+        await rig.set_world(Parameter("gripper.held", Parameter.Type.STRING, ""))
+        ref = await rig.seen("yellow package")
+        info = await tool_answer(rig.client, "pick", {"label": "yellow package", "mask_ref": ref})
+        await async_wait_until(
+            lambda: rig.app.manipulator.get_task(info["task_id"]).model_dump().get("progress"),
+            10.0,
+            "the pick's first phase",
+        )
+        await rig.drop_lease()
+        ended = await rig.finished(info["task_id"], timeout_s=15.0)
+        assert ended["state"] == "cancelled", ended
+        await async_wait_until(lambda: values[-1] is True, 10.0, "the lock locked")
+        refused = await rig.client.call_tool(
+            "pick", {"label": "yellow package", "mask_ref": await rig.seen("yellow package")}
+        )
+        assert refused.is_error
+        assert "NOT_SUPERVISED" in str(refused.content)
+        assert "yellow package" in await rig.objects("mailroom")
+        assert (await rig.world("gripper.held"))[0] == ""

@@ -50,6 +50,12 @@ DETECTION_WAIT_S = 1.0
 """How long a pick waits for its detection result to arrive (goal and data plane race)."""
 PICK_PHASES = ("locating", "approaching", "grasping", "lifting")
 PLACE_PHASES = ("approaching", "placing", "releasing", "retracting")
+LOCK_CHECK_S = 0.02
+"""How often a running phase looks at the supervisor locks."""
+_HELD = Refusal(
+    "ARM_NOT_READY",
+    "the arm stopped: a supervisor lock holds it (no supervising brain, or a stop is latched)",
+)
 
 
 @dataclass
@@ -81,6 +87,8 @@ class ManipulationServer:
         self._clock = clock
         self._lock = threading.Lock()
         self._running: _Goal | None = None
+        # the supervisor locks (robot-sim's twist_mux view): a held arm stops where it is
+        self.held: Callable[[], bool] = lambda: False
         self._since: Time = Time()
         self.sightings = Sightings()
         self._subscribed: dict[str, Any] = {}
@@ -218,6 +226,8 @@ class ManipulationServer:
         for n, phase in enumerate(PICK_PHASES):
             feedback = Pick.Feedback(phase=phase, progress=n / len(PICK_PHASES))
             if not self._phase(goal, feedback, self._settings.pick_s):
+                if not goal.cancel:
+                    return self._end_pick(goal, _HELD, started)
                 return self._end_cancel(goal, Pick.Result(held=self._held_msg()), started, "pick")
             if phase == "grasping" and not self._gripper.grasp_holds():
                 slipped = Refusal(
@@ -265,18 +275,14 @@ class ManipulationServer:
 
     def _place_goal(self, goal: _Goal, started: float) -> Any:
         place, driving = self._where()
-        refusal = self._gripper.check_place(place, driving)
+        refusal = _HELD if self.held() else self._gripper.check_place(place, driving)
         if refusal is not None:
-            goal.handle.abort()
-            logger.info("place_failed", error=refusal.code, detail=refusal.message)
-            return Place.Result(
-                error_code=getattr(Place.Result, refusal.code),
-                error_msg=refusal.message,
-                held=self._held_msg(),
-            )
+            return self._end_place(goal, refusal)
         for n, phase in enumerate(PLACE_PHASES):
             feedback = Place.Feedback(phase=phase, progress=n / len(PLACE_PHASES))
             if not self._phase(goal, feedback, self._settings.place_s):
+                if not goal.cancel:
+                    return self._end_place(goal, _HELD)
                 return self._end_cancel(goal, Place.Result(held=self._held_msg()), started, "place")
         assert place is not None
         label = self._gripper.world.put(place)
@@ -292,13 +298,25 @@ class ManipulationServer:
         )
         return Place.Result(error_code=Place.Result.NONE, placed_label=label, held=self._held_msg())
 
+    def _end_place(self, goal: _Goal, refusal: Refusal) -> Any:
+        goal.handle.abort()
+        logger.info("place_failed", error=refusal.code, detail=refusal.message)
+        return Place.Result(
+            error_code=getattr(Place.Result, refusal.code),
+            error_msg=refusal.message,
+            held=self._held_msg(),
+        )
+
     def _phase(self, goal: _Goal, feedback: Any, total_s: float) -> bool:
-        """Publish the phase and spend its share of the time; False when canceled."""
-        if goal.cancel:
+        """Publish the phase and spend its share of the time; False when canceled or when a
+        supervisor lock holds the arm (looked at every ``LOCK_CHECK_S``)."""
+        if goal.cancel or self.held():
             return False
         goal.handle.publish_feedback(feedback)
-        goal.wake.wait(total_s / len(PICK_PHASES) / self._settings.time_scale)
-        return not goal.cancel
+        until = self._clock() + total_s / len(PICK_PHASES) / self._settings.time_scale
+        while (left := until - self._clock()) > 0 and not goal.cancel and not self.held():
+            goal.wake.wait(min(left, LOCK_CHECK_S))
+        return not goal.cancel and not self.held()
 
     def _end_cancel(self, goal: _Goal, result: Any, started: float, what: str) -> Any:
         deadline = self._clock() + 1.0

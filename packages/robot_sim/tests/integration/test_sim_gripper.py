@@ -228,3 +228,28 @@ def test_a_pick_waits_briefly_for_its_detection_to_arrive(sim: Sim) -> None:
     arm.detections.publish(msg)
     assert arm.result(handle).status == GoalStatus.STATUS_SUCCEEDED
     assert held(sim) == "yellow package"
+
+
+def test_an_arm_held_by_a_supervisor_lock_does_not_move_and_says_why(sim: Sim) -> None:
+    """robot-sim's twist_mux view (SIM_SUPERVISOR_LOCK) holds the arm too: a pick or place
+    while a lock is locked ends ARM_NOT_READY and the world stays as it was."""
+    arm = Arm(sim)
+    sim.go_to("mailroom")
+    locked = [True]
+    sim.node.manipulation.held = lambda: locked[0]
+    try:
+        outcome = arm.do_pick(arm.seen("yellow package"))
+        assert outcome.status == GoalStatus.STATUS_ABORTED
+        assert outcome.result.error_code == Pick.Result.ARM_NOT_READY
+        assert "supervisor lock" in outcome.result.error_msg
+        assert "yellow package" in objects(sim, "mailroom")
+        assert held(sim) == ""
+        locked[0] = False
+        assert arm.do_pick(arm.seen("yellow package")).status == GoalStatus.STATUS_SUCCEEDED
+        locked[0] = True
+        placed = arm.do_place()
+        assert placed.status == GoalStatus.STATUS_ABORTED
+        assert placed.result.error_code == Place.Result.ARM_NOT_READY
+        assert held(sim) == "yellow package"
+    finally:
+        sim.node.manipulation.held = lambda: False

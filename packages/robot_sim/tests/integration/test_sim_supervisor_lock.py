@@ -120,3 +120,9 @@ def test_a_silent_lock_publisher_halts_the_drive_after_the_timeout(
     halted = position(sim.amcl)
     assert math.dist(before, halted) > 0  # it drove until the timeout ran out, then stopped
     wait_until(lambda: still_since(sim.amcl, 0.5), 10, "the pose still")
+
+
+def test_the_arm_obeys_the_same_locks_as_the_base(sim: Sim) -> None:
+    assert sim.node.lock is not None
+    assert sim.node.manipulation.held == sim.node.lock.locked
+    assert sim.node.manipulation.held()  # never heard: locked

@@ -92,6 +92,7 @@ def test_what_the_fakes_say_is_witnessed() -> None:
 SERVER_ERRORS = [
     {"error": "SAFETY_STOP_LATCHED", "detail": "navigation.navigate_to was not sent. stop"},
     {"error": "POLICY_DENIED", "detail": "navigation.navigate_to was not sent: denied (x)"},
+    {"error": "NOT_SUPERVISED", "detail": "no fresh lease: navigation.navigate_to refused"},
     {"error": "OUT_OF_BOUNDS", "detail": "location 'desk_carol' is not one_of [dock]"},
     {"error": "NAVIGATION_TIMEOUT", "detail": "call navigate_to again"},
     {"error": "UNKNOWN_LOCATION", "detail": "unknown location 'meeting_room_2'"},

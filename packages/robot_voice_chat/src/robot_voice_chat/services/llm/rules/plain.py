@@ -22,6 +22,7 @@ REASONS = {
         "a software stop is latched, and an operator must press Clear stop before I move"
     ),
     "HELD_BY_SAFETY_STOP": "a stop paused the mission",
+    "NOT_SUPERVISED": "my supervision of the robot had lapsed, so it refused to move",
     "POLICY_DENIED": "the operator's policy does not allow it without a yes",
     "OUT_OF_BOUNDS": "that is outside what the operator allows",
     "UNKNOWN_LOCATION": "the map has no such place",

@@ -135,16 +135,27 @@ class MotionSupervisor:
         view = self._views.get(server)
         if server not in self._wakes or view is None or view.state == "unsupported":
             return False  # not supervised by this brain: nothing to wait for
-        if self.fresh(server):
+        if self._current(server):
             return True
         self._wakes[server].set()
         renewed = self._renewed[server]
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(self.ttl_s if timeout_s is None else timeout_s):
-                while not self.fresh(server):
+                while not self._current(server):
                     renewed.clear()
                     await renewed.wait()
-        return self.fresh(server)
+        return self._current(server)
+
+    def _current(self, server: str) -> bool:
+        """Fresh, and the server has heard the brain's latch as it is now (a motion call right
+        after the operator cleared the stop must not meet the server's old latch)."""
+        view = self._views.get(server)
+        return (
+            self.fresh(server)
+            and view is not None
+            and view.server_latched is not None
+            and view.server_latched == self.latch.latched
+        )
 
     # --- the view -----------------------------------------------------------------------
     def view(self, server: str) -> LeaseView | None:

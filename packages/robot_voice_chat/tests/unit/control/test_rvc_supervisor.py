@@ -91,6 +91,23 @@ async def test_a_latch_reaches_the_server_at_once_not_at_the_next_period(
         await supervisor.aclose()
 
 
+async def test_a_motion_call_right_after_a_clear_waits_until_the_server_heard_it(
+    tools: FakeToolBackend, latch: SafetyLatch, server: Server
+) -> None:
+    """The CI failure of stop 33: "continue" right after Clear stop met the server's old latch
+    (SAFETY_STOP_LATCHED) because the lease was fresh but still carried the latch."""
+    supervisor = MotionSupervisor(tools, latch, period_s=3.0, ttl_s=6.0)
+    await supervisor.start()
+    try:
+        await latch.stop("operator", "person in the way")
+        await async_wait_until(lambda: server.leases and server.leases[-1]["latched"], 5, "latched")
+        await latch.clear("operator", "checked")
+        assert await supervisor.ensure_fresh("navigation", timeout_s=2.0)
+        assert server.leases[-1]["latched"] is False  # heard before the call may go
+    finally:
+        await supervisor.aclose()
+
+
 async def test_a_server_that_stops_answering_lapses_one_ttl_after_its_last_renewal(
     supervisor: MotionSupervisor, server: Server
 ) -> None:

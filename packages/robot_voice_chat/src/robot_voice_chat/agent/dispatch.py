@@ -31,6 +31,7 @@ from robot_voice_chat.agent.task_registry import (
 )
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
+from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
@@ -140,6 +141,7 @@ class TaskDispatcher:
             if motion and held_by_stop(run):  # the stop came during the awaits above
                 return await self._refuse_held(run, call, step_id, args)
             started, sent_at = time.monotonic(), time.time()
+            latched_before = self.latched()
             # no await between the check above and the send: a stop cannot slip in between
             # (the guard behind call_tool re-checks the latch after any approval it waits for)
             with dispatching(DispatchContext(mission.id, step_id)):
@@ -162,6 +164,10 @@ class TaskDispatcher:
         logger.info(
             "tool_dispatched", tool=call.name, is_error=outcome.is_error, duration_ms=duration_ms
         )
+        # the stop latched while the call was out, and the server refused it for that
+        stopped = motion and not latched_before and self.latched()
+        if stopped and outcome.is_error and SAFETY_STOP_LATCHED in outcome.text:
+            return await self._stopped_in_flight(run, call, step_id)
         if not outcome.is_error and (
             notice := self.fallback_notice.sentence_for(call.name, outcome.text)
         ):
@@ -187,6 +193,19 @@ class TaskDispatcher:
             step.set_status("failed", "safety stop")
             await self.output.emit_plan(run)
         await self.output.log_line(run, "tool_call", f"{call.name} held, not sent: safety stop")
+        return ToolResult(tool_call_id=call.id, content=held_error(call.name), is_error=True)
+
+    async def _stopped_in_flight(
+        self, run: MissionRun, call: ToolCall, step_id: str | None
+    ) -> ToolResult:
+        """A motion call the server refused because the stop latched while it was on its way:
+        the stop's doing, answered like a call held by the stop (the planner waits for the
+        person's continue or abort), not a failure of the mission's own."""
+        logger.warning("motion_call_stopped_in_flight", tool=call.name, step_id=step_id)
+        step = run.mission.step(step_id)
+        if step is not None and step.status == "running":
+            step.set_status("failed", "safety stop")
+            await self.output.emit_plan(run)
         return ToolResult(tool_call_id=call.id, content=held_error(call.name), is_error=True)
 
     async def _register_task(

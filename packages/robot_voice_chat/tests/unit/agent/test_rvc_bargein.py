@@ -13,6 +13,7 @@ from robot_voice_chat.agent.bargein import STOP_QUESTION
 from robot_voice_chat.agent.harness import Harness, make_harness, task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.tools.base import ToolOutcome
 
 PLAN = reply(
     "",
@@ -282,4 +283,42 @@ async def test_the_mission_is_paused_before_slow_skill_stops_finish(tmp_path: Pa
     release.set()
     await asyncio.wait_for(stop, 5)
     assert len(planner.requests) == requests_before
+    await h.executor.shutdown()
+
+
+async def test_a_drive_the_server_refused_because_the_stop_latched_on_its_way_waits_to_resume(
+    tmp_path: Path,
+) -> None:
+    """The stop latches while navigate_to is on its way and the server, already latched by the
+    lease, refuses it: that refusal is the stop's doing — the planner is told the call was held
+    by the stop (and waits for continue), not that the mission's drive failed."""
+    planner = FakeLLM([PLAN, WAIT])
+    h = make_harness(tmp_path, planner)
+    sent, release = asyncio.Event(), asyncio.Event()
+
+    async def refused_late(args: dict[str, object]) -> object:
+        sent.set()
+        await asyncio.wait_for(release.wait(), 5)
+        detail = "a software stop is latched: this server refuses every motion"
+        return ToolOutcome(
+            text=json.dumps({"error": "SAFETY_STOP_LATCHED", "detail": detail}), is_error=True
+        )
+
+    h.tools.add("navigation.navigate_to", refused_late, location="string")
+    mission = await h.executor.start("drive to the mailroom")
+    await asyncio.wait_for(sent.wait(), 5)
+    await h.executor.on_user_turn("stop")
+    run = h.executor.run
+    assert run is not None
+    release.set()
+
+    def results() -> list[str]:
+        return [r.content for m in run.messages for r in m.tool_results]
+
+    await async_wait_until(
+        lambda: any(HELD_BY_SAFETY_STOP in r for r in results()), 5, "the held call in history"
+    )
+    assert not any("SAFETY_STOP_LATCHED" in r for r in results())
+    assert (mission.steps[0].status, mission.steps[0].detail) == ("failed", "safety stop")
+    assert mission.state == "paused"
     await h.executor.shutdown()

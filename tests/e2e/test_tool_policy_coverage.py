@@ -20,15 +20,15 @@ from mcp_skill_control.config import SkillControlConfig
 from robot_mcp_episodic.composition import build_app as build_episodic
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.task_events.fake import FakeEventSink
+from robot_mcp_kit.task_events.fake import FakeEventSink as FakeArmEvents
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.fake import FakeArm
-from robot_mcp_manipulation.events.fake import FakeEventSink as FakeArmEvents
 from robot_mcp_manipulation.manipulator import Manipulator
 from robot_mcp_manipulation.tools import build_mcp_server as build_manipulation
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
 from robot_mcp_memory.tools import build_server as build_memory_server
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.motion.fake import FakeMotionBase
 from robot_mcp_navigation.navigator import Navigator

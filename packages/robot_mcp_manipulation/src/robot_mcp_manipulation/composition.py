@@ -11,15 +11,13 @@ from dataclasses import dataclass, field
 import structlog
 from mcp.server.mcpserver import MCPServer
 
-from robot_mcp_kit.poster import EventPoster
+from robot_mcp_kit import task_events
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.supervision_tools import watch_supervision
+from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.port import ArmActions
 from robot_mcp_manipulation.config import ConfigError, ManipulationSettings
-from robot_mcp_manipulation.events.base import EventSink
-from robot_mcp_manipulation.events.log_only import LogOnlyEventSink
-from robot_mcp_manipulation.events.poster import PosterEventSink
 from robot_mcp_manipulation.manipulator import Manipulator, ManipulatorSettings
 from robot_mcp_manipulation.tools import SERVER_NAME, build_mcp_server
 
@@ -77,16 +75,13 @@ class ManipulationApp:
 
 def build_event_sink(settings: ManipulationSettings) -> EventSink:
     """Signed posts to the brain when a secret is configured, else log-only (documented)."""
-    if settings.event_secret is None:
-        return LogOnlyEventSink()
-    settings.outbox_path.parent.mkdir(parents=True, exist_ok=True)
-    poster = EventPoster(
-        settings.events_url,
+    return task_events.build_event_sink(
         SERVER_NAME,
-        settings.event_secret.get_secret_value(),
+        settings.events_url,
+        settings.event_secret,
         settings.outbox_path,
+        "MANIP_EVENT_SECRET",
     )
-    return PosterEventSink(poster)
 
 
 def build_arm(

@@ -26,6 +26,7 @@ from typing import Any, Literal
 import structlog
 
 from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.error_codes import Action, named_failure
 from robot_mcp_manipulation.arm.port import (
@@ -43,7 +44,6 @@ from robot_mcp_manipulation.errors import (
     ManipulationError,
     UnknownTaskError,
 )
-from robot_mcp_manipulation.events.base import EventSink
 from robot_mcp_manipulation.gate import MotionGate, OpenGate
 
 logger = structlog.get_logger(__name__)

@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 from mcp import Client
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.testing_mcp import tool_answer
 from robot_mcp_manipulation.arm.fake import FakeArm
 from robot_mcp_manipulation.composition import ManipulationApp, build_app
 from robot_mcp_manipulation.config import load_settings
-from robot_mcp_manipulation.events.fake import FakeEventSink
 from robot_stack_testing import async_wait_until
 
 REF = {"topic": "/vision/find_object/detections", "stamp": 1_700_000_000.25, "index": 0}

@@ -13,15 +13,13 @@ from typing import Any
 import structlog
 from mcp.server.mcpserver import MCPServer
 
-from robot_mcp_kit.poster import EventPoster
+from robot_mcp_kit import task_events
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.supervision_tools import watch_supervision
+from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import ConfigError, NavigationSettings
 from robot_mcp_navigation.confirmation import MotionConfirmer
-from robot_mcp_navigation.events.base import EventSink
-from robot_mcp_navigation.events.log_only import LogOnlyEventSink
-from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.map import NavMap, load_map
 from robot_mcp_navigation.mapview.base import MapView, NoMapView
 from robot_mcp_navigation.motion.base import MotionBase
@@ -91,16 +89,13 @@ class NavigationApp:
 
 def build_event_sink(settings: NavigationSettings) -> EventSink:
     """Signed posts to the brain when a secret is configured, else log-only (documented)."""
-    if settings.event_secret is None:
-        return LogOnlyEventSink()
-    settings.outbox_path.parent.mkdir(parents=True, exist_ok=True)
-    poster = EventPoster(
-        settings.events_url,
+    return task_events.build_event_sink(
         SERVER_NAME,
-        settings.event_secret.get_secret_value(),
+        settings.events_url,
+        settings.event_secret,
         settings.outbox_path,
+        "NAV_EVENT_SECRET",
     )
-    return PosterEventSink(poster)
 
 
 def build_motion_base(

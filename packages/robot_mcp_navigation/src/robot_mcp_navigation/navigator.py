@@ -36,6 +36,7 @@ import structlog
 
 from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
 from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.errors import (
     BaseUnavailableNavigationError,
@@ -44,7 +45,6 @@ from robot_mcp_navigation.errors import (
     UnknownLocationError,
     UnknownTaskError,
 )
-from robot_mcp_navigation.events.base import EventSink
 from robot_mcp_navigation.map import NavMap
 from robot_mcp_navigation.motion.base import (
     BaseUnavailableError,

@@ -2,12 +2,11 @@ from pathlib import Path
 
 import pytest
 
+from robot_mcp_kit.task_events import LogOnlyEventSink, PosterEventSink
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_navigation import server
 from robot_mcp_navigation.composition import build_app
 from robot_mcp_navigation.config import load_settings
-from robot_mcp_navigation.events.fake import FakeEventSink
-from robot_mcp_navigation.events.log_only import LogOnlyEventSink
-from robot_mcp_navigation.events.poster import PosterEventSink
 from robot_mcp_navigation.motion.simulated import SimulatedBase
 from robot_stack_testing import async_wait_until
 

@@ -12,6 +12,7 @@ from mcp import Client
 from mcp.client.session import ClientRequestContext
 from mcp.types import ElicitRequestParams, ElicitResult, TextContent
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import NavigationSettings
 from robot_mcp_navigation.confirmation import (
@@ -19,7 +20,6 @@ from robot_mcp_navigation.confirmation import (
     NOT_CONFIRMED,
     MotionConfirmer,
 )
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import NavMap, parse_map
 from robot_mcp_navigation.motion.fake import FakeMotionBase
 from robot_mcp_navigation.navigator import Navigator

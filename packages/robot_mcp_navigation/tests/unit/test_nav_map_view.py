@@ -16,8 +16,8 @@ import pytest
 from mcp import Client
 from mcp.server.mcpserver import MCPServer
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.mapview.base import GridSnapshot
 from robot_mcp_navigation.mapview.fake import FakeMapView

@@ -7,10 +7,10 @@ from typing import Any
 
 import pytest
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_navigation import server
 from robot_mcp_navigation.composition import build_app
 from robot_mcp_navigation.config import ConfigError, load_settings
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase
 from robot_mcp_navigation.motion.nav2.error_codes import CODES, FAILURES, named_failure
 

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import pytest
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.motion.base import Pose
 from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase

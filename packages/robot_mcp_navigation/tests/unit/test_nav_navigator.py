@@ -6,9 +6,9 @@ from typing import Any
 import pytest
 
 from robot_mcp_kit.models import EventType
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.errors import NavigationBusyError, UnknownLocationError, UnknownTaskError
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import NavMap, parse_map
 from robot_mcp_navigation.motion.base import (
     DriveFailure,

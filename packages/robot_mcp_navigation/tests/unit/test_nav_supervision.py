@@ -11,9 +11,9 @@ from mcp import Client
 
 from robot_mcp_kit.supervision import NOT_SUPERVISED, SAFETY_STOP_LATCHED, Supervision
 from robot_mcp_kit.supervision_tools import watch_supervision
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.errors import MotionRefusedError
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.motion.base import DriveFailure
 from robot_mcp_navigation.motion.fake import FakeMotionBase

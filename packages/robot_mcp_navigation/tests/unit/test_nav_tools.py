@@ -8,8 +8,8 @@ from mcp import Client
 from mcp.server.mcpserver import MCPServer
 from mcp_types import CallToolResult, TextContent
 
+from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
-from robot_mcp_navigation.events.fake import FakeEventSink
 from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.motion.fake import FakeMotionBase
 from robot_mcp_navigation.navigator import Navigator

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from robot_mcp_kit.models import EventType
-from robot_mcp_navigation.events.base import EventSink
+from robot_mcp_kit.task_events.sink import EventSink
 
 
 @dataclass(frozen=True)

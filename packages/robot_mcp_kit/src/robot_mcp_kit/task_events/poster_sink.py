@@ -1,12 +1,16 @@
-"""PosterEventSink: signed POSTs to the brain through robot_mcp_kit's EventPoster."""
+"""PosterEventSink: signed POSTs to the brain through the kit's EventPoster."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
+
+from pydantic import SecretStr
 
 from robot_mcp_kit.models import EventType
 from robot_mcp_kit.poster import EventPoster
-from robot_mcp_navigation.events.base import EventSink
+from robot_mcp_kit.task_events.log_only import LogOnlyEventSink
+from robot_mcp_kit.task_events.sink import EventSink
 
 
 class PosterEventSink(EventSink):
@@ -24,3 +28,17 @@ class PosterEventSink(EventSink):
 
     async def close(self) -> None:
         await self._poster.close(flush_timeout_s=self._flush_timeout_s)
+
+
+def build_event_sink(
+    server: str,
+    events_url: str,
+    secret: SecretStr | None,
+    outbox_path: Path,
+    brain_secret_env: str,
+) -> EventSink:
+    """Signed posts to the brain when a secret is configured, else log-only (documented)."""
+    if secret is None:
+        return LogOnlyEventSink(brain_secret_env)
+    outbox_path.parent.mkdir(parents=True, exist_ok=True)
+    return PosterEventSink(EventPoster(events_url, server, secret.get_secret_value(), outbox_path))

@@ -1,4 +1,4 @@
-"""EventSink: where the navigator's task events go (the brain, a log, or a test)."""
+"""EventSink: where a server's task events go (the brain, a log, or a test)."""
 
 from __future__ import annotations
 

@@ -1,1 +1,0 @@
-"""The event-sink port (where task events go) and its adapters."""

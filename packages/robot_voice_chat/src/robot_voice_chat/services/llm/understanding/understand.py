@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -22,10 +22,18 @@ from robot_voice_chat.services.llm.understanding import (
     saying,
     speech,
 )
+from robot_voice_chat.services.llm.understanding.composing import (
+    Leg,
+    compose,
+    share_place,
+    spells_a_place,
+    unclear,
+    unknown_place,
+)
 from robot_voice_chat.services.llm.understanding.embedder import Embedder, default_embedder
 from robot_voice_chat.services.llm.understanding.followup import follow_up
 from robot_voice_chat.services.llm.understanding.intents import load_intents
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, PlaceMatch, key
+from robot_voice_chat.services.llm.understanding.places import PlaceIndex, PlaceMatch
 from robot_voice_chat.services.llm.understanding.questions import read_question
 from robot_voice_chat.services.llm.understanding.reading import (
     Action,
@@ -49,29 +57,12 @@ NOT_READ_RECALL = (
 _SEARCH_IN = re.compile(r"^(?:search|check|look\s+in|look\s+through)\s+.+?\s+for\s+.+$")
 # intents that read the same words: a verb of one and the meaning of the other agree
 _FAMILY = {"fetch": "carry", "deliver": "carry", "find": "find", "goto": "goto", "watch": "watch"}
-Status = Literal["ok", "ambiguous", "unknown_place", "missing", "unclear", "bare", "deliver"]
 # "put it on Q" / "leave it at Q" right after a fetch: where to bring it (the verbs of a
 # manipulation of its own are the manipulation layer's)
 _PUT_IT = re.compile(
     r"^(?:put|place|leave|set|drop|put down|set down)\s+(?:it|them|that|this)\s+"
     r"(?:down\s+|off\s+)?(?:on|onto|at|in|into|by|next to|over at|on top of)\s+(?P<to>.+)$"
 )
-
-
-@dataclass
-class _Leg:
-    text: str
-    status: Status = "ok"
-    action: Action | None = None
-    intent: str = ""
-    score: float = 1.0
-    sure: bool = True
-    stage: Literal["grammar", "semantic"] = "grammar"
-    slot: Literal["place", "obj", "to"] = "place"
-    options: list[str] = field(default_factory=list)
-    phrase: str = ""
-    more: bool = False  # another object of the search before it ("... and a yellow package")
-    near: bool = False  # the place was only spelled close to one on the map
 
 
 class Understanding:
@@ -117,13 +108,7 @@ class Understanding:
     def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
         text = speech.normalise(text, places.owners() if places is not None else ())
         recall = read_recall(text)  # a question about the past: answered, never acted on
-        if (
-            recall
-            and recall.offer
-            and places
-            and recall.obj
-            and _spells_a_place(places, recall.obj)
-        ):
+        if recall and recall.offer and places and recall.obj and spells_a_place(places, recall.obj):
             recall = None  # "where is the kitchen": a place, not a thing last seen
         if recall is not None:
             return Reading("answer", topic="history", recall=recall, intent="history")
@@ -134,14 +119,14 @@ class Understanding:
         if said.only_negative:
             return self._declined(said.refused, places)
         if negation.still_negated(said.text):
-            return self._unclear(text)  # a "not" we could not place: nothing acted or proposed
+            return unclear(text)  # a "not" we could not place: nothing acted or proposed
         if places is not None and negated:
             places = places.excluding(negated)
         body, rounds = composites.rounds(said.text)
         parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
         parts = [p for p in parts if p]
         if not parts:
-            return self._unclear(text)
+            return unclear(text)
         wholes = [body, cl.tidy(body), *(parts[:1] if len(parts) == 1 else [])]
         for whole in dict.fromkeys(wholes):
             asked = self._question(whole, places)  # "thanks, that's all" is one sentence
@@ -151,15 +136,15 @@ class Understanding:
             single = self._non_action(parts[0])
             if single is not None:
                 return single
-        legs: list[_Leg] = []
+        legs: list[Leg] = []
         for part in parts:
             legs.append(
                 self._delivery(part, legs, places)
                 or self._more_objects(part, legs, places)
                 or self._leg(part, places)
             )
-        _share_place(legs)
-        reading = self._compose(text, legs, places)
+        share_place(legs)
+        reading = compose(text, legs, places)
         return guards.respect(guards.repeated(reading, rounds, places), negated, places)
 
     def _question(self, part: str, places: PlaceIndex | None) -> Reading | None:
@@ -176,7 +161,7 @@ class Understanding:
         if match is None or not match.names:
             if part.startswith("where"):  # "where is the mug": not a place, not this question
                 return None
-            return Reading("refuse", text=self._unknown_place(asked.place, places),
+            return Reading("refuse", text=unknown_place(asked.place, places),
                            intent="distance")  # fmt: skip
         if not match.sure:
             labels = " or ".join(saying.place_of(n, places) for n in match.names)
@@ -190,9 +175,7 @@ class Understanding:
         text = f"OK, I won't {what}." if what else "OK, I won't do that."
         return Reading("cancel", text=text, intent="negated", stage="grammar")
 
-    def _more_objects(
-        self, part: str, before: list[_Leg], places: PlaceIndex | None
-    ) -> _Leg | None:
+    def _more_objects(self, part: str, before: list[Leg], places: PlaceIndex | None) -> Leg | None:
         """ "look for the scissors and a yellow package": a part with no verb right after a
         search is another object of that search."""
         previous = before[-1] if before else None
@@ -210,7 +193,7 @@ class Understanding:
         leg.text, leg.more = part, True
         return leg
 
-    def _delivery(self, part: str, before: list[_Leg], places: PlaceIndex | None) -> _Leg | None:
+    def _delivery(self, part: str, before: list[Leg], places: PlaceIndex | None) -> Leg | None:
         """ "bring it to Q" right after a fetch is that fetch's delivery (the verbs "bring",
         "take" also start a fetch: the pronoun after a fetch decides)."""
         previous = before[-1].action if before else None
@@ -223,7 +206,7 @@ class Understanding:
         to = to or (cl.strip_article(put["to"]) if put is not None else None)
         if to is None:
             return None
-        leg = _Leg(part, "deliver", Action("fetch", None, None, to), "deliver")
+        leg = Leg(part, "deliver", Action("fetch", None, None, to), "deliver")
         return self._resolve(leg, places)
 
     def _non_action(self, part: str) -> Reading | None:
@@ -240,7 +223,7 @@ class Understanding:
         if intent == "resume" and self._verb(part) is not None:
             return None  # "go" alone: a drive with no place, not "go on"
         if info.kind == "refuse":
-            return replace(self._unclear(part), intent=intent, score=score, stage="semantic")
+            return replace(unclear(part), intent=intent, score=score, stage="semantic")
         if info.kind == "stop":
             return Reading("stop", intent=intent, score=score, stage="semantic")
         kind: Literal["greet", "answer"] = "greet" if intent == "greet" else "answer"
@@ -272,7 +255,7 @@ class Understanding:
                     best, length = name, len(verb)
         return best
 
-    def _leg(self, part: str, places: PlaceIndex | None) -> _Leg:
+    def _leg(self, part: str, places: PlaceIndex | None) -> Leg:
         command = parse(part)
         if command.kind != "unknown":
             kind: ActionKind = command.kind
@@ -280,14 +263,14 @@ class Understanding:
             if command.kind == "fetch":
                 obj, source, to = cl.fetch_slots(part, self.intents.intents["fetch"].verbs)
                 action = Action("fetch", source or command.place, obj or command.obj, to)
-            return self._resolve(_Leg(part, action=action, intent=command.kind), places)
+            return self._resolve(Leg(part, action=action, intent=command.kind), places)
         bare = cl.strip_article(re.sub(r"^(?:to|into|at)\s+", "", part))
         if places is not None and bare and places.only_place(bare):
             match = places.resolve(bare)
-            return _Leg(part, "bare", Action("goto", match.names[0]), "goto", near=match.near)
+            return Leg(part, "bare", Action("goto", match.names[0]), "goto", near=match.near)
         near = _near_bare(places, bare)
         if near is not None:
-            return _Leg(part, "ambiguous", Action("goto", bare), "goto", options=near.names,
+            return Leg(part, "ambiguous", Action("goto", bare), "goto", options=near.names,
                         phrase=bare, near=True)  # fmt: skip
         scores = self._scores(part)
         ranked = sorted(scores.items(), key=lambda kv: kv[1], reverse=True)
@@ -305,7 +288,7 @@ class Understanding:
         else:
             sure = False  # an action with slots but no verb we know: say it back first
         info = self.intents.intents[intent]
-        leg = _Leg(part, intent=intent, score=s1, sure=sure, stage="semantic")
+        leg = Leg(part, intent=intent, score=s1, sure=sure, stage="semantic")
         # a verb we know with a weak meaning is said back (asked), not refused
         if (s1 < self.ask_threshold and verb is None) or info.kind != "action":
             leg.status = "unclear"
@@ -332,7 +315,7 @@ class Understanding:
             leg.action = Action("see")
         return self._resolve(leg, places)
 
-    def _resolve(self, leg: _Leg, places: PlaceIndex | None) -> _Leg:
+    def _resolve(self, leg: Leg, places: PlaceIndex | None) -> Leg:
         """Fill missing-slot status, and turn place phrases into the live places' names."""
         action = leg.action
         assert action is not None
@@ -361,165 +344,6 @@ class Understanding:
         leg.action = action
         return leg
 
-    # --- putting the legs together ----------------------------------------------------------
-    def _compose(self, text: str, legs: list[_Leg], places: PlaceIndex | None) -> Reading:
-        actions: list[Action] = []
-        problems: list[tuple[int, _Leg]] = []
-        for leg in legs:
-            previous = actions[-1] if actions else None
-            if leg.status == "bare" and previous is not None and previous.kind != "goto":
-                leg.status = "unclear"
-            if leg.status == "deliver" or (
-                leg.status != "ok" and leg.slot == "to" and leg.intent == "deliver"
-            ):
-                if previous is None or not _brought_on(previous):
-                    leg.status = "unclear"
-                    problems.append((len(actions), leg))
-                    continue
-                assert leg.action is not None
-                actions[-1] = replace(previous, kind="fetch", to=leg.action.to)
-                if leg.status != "deliver":
-                    problems.append((len(actions) - 1, leg))
-                continue
-            if leg.status in ("ok", "bare"):
-                assert leg.action is not None
-                if (
-                    leg.action.kind == "find"
-                    and leg.action.place is None
-                    and previous is not None
-                    and previous.kind == "goto"
-                ):
-                    actions[-1] = replace(leg.action, place=previous.place)
-                elif leg.more and previous is not None and leg.action.place is None:
-                    actions.append(replace(leg.action, place=previous.place))
-                elif previous == leg.action and leg.action.kind in ("see", "goto"):
-                    pass  # "look around and tell me what you see": one look
-                else:
-                    actions.append(leg.action)
-                if not leg.sure:
-                    problems.append((len(actions) - 1, replace(leg, status="ok")))
-                continue
-            if leg.action is not None and leg.status in ("ambiguous", "missing"):
-                actions.append(leg.action)
-                problems.append((len(actions) - 1, leg))
-            else:
-                problems.append((len(actions), leg))
-        score = min((leg.score for leg in legs), default=1.0)
-        stage: Literal["grammar", "semantic"] = (
-            "grammar" if all(leg.stage == "grammar" for leg in legs) else "semantic"
-        )
-        intent = "+".join(leg.intent or "?" for leg in legs)
-        base = Reading("act", actions, intent=intent, score=score, stage=stage)
-        if not problems:
-            return base
-        return replace(
-            self._problem(text, actions, problems, places), intent=intent, score=score, stage=stage
-        )
-
-    def _problem(
-        self,
-        text: str,
-        actions: list[Action],
-        problems: list[tuple[int, _Leg]],
-        places: PlaceIndex | None,
-    ) -> Reading:
-        hard = [
-            (i, leg) for i, leg in problems if leg.status in ("unclear", "unknown_place", "deliver")
-        ]
-        if len(problems) == 1:
-            index, leg = problems[0]
-            if leg.status == "ambiguous" and leg.near and len(leg.options) == 1:
-                return Reading(
-                    "ask",
-                    question=saying.did_you_mean(actions, index, leg.slot, leg.options[0], places),
-                )
-            if leg.status == "ambiguous":
-                return Reading("ask", question=self._choose(actions, index, leg, places))
-            if leg.status == "missing":
-                return Reading("ask", question=self._fill(actions, index, leg, places))
-            if leg.status == "ok":  # understood, but not surely: say it back
-                if not _sayable(actions, places):
-                    return self._unclear(text)  # never a fragment of the words said back
-                question = Question(saying.confirm(actions, places), "confirm", actions)
-                return Reading("ask", question=question)
-        if hard and len(problems) == len(hard) and len(hard) == 1 and not actions:
-            _, leg = hard[0]
-            if leg.status == "unknown_place":
-                return Reading("refuse", text=self._unknown_place(leg.phrase, places))
-            return self._unclear(text)
-        if not actions:
-            return self._unclear(text)
-        missed = "; ".join(
-            self._unknown_place(leg.phrase, places)
-            if leg.status == "unknown_place"
-            else f"I didn't understand {leg.text!r}."
-            for _, leg in hard
-        )
-        sure_actions = _known_only(actions, places)
-        if not _sayable(actions, places):
-            return Reading("refuse", text=missed) if hard else self._unclear(text)
-        if hard:
-            if not sure_actions:
-                return Reading("refuse", text=missed)
-            partly = (
-                f"I understood only part of that. {missed} "
-                f"Do you want me to just {saying.plan(sure_actions, places)}? (yes or no)"
-            )
-            return Reading("ask", question=Question(partly, "confirm", sure_actions))
-        return Reading(
-            "ask", question=Question(saying.confirm(actions, places), "confirm", actions)
-        )
-
-    def _choose(
-        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
-    ) -> Question:
-        labels = [_label(n, places) for n in leg.options]
-        listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
-        what = f"'{leg.phrase}'" if leg.phrase else "that"
-        context = f" (to {saying.plan(actions, places)})" if len(actions) > 1 else ""
-        return Question(
-            f"Which place do you mean by {what}{context}: {listed}?",
-            "choose",
-            actions,
-            options=leg.options,
-            index=index,
-            slot=leg.slot,
-        )
-
-    def _fill(
-        self, actions: list[Action], index: int, leg: _Leg, places: PlaceIndex | None
-    ) -> Question:
-        action = actions[index]
-        if leg.slot == "obj":
-            verb = (
-                "watch for"
-                if action.kind == "watch"
-                else "look for"
-                if action.kind == "find"
-                else "get"
-            )
-            return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
-        known = f" I know: {_known(places)}." if places and places.places else ""
-        ask = (
-            "Where should I go?"
-            if action.kind == "goto"
-            else f"Where should I get the {action.obj} from?"
-        )
-        return Question(ask + known, "fill", actions, index=index, slot="place")
-
-    def _unknown_place(self, phrase: str, places: PlaceIndex | None) -> str:
-        known = _known(places) if places and places.places else "none"
-        return f"I don't know a place called {phrase!r}. I know: {known}."
-
-    def _unclear(self, text: str) -> Reading:
-        return Reading(
-            "refuse",
-            text=f"I didn't understand {text.strip()!r}.",
-            intent="unclear",
-            score=0.0,
-            stage="semantic",
-        )
-
     # --- the answer to a question we asked --------------------------------------------------
     def follow_up(
         self, question: Question, answer: str, places: PlaceIndex | None
@@ -529,72 +353,9 @@ class Understanding:
         return follow_up(question, answer, places)
 
 
-def _known(places: PlaceIndex) -> str:
-    """The map's places as a sentence lists them (their human names, never ids)."""
-    return ", ".join(places.spoken(name) for name in places.known())
-
-
-def _known_only(actions: list[Action], places: PlaceIndex | None) -> list[Action]:
-    """The actions without what names an unknown place (a delivery to it is dropped)."""
-    if places is None:
-        return list(actions)
-    kept = []
-    for action in actions:
-        if action.to is not None and places.get(action.to) is None:
-            action = replace(action, to=None)
-        if action.place is None or places.get(action.place) is not None:
-            kept.append(action)
-    return kept
-
-
-def _label(name: str, places: PlaceIndex | None) -> str:
-    place = places.get(name) if places else None
-    return place.label() if place else name.replace("_", " ")
-
-
-def _spells_a_place(places: PlaceIndex, phrase: str) -> bool:
-    """``phrase`` is a place's name or alias ("the kitchen", "front desk"); a word of a place's
-    description is not ("where is the charger?" asks for a thing, not the charging dock)."""
-    wanted = key(phrase)
-    return any(wanted in place.spellings() for place in places.places)
-
-
-def _sayable(actions: list[Action], places: PlaceIndex | None) -> bool:
-    """Every object reads as a thing (not a piece of the sentence, not a place's name)."""
-    return all(
-        saying.plausible(a.obj)
-        and not (a.obj and places is not None and _spells_a_place(places, a.obj))
-        for a in actions
-    )
-
-
-def _brought_on(action: Action) -> bool:
-    """Whether "bring it to Q" can follow ``action``: a fetch, or a search in a place."""
-    return action.to is None and (
-        action.kind == "fetch" or (action.kind == "find" and bool(action.place))
-    )
-
-
 def _near_bare(places: PlaceIndex | None, bare: str) -> PlaceMatch | None:
     """A part that is only a place said a little wrong ("the reciption"), unsure: asked."""
     if places is None or not bare or len(bare.split()) > 3:
         return None
     match = places.resolve(bare)
     return match if match.near and match.names and not match.sure else None
-
-
-def _share_place(legs: list[_Leg]) -> None:
-    """ "look for a red mug and a blue box in the meeting room": the place said with the last
-    object of a search is the place of the objects before it."""
-    for i, leg in enumerate(legs):
-        if not leg.more or leg.action is None or leg.action.place is None:
-            continue
-        j = i - 1
-        while j >= 0:
-            before = legs[j]
-            if before.action is None or before.action.kind != "find" or before.action.place:
-                break
-            before.action = replace(before.action, place=leg.action.place)
-            if not before.more:
-                break
-            j -= 1

@@ -46,14 +46,15 @@ async def live_tools(tmp_path: Path) -> AsyncIterator[dict[str, dict[str, Any] |
     navigator = Navigator(
         parse_map(MAP), FakeMotionBase(), FakeEventSink(), TaskTable(), supervision=Supervision()
     )
-    manipulator = Manipulator(FakeArm(), FakeArmEvents(), TaskTable())
+    arm_supervision = Supervision()  # as composed for a robot: the gate and the lease tool
+    manipulator = Manipulator(FakeArm(), FakeArmEvents(), TaskTable(), gate=arm_supervision)
     memory = build_memory(MemoryConfig(db_path=tmp_path / "m.sqlite3", robot_id="r1"))
     episodic = build_episodic(
         EpisodicConfig(data_dir=tmp_path / "episodic", record_raw=False), record_ros=False
     )
     servers: dict[str, MCPServer] = {
         "navigation": build_navigation(navigator),
-        "manipulation": build_manipulation(manipulator),
+        "manipulation": build_manipulation(manipulator, supervision=arm_supervision),
         "memory": build_memory_server(memory),
         "skill_control": build_skill_control(SkillControlConfig(), tasks=FakeVisionTasks()).server,
         "perception": build_perception(

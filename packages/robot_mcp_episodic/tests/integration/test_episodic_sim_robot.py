@@ -209,8 +209,10 @@ async def test_the_sim_robot_driving_to_the_kitchen_is_recorded_with_its_pose_an
     assert math.hypot(track[-1].x - kitchen[0], track[-1].y - kitchen[1]) < 0.05, track[-3:]
     assert len([p for p in track if p.t >= sent]) >= 8, track
     assert all(on_the_floor(p.x, p.y) for p in track), track
+    # no teleport (the drive is ~10 m): samples come every ~0.25 m, but a starved machine
+    # delivers fewer poses (CI under load: gaps up to 1.5 m), so the bound is not the spacing
     steps = [math.hypot(b.x - a.x, b.y - a.y) for a, b in itertools.pairwise(track)]
-    assert max(steps) < 1.0, steps
+    assert max(steps) < 3.0, steps
     assert {p.place for p in track} >= {"dock", "kitchen"}
 
     recorded, labels = bag_poses(data_dir)

@@ -91,9 +91,12 @@ def test_the_robot_sees_the_closed_door_and_goes_round_publishing_each_plan(sim:
     wait_until(lambda: sim.plans.last() is not None and not sim.plans.last().poses, 10.0, "end")
     plans = [p for p in sim.plans.since(start) if p.poses]
     assert all(p.header.frame_id == "map" for p in plans)
-    first, detour = plans[0], plans[-1]
+    first, replanned = plans[0], plans[1:]
     assert max(p.pose.position.x for p in first.poses) < 17.5  # through the west door
-    assert max(p.pose.position.x for p in detour.poses) > 19.5  # round by the east entrance
+    # round by the east entrance: the replanned path (later plans are what remains of it, and
+    # a starved test may first read one from past the entrance)
+    assert replanned
+    assert max(p.pose.position.x for plan in replanned for p in plan.poses) > 19.5
     ends = {
         (round(p.poses[-1].pose.position.x, 2), round(p.poses[-1].pose.position.y, 2))
         for p in plans

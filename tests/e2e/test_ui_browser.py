@@ -431,9 +431,20 @@ def approval_stack(tmp_path: Path) -> Iterator[RunningStack]:
     policy = tmp_path / "policy.yaml"
     # navigation's reads listed as allowed: a motion server's unlisted tool asks (issue 27);
     # the map panel reads the pose, places, map and plan, the brain its tasks, all the time
-    reads = "".join(
-        f"  navigation.{tool}: allow\n"
-        for tool in ("get_pose", "list_locations", "get_map", "get_plan", "get_task", "list_tasks")
+    # (and the arm's get_held, which the status bar's holding chip reads)
+    reads = (
+        "".join(
+            f"  navigation.{tool}: allow\n"
+            for tool in (
+                "get_pose",
+                "list_locations",
+                "get_map",
+                "get_plan",
+                "get_task",
+                "list_tasks",
+            )
+        )
+        + "  manipulation.get_held: allow\n"
     )
     policy.write_text(
         "version: 1\ntools:\n  navigation.navigate_to:\n    decision: confirm\n"

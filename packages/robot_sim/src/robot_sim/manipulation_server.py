@@ -52,9 +52,12 @@ PICK_PHASES = ("locating", "approaching", "grasping", "lifting")
 PLACE_PHASES = ("approaching", "placing", "releasing", "retracting")
 LOCK_CHECK_S = 0.02
 """How often a running phase looks at the supervisor locks."""
+HELD_TIMEOUT_S = 10.0
+"""How long a lock may hold the arm before the goal gives up (like Nav2's progress checker)."""
 _HELD = Refusal(
     "ARM_NOT_READY",
-    "the arm stopped: a supervisor lock holds it (no supervising brain, or a stop is latched)",
+    "the arm stopped: a supervisor lock held it too long (no supervising brain, or a stop is "
+    "latched)",
 )
 
 
@@ -87,8 +90,10 @@ class ManipulationServer:
         self._clock = clock
         self._lock = threading.Lock()
         self._running: _Goal | None = None
-        # the supervisor locks (robot-sim's twist_mux view): a held arm stops where it is
+        # the supervisor locks (robot-sim's twist_mux view): a held arm stops where it is and
+        # goes on when the lock opens, or gives up after held_timeout_s (as the base does)
         self.held: Callable[[], bool] = lambda: False
+        self.held_timeout_s = HELD_TIMEOUT_S
         self._since: Time = Time()
         self.sightings = Sightings()
         self._subscribed: dict[str, Any] = {}
@@ -275,7 +280,7 @@ class ManipulationServer:
 
     def _place_goal(self, goal: _Goal, started: float) -> Any:
         place, driving = self._where()
-        refusal = _HELD if self.held() else self._gripper.check_place(place, driving)
+        refusal = self._gripper.check_place(place, driving)
         if refusal is not None:
             return self._end_place(goal, refusal)
         for n, phase in enumerate(PLACE_PHASES):
@@ -308,15 +313,30 @@ class ManipulationServer:
         )
 
     def _phase(self, goal: _Goal, feedback: Any, total_s: float) -> bool:
-        """Publish the phase and spend its share of the time; False when canceled or when a
-        supervisor lock holds the arm (looked at every ``LOCK_CHECK_S``)."""
-        if goal.cancel or self.held():
+        """Publish the phase and spend its share of the time; False when canceled, or when a
+        supervisor lock held the arm longer than ``held_timeout_s`` (the phase's time does not
+        run while it is held; looked at every ``LOCK_CHECK_S``)."""
+        if not self._while_held(goal):
             return False
         goal.handle.publish_feedback(feedback)
-        until = self._clock() + total_s / len(PICK_PHASES) / self._settings.time_scale
-        while (left := until - self._clock()) > 0 and not goal.cancel and not self.held():
-            goal.wake.wait(min(left, LOCK_CHECK_S))
-        return not goal.cancel and not self.held()
+        left = total_s / len(PICK_PHASES) / self._settings.time_scale
+        while left > 0 and not goal.cancel:
+            if not self._while_held(goal):
+                return False
+            step = min(left, LOCK_CHECK_S)
+            goal.wake.wait(step)
+            left -= step
+        return not goal.cancel
+
+    def _while_held(self, goal: _Goal) -> bool:
+        """Wait while a lock holds the arm: True once it is free, False on a cancel or when the
+        hold outlasted ``held_timeout_s``."""
+        since = self._clock()
+        while self.held() and not goal.cancel:
+            if self._clock() - since >= self.held_timeout_s:
+                return False
+            goal.wake.wait(LOCK_CHECK_S)
+        return not goal.cancel
 
     def _end_cancel(self, goal: _Goal, result: Any, started: float, what: str) -> Any:
         deadline = self._clock() + 1.0

@@ -97,6 +97,7 @@ class SimNode(Node):
             )
             self.navigator.held = self.lock.locked
             self.manipulation.held = self.lock.locked  # the arm's controller stops too
+            self.manipulation.held_timeout_s = settings.progress_timeout_s
             self.navigator.progress_timeout_s = settings.progress_timeout_s
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)
         self._odom = self.create_publisher(Odometry, "/odom", 10)

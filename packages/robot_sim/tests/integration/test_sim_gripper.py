@@ -4,6 +4,7 @@ from the node's parameters (what any ROS tool sees), not from the gripper's own 
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -230,13 +231,17 @@ def test_a_pick_waits_briefly_for_its_detection_to_arrive(sim: Sim) -> None:
     assert held(sim) == "yellow package"
 
 
-def test_an_arm_held_by_a_supervisor_lock_does_not_move_and_says_why(sim: Sim) -> None:
-    """robot-sim's twist_mux view (SIM_SUPERVISOR_LOCK) holds the arm too: a pick or place
-    while a lock is locked ends ARM_NOT_READY and the world stays as it was."""
+def test_an_arm_held_by_a_supervisor_lock_waits_and_gives_up_only_after_the_allowance(
+    sim: Sim,
+) -> None:
+    """robot-sim's twist_mux view (SIM_SUPERVISOR_LOCK) holds the arm too, as it holds the
+    base: while a lock is locked the arm does not move; it goes on when the lock opens, and a
+    hold longer than the allowance ends the goal ARM_NOT_READY with the world as it was."""
     arm = Arm(sim)
     sim.go_to("mailroom")
     locked = [True]
-    sim.node.manipulation.held = lambda: locked[0]
+    server = sim.node.manipulation
+    server.held, server.held_timeout_s = (lambda: locked[0]), 0.3
     try:
         outcome = arm.do_pick(arm.seen("yellow package"))
         assert outcome.status == GoalStatus.STATUS_ABORTED
@@ -244,12 +249,17 @@ def test_an_arm_held_by_a_supervisor_lock_does_not_move_and_says_why(sim: Sim) -
         assert "supervisor lock" in outcome.result.error_msg
         assert "yellow package" in objects(sim, "mailroom")
         assert held(sim) == ""
-        locked[0] = False
+        server.held_timeout_s = 30.0
+        opens = threading.Timer(0.5, lambda: locked.__setitem__(0, False))
+        opens.start()  # a brief hold: the pick waits and then goes on
+        started = time.monotonic()
         assert arm.do_pick(arm.seen("yellow package")).status == GoalStatus.STATUS_SUCCEEDED
-        locked[0] = True
+        assert time.monotonic() - started >= 0.5
+        assert held(sim) == "yellow package"
+        locked[0], server.held_timeout_s = True, 0.3
         placed = arm.do_place()
         assert placed.status == GoalStatus.STATUS_ABORTED
         assert placed.result.error_code == Place.Result.ARM_NOT_READY
         assert held(sim) == "yellow package"
     finally:
-        sim.node.manipulation.held = lambda: False
+        server.held = lambda: False

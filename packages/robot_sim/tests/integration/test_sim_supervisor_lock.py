@@ -126,3 +126,4 @@ def test_the_arm_obeys_the_same_locks_as_the_base(sim: Sim) -> None:
     assert sim.node.lock is not None
     assert sim.node.manipulation.held == sim.node.lock.locked
     assert sim.node.manipulation.held()  # never heard: locked
+    assert sim.node.manipulation.held_timeout_s == 1.5  # SIM_PROGRESS_TIMEOUT_S, as the base

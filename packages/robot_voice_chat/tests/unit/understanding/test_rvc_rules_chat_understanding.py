@@ -48,8 +48,10 @@ async def test_ask_then_answer_then_act(understanding: Understanding) -> None:
     chat, history = RulesChat(understanding), []
     question = await _turn(chat, history, "go to the desk")
     assert not question.tool_calls
-    assert "desk alice" in question.text
-    assert "desk bob" in question.text
+    assert "Alice's desk" in question.text  # places by the names people use (issue 31)
+    assert "Bob's desk" in question.text
+    assert "desk_" not in question.text
+    assert "desk bob" not in question.text
     reply = await _turn(chat, history, "Bob's")
     [call] = reply.tool_calls
     assert call.arguments["instruction"] == "go to desk_bob"

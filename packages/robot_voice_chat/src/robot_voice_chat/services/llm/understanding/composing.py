@@ -140,7 +140,9 @@ def _problem(
 
 
 def _choose(actions: list[Action], index: int, leg: Leg, places: PlaceIndex | None) -> Question:
-    labels = [_label(n, places) for n in leg.options]
+    labels = [places.spoken(n) if places else n.replace("_", " ") for n in leg.options]
+    if len(set(labels)) < len(labels):  # two places said alike: their descriptions tell them apart
+        labels = [_label(n, places) for n in leg.options]
     listed = ", ".join(labels[:-1]) + f" or {labels[-1]}"
     what = f"'{leg.phrase}'" if leg.phrase else "that"
     context = f" (to {saying.plan(actions, places)})" if len(actions) > 1 else ""

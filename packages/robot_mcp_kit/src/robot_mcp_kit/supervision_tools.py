@@ -20,6 +20,7 @@ Adopting supervision in a motion server (navigation does exactly this, see its c
 from __future__ import annotations
 
 import asyncio
+import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -67,21 +68,33 @@ def add_supervise_tool(server: MCPServer, supervision: Supervision) -> None:
         return supervision.status()
 
 
+STARVED_GRACE_S = 0.25
+"""After this server itself did not run for longer than a period (a starved host: renewals may
+be waiting unread in its inbox), a lapse ends motion only once they had this long to be read.
+The dead-man lock does not wait: it reads the lease's clock and locks the base meanwhile."""
+
+
 async def watch_supervision(
     supervision: Supervision,
     end_motion: Callable[[str], Awaitable[object]],
     moving: Callable[[], bool],
     period_s: float = 0.05,
     publish_lock: Callable[[], object] | None = None,
+    *,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], Awaitable[object]] = asyncio.sleep,
 ) -> None:
     """Until cancelled: every ``period_s``, end running motion (``end_motion(reason)``) while
     ``moving()`` and supervision refuses motion (the lease lapsed, or the stop is latched —
     also a latch cleared again since the last look), and log each change of supervision.
     ``publish_lock``: the lock publisher's ``publish``, called (thread-safe) whenever the lock's
     value changes, so a lock timer held up by a busy ROS executor does not delay it; the wheels
-    are locked before the motion is cancelled."""
+    are locked before the motion is cancelled. A latch ends motion at once; a lapse seen right
+    after this process itself was starved waits ``STARVED_GRACE_S`` for the renewals it has not
+    read yet (a live brain's lease is not a dead one's)."""
     last: tuple[bool, bool, str | None] | None = None
     locked: bool | None = None
+    grace_until = float("-inf")
     while True:
         if publish_lock is not None and supervision.locked() != locked:
             locked = supervision.locked()
@@ -96,13 +109,21 @@ async def watch_supervision(
         if moving() and (refused is not None or edge == "latched"):
             latched = edge == "latched" or (refused is not None and refused.code == LATCHED)
             why: Lapse = "latched" if latched else "lapsed"
-            reason = LAPSE_REASONS[why]
-            logger.warning("supervision_motion_ended", why=why, reason=reason)
-            try:
-                await end_motion(reason)
-            except Exception:  # the watchdog must outlive a failing stop: it runs again
-                logger.exception("supervision_stop_failed", why=why)
-        await asyncio.sleep(period_s)
+            if why == "lapsed" and clock() < grace_until:
+                logger.info("supervision_lapse_deferred", grace_s=round(grace_until - clock(), 3))
+            else:
+                reason = LAPSE_REASONS[why]
+                logger.warning("supervision_motion_ended", why=why, reason=reason)
+                try:
+                    await end_motion(reason)
+                except Exception:  # the watchdog must outlive a failing stop: it runs again
+                    logger.exception("supervision_stop_failed", why=why)
+        started = clock()
+        await sleep(period_s)
+        overslept = clock() - started - period_s
+        if overslept > period_s:  # this process did not run: its inbox may hold renewals
+            grace_until = clock() + STARVED_GRACE_S
+            logger.warning("supervision_watchdog_starved", overslept_ms=round(overslept * 1000))
 
 
 def _log_change(

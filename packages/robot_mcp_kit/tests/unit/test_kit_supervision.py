@@ -1,5 +1,6 @@
 import asyncio
 import json
+from collections.abc import Callable
 
 import pytest
 from mcp import Client
@@ -224,3 +225,109 @@ async def test_the_watchdog_publishes_the_lock_at_once_whenever_its_value_change
         watchdog.cancel()
 
     assert published == [True, False, True]
+
+
+class StarvedSleep:
+    """The watchdog's sleep on the fake clock. ``starved[n]``: how much longer the n-th sleep
+    takes (the process was not scheduled); ``then[n]``: what happens during it (the inbox)."""
+
+    def __init__(self, clock: Clock, ticks: int) -> None:
+        self.clock = clock
+        self.calls = 0
+        self.ticks = ticks
+        self.done = asyncio.Event()  # the watchdog has slept ``ticks`` times
+        self.starved: dict[int, float] = {}
+        self.then: dict[int, Callable[[], object]] = {}
+
+    async def __call__(self, seconds: float) -> None:
+        self.calls += 1
+        self.clock.now += seconds + self.starved.get(self.calls, 0.0)
+        if self.calls in self.then:
+            self.then[self.calls]()
+        if self.calls >= self.ticks:
+            self.done.set()
+        await asyncio.sleep(0)
+
+
+async def run_watchdog(supervision: Supervision, clock: Clock, sleep: StarvedSleep) -> list[str]:
+    ended: list[str] = []
+
+    async def end_motion(reason: str) -> None:
+        ended.append(reason)
+
+    watchdog = asyncio.create_task(
+        watch_supervision(
+            supervision, end_motion, lambda: not ended, 0.05, clock=clock, sleep=sleep
+        )
+    )
+    try:
+        async with asyncio.timeout(5):
+            await sleep.done.wait()
+    finally:
+        watchdog.cancel()
+    return ended
+
+
+def renew(supervision: Supervision) -> Callable[[], object]:
+    return lambda: supervision.renew("brain-1", 0.8, latched=False)
+
+
+async def test_a_lapse_seen_right_after_the_server_was_starved_waits_for_the_unread_renewals() -> (
+    None
+):
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    sleep = StarvedSleep(clock, ticks=40)
+    # the 2nd sleep takes 1.2 s more (the server did not run); the brain's renewals waited in
+    # its inbox and are read one period after it woke: the lapse it saw first is not acted on
+    sleep.starved[2] = 1.2
+    locked_when_woken: list[bool] = []
+    sleep.then[2] = lambda: locked_when_woken.append(supervision.locked())
+    sleep.then[3] = renew(supervision)
+    for tick in range(4, 40, 4):
+        sleep.then[tick] = renew(supervision)
+
+    ended = await run_watchdog(supervision, clock, sleep)
+
+    assert ended == []
+    assert locked_when_woken == [True]  # the dead-man lock did not wait
+    assert not supervision.locked()
+
+
+async def test_a_lapse_after_starvation_still_ends_motion_once_the_grace_is_over() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    sleep = StarvedSleep(clock, ticks=12)
+    sleep.starved[2] = 1.2  # starved, and no renewal was waiting: the brain is gone
+
+    ended = await run_watchdog(supervision, clock, sleep)
+
+    assert ended == ["supervision was lost: the supervising brain stopped renewing its lease"]
+
+
+async def test_without_starvation_a_lapse_ends_motion_at_the_first_look() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    sleep = StarvedSleep(clock, ticks=30)
+    checks_before_end: list[int] = []
+
+    async def end_motion(reason: str) -> None:
+        checks_before_end.append(sleep.calls)
+
+    watchdog = asyncio.create_task(
+        watch_supervision(
+            supervision, end_motion, lambda: not checks_before_end, 0.05, clock=clock, sleep=sleep
+        )
+    )
+    try:
+        async with asyncio.timeout(5):
+            await sleep.done.wait()
+    finally:
+        watchdog.cancel()
+
+    # 0.8 s of 0.05 s periods: the look right after the lapse (16, or 17 by float rounding)
+    assert len(checks_before_end) == 1
+    assert checks_before_end[0] in (16, 17)

@@ -163,11 +163,22 @@ async def test_find_object_end_to_end_over_real_transports_with_a_real_vision_no
             "the skill's topic in the ROS graph",
         )
 
-        result = await call(
-            perception, "wait_for_result", {"skill": made["skill_id"], "timeout_s": 25}
-        )
-        assert "_error" not in result, result
-        assert result["detections"], result
+        # the next results until one holds the scissors (at most 25 s): under two busy loops
+        # the first result of the skill once came back empty (load run 2 of stop 34)
+        seen: list[float] = []
+
+        async def with_detections() -> dict[str, Any] | None:
+            newer = {"after_stamp": seen[-1]} if seen else {}
+            got = await call(
+                perception,
+                "wait_for_result",
+                {"skill": made["skill_id"], "timeout_s": 10, **newer},
+            )
+            assert "_error" not in got, got
+            seen.append(got["stamp"])
+            return got if got["detections"] else None
+
+        result = await async_wait_until(with_detections, 25.0, "a result with the scissors")
         det = result["detections"][0]
         assert det["mask_ref"]["topic"] == topic
         assert {"label", "score", "kind", "box", "point", "mask_ref"} <= set(det)

@@ -20,8 +20,9 @@ Adopting supervision in a motion server (navigation does exactly this, see its c
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Any
 
 import structlog
@@ -124,6 +125,30 @@ async def watch_supervision(
         if overslept > period_s:  # this process did not run: its inbox may hold renewals
             grace_until = clock() + STARVED_GRACE_S
             logger.warning("supervision_watchdog_starved", overslept_ms=round(overslept * 1000))
+
+
+@contextlib.asynccontextmanager
+async def supervising(
+    supervision: Supervision | None,
+    end_motion: Callable[[str], Awaitable[object]],
+    moving: Callable[[], bool],
+    publish_lock: Callable[[], object] | None = None,
+) -> AsyncIterator[None]:
+    """``watch_supervision`` for the duration of the block (nothing without ``supervision``);
+    on exit the watchdog is cancelled and awaited, so it never acts while the server closes."""
+    if supervision is None:
+        yield
+        return
+    watchdog = asyncio.create_task(
+        watch_supervision(supervision, end_motion, moving, publish_lock=publish_lock),
+        name="supervision",
+    )
+    try:
+        yield
+    finally:
+        watchdog.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await watchdog
 
 
 def _log_change(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -13,7 +12,7 @@ from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
 from robot_mcp_kit.supervision import Supervision
-from robot_mcp_kit.supervision_tools import watch_supervision
+from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.port import ArmActions
@@ -41,29 +40,22 @@ class ManipulationApp:
         the arm); on exit stop the arm and flush the events."""
         started = time.monotonic()
         await self.events.start()
-        watchdog = None
-        if self.supervision is not None:
-            watchdog = asyncio.create_task(
-                watch_supervision(
-                    self.supervision,
-                    self.manipulator.stop,
-                    lambda: self.manipulator.moving,
-                    publish_lock=self.publish_lock,
-                ),
-                name="supervision",
-            )
-        logger.info(
-            "manipulation_ready",
-            pick_action=self.settings.pick_action,
-            place_action=self.settings.place_action,
-            supervision=self.settings.supervision,
-            duration_ms=round((time.monotonic() - started) * 1000, 1),
-        )
         try:
-            yield self
+            async with supervising(
+                self.supervision,
+                self.manipulator.stop,
+                lambda: self.manipulator.moving,
+                self.publish_lock,
+            ):
+                logger.info(
+                    "manipulation_ready",
+                    pick_action=self.settings.pick_action,
+                    place_action=self.settings.place_action,
+                    supervision=self.settings.supervision,
+                    duration_ms=round((time.monotonic() - started) * 1000, 1),
+                )
+                yield self
         finally:
-            if watchdog is not None:
-                watchdog.cancel()
             try:
                 await self.manipulator.close()
                 await self.events.close()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -15,7 +13,7 @@ from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
 from robot_mcp_kit.supervision import Supervision
-from robot_mcp_kit.supervision_tools import watch_supervision
+from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import ConfigError, NavigationSettings
@@ -51,33 +49,24 @@ class NavigationApp:
         started = time.monotonic()
         await self.events.start()
         await self.base.cancel_stale_goals()  # before a lease can open the lock (issue 27)
-        watchdog = None
-        if self.supervision is not None:
-            watchdog = asyncio.create_task(
-                watch_supervision(
-                    self.supervision,
-                    self.navigator.stop,
-                    lambda: self.navigator.moving,
-                    publish_lock=self.publish_lock,
-                ),
-                name="supervision",
-            )
-        logger.info(
-            "navigation_ready",
-            map=self.nav_map.name,
-            locations=len(self.nav_map.locations),
-            failures=len(self.nav_map.failures),
-            motion=self.settings.motion,
-            time_scale=self.settings.time_scale,
-            duration_ms=round((time.monotonic() - started) * 1000, 1),
-        )
         try:
-            yield self
+            async with supervising(
+                self.supervision,
+                self.navigator.stop,
+                lambda: self.navigator.moving,
+                self.publish_lock,
+            ):
+                logger.info(
+                    "navigation_ready",
+                    map=self.nav_map.name,
+                    locations=len(self.nav_map.locations),
+                    failures=len(self.nav_map.failures),
+                    motion=self.settings.motion,
+                    time_scale=self.settings.time_scale,
+                    duration_ms=round((time.monotonic() - started) * 1000, 1),
+                )
+                yield self
         finally:
-            if watchdog is not None:
-                watchdog.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await watchdog
             try:
                 await self.navigator.close()
                 await self.events.close()

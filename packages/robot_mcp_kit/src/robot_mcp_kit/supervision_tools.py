@@ -96,6 +96,7 @@ async def watch_supervision(
     last: tuple[bool, bool, str | None] | None = None
     locked: bool | None = None
     grace_until = float("-inf")
+    deferring = False  # a lapse waits out the grace now: a lag meanwhile never extends it
     while True:
         if publish_lock is not None and supervision.locked() != locked:
             locked = supervision.locked()
@@ -107,10 +108,13 @@ async def watch_supervision(
         if now != last:
             _log_change(last, now, status)
             last = now
-        if moving() and (refused is not None or edge == "latched"):
+        if not (moving() and (refused is not None or edge == "latched")):
+            deferring = False
+        else:
             latched = edge == "latched" or (refused is not None and refused.code == LATCHED)
             why: Lapse = "latched" if latched else "lapsed"
-            if why == "lapsed" and clock() < grace_until:
+            deferring = why == "lapsed" and clock() < grace_until
+            if deferring:
                 logger.info("supervision_lapse_deferred", grace_s=round(grace_until - clock(), 3))
             else:
                 reason = LAPSE_REASONS[why]
@@ -122,9 +126,10 @@ async def watch_supervision(
         started = clock()
         await sleep(period_s)
         overslept = clock() - started - period_s
-        if overslept > period_s:  # this process did not run: its inbox may hold renewals
+        if overslept > period_s and not deferring:  # not run: its inbox may hold renewals
+            if clock() >= grace_until:  # once per starved stretch, not per late tick
+                logger.warning("supervision_watchdog_starved", overslept_ms=round(overslept * 1000))
             grace_until = clock() + STARVED_GRACE_S
-            logger.warning("supervision_watchdog_starved", overslept_ms=round(overslept * 1000))
 
 
 @contextlib.asynccontextmanager

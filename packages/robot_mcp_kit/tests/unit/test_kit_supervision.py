@@ -331,3 +331,32 @@ async def test_without_starvation_a_lapse_ends_motion_at_the_first_look() -> Non
     # 0.8 s of 0.05 s periods: the look right after the lapse (16, or 17 by float rounding)
     assert len(checks_before_end) == 1
     assert checks_before_end[0] in (16, 17)
+
+
+async def test_a_server_late_on_every_tick_still_ends_motion_soon_after_the_lapse() -> None:
+    """A lag on every tick (a busy process) must not extend the grace for ever: a lapse waits
+    at most STARVED_GRACE_S and a tick (the CI run of stop 34 caught the unbounded version)."""
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)  # never renewed again: the brain is gone
+    sleep = StarvedSleep(clock, ticks=12)
+    for tick in range(1, 13):
+        sleep.starved[tick] = 0.15  # each 0.05 s sleep takes 0.2 s
+    ended_at: list[float] = []
+
+    async def end_motion(reason: str) -> None:
+        ended_at.append(clock.now)
+
+    watchdog = asyncio.create_task(
+        watch_supervision(
+            supervision, end_motion, lambda: not ended_at, 0.05, clock=clock, sleep=sleep
+        )
+    )
+    try:
+        async with asyncio.timeout(5):
+            await sleep.done.wait()
+    finally:
+        watchdog.cancel()
+
+    assert len(ended_at) == 1
+    assert ended_at[0] - 100.8 <= 0.25 + 0.2 + 1e-6  # the lapse, the grace, one late tick

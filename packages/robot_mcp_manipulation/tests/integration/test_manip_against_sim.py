@@ -31,8 +31,8 @@ TOPIC = "/vision/find_object/detections"
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """One robot-sim for the module: 8 robot seconds per wall second, a pick takes ~2 s (a
-    lapsed lease, 0.4 s, ends it well before)."""
+    """One robot-sim for the module: 8 robot seconds per wall second, a pick takes ~4 s (a
+    lapsed lease, 1 s + the 0.25 s grace, ends it well before)."""
     root = tmp_path_factory.mktemp("sim")
     launcher = ProcessLauncher(root)
     ready = root / "ready"
@@ -40,7 +40,7 @@ def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
         "SIM_SCENES_DIR": str(root / "scenes"),
         "SIM_TIME_SCALE": "8",
         "SIM_FAILURES": "off",
-        "SIM_PICK_S": "16",
+        "SIM_PICK_S": "32",
         "SIM_PLACE_S": "4",
         "SIM_READY_FILE": str(ready),
     }
@@ -63,13 +63,13 @@ class Rig:
     lease: asyncio.Task[None] | None = None
 
     def hold_lease(self) -> None:
-        """Renew the brain's lease every 0.1 s (TTL 0.4 s) over the ``supervise`` tool."""
+        """Renew the brain's lease every 0.1 s (TTL 1 s) over the ``supervise`` tool."""
 
         async def renew() -> None:
             async with Client(self.app.server) as brain:
                 while True:
                     await tool_answer(
-                        brain, "supervise", {"holder": "test-brain", "latched": False, "ttl_s": 0.4}
+                        brain, "supervise", {"holder": "test-brain", "latched": False, "ttl_s": 1.0}
                     )
                     await asyncio.sleep(0.1)
 

@@ -1,5 +1,7 @@
 """Counts robot-sim's camera frames (for ``sim_world.py``): published and received in a window,
-and keeps the robot driving between far places.
+and keeps the robot driving between far places; also the rates of its pose (``/amcl_pose``),
+odometry (``/odom``) and NavigateToPose feedback in the same window (10 Hz each as configured:
+the tests check the configuration, this measures what a loaded machine reaches).
 
 "Published" are the ``/camera/camera_info`` messages (small, sent with every image under the
 same stamp); "received" the images whose stamp is among them, by two readers in this process:
@@ -17,7 +19,9 @@ from functools import partial
 from typing import Any
 
 import rclpy
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav2_msgs.action import NavigateToPose
+from nav_msgs.msg import Odometry
 from rclpy.action.client import ActionClient
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
@@ -25,7 +29,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 from sim_camera_vision import wait_for
 
-from robot_sim.node import CAMERA_QOS
+from robot_sim.node import AMCL_QOS, CAMERA_QOS
 
 FAR = ["meeting_room", "kitchen", "mailroom", "dock"]
 READERS = {"depth1": 1, "depth10": 10}
@@ -63,12 +67,20 @@ class CameraCounter:
             self.node.create_subscription(
                 Image, "/camera/image_raw", partial(self._on_image, name), qos
             )
+        self.arrivals: dict[str, list[float]] = {"pose": [], "odom": [], "nav_feedback": []}
+        self.node.create_subscription(
+            PoseWithCovarianceStamped, "/amcl_pose", lambda _m: self._arrived("pose"), AMCL_QOS
+        )
+        self.node.create_subscription(Odometry, "/odom", lambda _m: self._arrived("odom"), 10)
         self.navigate = ActionClient(self.node, NavigateToPose, "/navigate_to_pose")
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
 
     def _on_image(self, reader: str, msg: Image) -> None:
         self.images[reader].append(stamp_of(msg))
+
+    def _arrived(self, stream: str) -> None:
+        self.arrivals[stream].append(time.monotonic())
 
     def window(self, t0: float, t1: float) -> dict[str, Any]:
         """Frames published in [t0, t1] and how many of them each reader received (fps)."""
@@ -82,6 +94,11 @@ class CameraCounter:
             received = len(published & set(self.images[name]))
             counts[f"frames_received_{name}"] = received
             counts[f"camera_fps_received_{name}"] = round(received / seconds, 2)
+        for stream, times in self.arrivals.items():
+            inside = [t for t in times if t0 <= t <= t1]
+            gaps = [b - a for a, b in itertools.pairwise(inside)]
+            counts[f"{stream}_hz"] = round(len(inside) / seconds, 2)
+            counts[f"{stream}_gap_ms_max"] = round(1000 * max(gaps), 1) if gaps else None
         return counts
 
     def keep_driving(self, world: Any, until: float) -> None:
@@ -97,7 +114,9 @@ class CameraCounter:
             goal.pose.pose.position.x, goal.pose.pose.position.y = place.x, place.y
             goal.pose.pose.orientation.z = math.sin(place.theta / 2)
             goal.pose.pose.orientation.w = math.cos(place.theta / 2)
-            sent = self.navigate.send_goal_async(goal)
+            sent = self.navigate.send_goal_async(
+                goal, feedback_callback=lambda _f: self._arrived("nav_feedback")
+            )
             wait_for(sent.done, 10.0, "goal response")
             result = sent.result().get_result_async()
             wait_for(lambda r=result: r.done() or time.monotonic() > until, 120.0, "arrival")

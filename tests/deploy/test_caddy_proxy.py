@@ -15,12 +15,14 @@ go to 127.0.0.1 with that name in the Host header and the TLS server name (no DN
 from __future__ import annotations
 
 import asyncio
+import gc
 import secrets
 import shutil
 import ssl
 import subprocess
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -263,7 +265,13 @@ def test_socketio_upgrades_to_a_websocket_through_the_proxy(proxied: Proxied) ->
         finally:
             await sio.disconnect()
 
-    assert asyncio.run(connect()) == "websocket"
+    # aiohttp (the client's transport) drops a TLS socket without waiting for its close
+    # (aio-libs/aiohttp#1925); now and then one is left for the garbage collector, and its
+    # ResourceWarning failed whichever test ran next. Collect it here, where it is known.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResourceWarning)
+        assert asyncio.run(connect()) == "websocket"
+        gc.collect()
 
 
 def test_socketio_without_a_session_is_refused_through_the_proxy(proxied: Proxied) -> None:

@@ -81,7 +81,7 @@ class NavigateToPoseServer:
         self._on_stopped = on_stopped
         self._drive = drive
         self._clock = clock
-        self._period = 1.0 / feedback_hz
+        self.feedback_period_s = 1.0 / feedback_hz
         self._lock = threading.Lock()
         self._active: _Run | None = None
         self._runs: dict[bytes, _Run] = {}
@@ -213,7 +213,7 @@ class NavigateToPoseServer:
                     if self._active is run:
                         self._drive.start(goal, self._clock())
                 continue
-            run.wake.wait(self._period)
+            run.wake.wait(self.feedback_period_s)
             run.wake.clear()
 
     def _hold(self, run: _Run, started: float) -> Any | None:
@@ -234,7 +234,7 @@ class NavigateToPoseServer:
                 self._stopped()
                 return self._abort(run, FAILED_TO_MAKE_PROGRESS, HELD_MESSAGE)
             run.handle.publish_feedback(self._feedback(state))
-            run.wake.wait(self._period)
+            run.wake.wait(self.feedback_period_s)
             run.wake.clear()
         return None
 

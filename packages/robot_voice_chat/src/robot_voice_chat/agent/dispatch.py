@@ -188,12 +188,9 @@ class TaskDispatcher:
         self.trace.record(
             run.mission.id, "tool_held", tool=call.name, arguments=args, step_id=step_id
         )
-        step = run.mission.step(step_id)
-        if step is not None and step.status == "running":  # the stop may not have seen it
-            step.set_status("failed", "safety stop")
-            await self.output.emit_plan(run)
+        held = await self._answer_held(run, call, step_id)
         await self.output.log_line(run, "tool_call", f"{call.name} held, not sent: safety stop")
-        return ToolResult(tool_call_id=call.id, content=held_error(call.name), is_error=True)
+        return held
 
     async def _stopped_in_flight(
         self, run: MissionRun, call: ToolCall, step_id: str | None
@@ -202,6 +199,13 @@ class TaskDispatcher:
         the stop's doing, answered like a call held by the stop (the planner waits for the
         person's continue or abort), not a failure of the mission's own."""
         logger.warning("motion_call_stopped_in_flight", tool=call.name, step_id=step_id)
+        return await self._answer_held(run, call, step_id)
+
+    async def _answer_held(
+        self, run: MissionRun, call: ToolCall, step_id: str | None
+    ) -> ToolResult:
+        """The step (if the stop has not marked it yet) fails "safety stop"; the planner gets
+        the held answer and waits for the person's continue or abort."""
         step = run.mission.step(step_id)
         if step is not None and step.status == "running":
             step.set_status("failed", "safety stop")

@@ -4,11 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Literal
+from typing import Annotated
 
 import platformdirs
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
+from robot_mcp_kit.settings_fields import (
+    LogLevel,
+    RosName,
+    StatePath,
+    empty_is_none,
+    settings_from_environ,
+)
 from robot_sim.manipulation_settings import ManipulationSettings
 
 APP_NAME = "robot-sim"
@@ -31,31 +38,35 @@ class SimSettings(BaseModel):
     model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
 
     world_path: Path = Field(default_factory=default_world_path, alias="SIM_WORLD")
-    map_path: Path | None = Field(default=None, alias="SIM_MAP")
-    scenes_dir: Path = Field(default_factory=default_scenes_dir, alias="SIM_SCENES_DIR")
+    map_path: Annotated[Path | None, BeforeValidator(empty_is_none)] = Field(
+        default=None, alias="SIM_MAP"
+    )
+    scenes_dir: StatePath = Field(default_factory=default_scenes_dir, alias="SIM_SCENES_DIR")
     time_scale: float = Field(default=1.0, gt=0.0, le=1000.0, alias="SIM_TIME_SCALE")
     failures_enabled: bool = Field(default=True, alias="SIM_FAILURES")
-    action_name: str = Field(default="/navigate_to_pose", alias="SIM_ACTION")
-    camera_topic: str = Field(default="/camera/image_raw", alias="SIM_CAMERA_TOPIC")
-    camera_info_topic: str = Field(default="/camera/camera_info", alias="SIM_CAMERA_INFO_TOPIC")
-    depth_topic: str = Field(default="/camera/depth/image_raw", alias="SIM_DEPTH_TOPIC")
+    action_name: RosName = Field(default="/navigate_to_pose", alias="SIM_ACTION")
+    camera_topic: RosName = Field(default="/camera/image_raw", alias="SIM_CAMERA_TOPIC")
+    camera_info_topic: RosName = Field(default="/camera/camera_info", alias="SIM_CAMERA_INFO_TOPIC")
+    depth_topic: RosName = Field(default="/camera/depth/image_raw", alias="SIM_DEPTH_TOPIC")
     scenes_keep: int = Field(default=64, ge=4, le=10_000, alias="SIM_SCENES_KEEP")
     moving_render_scale: float = Field(default=0.5, ge=0.1, le=1.0, alias="SIM_RENDER_SCALE_MOVING")
     camera_frame_id: str = Field(default="camera_optical_frame", alias="SIM_CAMERA_FRAME")
     camera_fps: float = Field(default=5.0, gt=0.0, le=30.0, alias="SIM_CAMERA_FPS")
     pose_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="SIM_POSE_HZ")
     feedback_hz: float = Field(default=10.0, gt=0.0, le=50.0, alias="SIM_FEEDBACK_HZ")
-    ready_file: Path | None = Field(default=None, alias="SIM_READY_FILE")
-    pick_action: str = Field(default="/manipulation/pick", alias="SIM_PICK_ACTION")
-    place_action: str = Field(default="/manipulation/place", alias="SIM_PLACE_ACTION")
-    held_topic: str = Field(default="/manipulation/held", alias="SIM_HELD_TOPIC")
+    ready_file: Annotated[Path | None, BeforeValidator(empty_is_none)] = Field(
+        default=None, alias="SIM_READY_FILE"
+    )
+    pick_action: RosName = Field(default="/manipulation/pick", alias="SIM_PICK_ACTION")
+    place_action: RosName = Field(default="/manipulation/place", alias="SIM_PLACE_ACTION")
+    held_topic: RosName = Field(default="/manipulation/held", alias="SIM_HELD_TOPIC")
     pick_s: float = Field(default=3.0, gt=0.0, le=120.0, alias="SIM_PICK_S")
     place_s: float = Field(default=2.0, gt=0.0, le=120.0, alias="SIM_PLACE_S")
     pick_max_age_s: float = Field(default=30.0, gt=0.0, le=3600.0, alias="SIM_PICK_MAX_AGE_S")
     # issue 27: honour the motion servers' dead-man locks like a robot's twist_mux (on in the
     # local stack, whose navigation server publishes one; off for robot-sim driven alone)
     supervisor_lock: bool = Field(default=False, alias="SIM_SUPERVISOR_LOCK")
-    supervisor_lock_topics: tuple[str, ...] = Field(
+    supervisor_lock_topics: tuple[RosName, ...] = Field(
         default=("/robot/supervisor_lock",), alias="SIM_SUPERVISOR_LOCK_TOPICS"
     )
     supervisor_lock_timeout_s: float = Field(
@@ -65,14 +76,7 @@ class SimSettings(BaseModel):
     progress_timeout_s: float = Field(
         default=10.0, gt=0.0, le=600.0, alias="SIM_PROGRESS_TIMEOUT_S"
     )
-    log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = Field(
-        default="INFO", alias="LOG_LEVEL"
-    )
-
-    @field_validator("map_path", "ready_file", mode="before")
-    @classmethod
-    def _empty_is_none(cls, value: object) -> object:
-        return None if value in ("", None) else value
+    log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
 
     @field_validator("supervisor_lock_topics", mode="before")
     @classmethod
@@ -83,16 +87,9 @@ class SimSettings(BaseModel):
 
     @field_validator("supervisor_lock_topics")
     @classmethod
-    def _lock_topics(cls, value: tuple[str, ...]) -> tuple[str, ...]:
-        if not value or any(not t.startswith("/") or " " in t for t in value):
+    def _some_lock_topic(cls, value: tuple[str, ...]) -> tuple[str, ...]:
+        if not value:
             raise ValueError("comma-separated absolute ROS names such as /robot/supervisor_lock")
-        return value
-
-    @field_validator("scenes_dir")
-    @classmethod
-    def _absolute(cls, value: Path) -> Path:
-        if not value.is_absolute():
-            raise ValueError("must be an absolute path (the working directory is not state)")
         return value
 
     def manipulation(self) -> ManipulationSettings:
@@ -105,37 +102,7 @@ class SimSettings(BaseModel):
             self.time_scale,
         )
 
-    @field_validator(
-        "action_name",
-        "camera_topic",
-        "camera_info_topic",
-        "depth_topic",
-        "pick_action",
-        "place_action",
-        "held_topic",
-    )
-    @classmethod
-    def _ros_name(cls, value: str) -> str:
-        if not value.startswith("/") or " " in value:
-            raise ValueError("must be an absolute ROS name such as /navigate_to_pose")
-        return value
-
-    @field_validator("log_level", mode="before")
-    @classmethod
-    def _upper(cls, value: object) -> object:
-        return value.upper() if isinstance(value, str) else value
-
-
-_ALIASES = {f.alias for f in SimSettings.model_fields.values() if f.alias is not None}
-
 
 def load_settings(environ: Mapping[str, str]) -> SimSettings:
     """Settings from an environment mapping; a bad value raises ConfigError naming it."""
-    values = {key: value for key, value in environ.items() if key in _ALIASES}
-    try:
-        return SimSettings.model_validate(values)
-    except ValidationError as exc:
-        problems = "; ".join(
-            f"{'.'.join(str(p) for p in err['loc'])}: {err['msg']}" for err in exc.errors()
-        )
-        raise ConfigError(f"invalid robot-sim settings: {problems}") from exc
+    return settings_from_environ(SimSettings, environ, "robot-sim", ConfigError)

@@ -149,7 +149,9 @@ async def questions_about_the_past(stack: RunningStack, label: str) -> None:
         said = last["reply"].lower()
         assert said.startswith(f"i last saw the {label} at"), last  # where it was put down
         assert "reception" in said, last
-        assert " ago (" in said, last
+        # when: "N s ago (hh:mm:ss UTC)", or "just now (…)" when the robot, still at reception,
+        # saw it less than a second before the question
+        assert " ago (" in said or "just now (" in said, last
 
         now = await user.send("where is the package now?")
         assert now["route"] == "fast", now

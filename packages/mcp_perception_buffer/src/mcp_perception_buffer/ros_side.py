@@ -123,7 +123,12 @@ class TopicFollower:
         now = self._clock()
         with self._lock:
             for skill, topics in graph.items():
-                self._follow(skill, topics)
+                # a skill not followed yet is followed once it publishes: its topics can stay in
+                # the graph without publishers (another reader, e.g. the episodic recorder, keeps
+                # them there after the skill stopped), and following those dropped and
+                # re-subscribed them every grace period, for as long as the reader lived
+                if skill in self._subs or self._publishes(topics):
+                    self._follow(skill, topics)
             for skill in list(self._subs):
                 if self._reconcile(skill):
                     self._silent_since.pop(skill, None)
@@ -131,6 +136,9 @@ class TopicFollower:
                 since = self._silent_since.setdefault(skill, now)
                 if now - since >= self._grace:
                     self._unfollow(skill)
+
+    def _publishes(self, topics: SkillTopics) -> bool:
+        return any(self._bridge.publisher_count(topic) > 0 for topic in topics.all())
 
     def refresh(self, skill: str) -> None:
         """Retire the entries of ``skill`` whose publishers left the graph (call before a

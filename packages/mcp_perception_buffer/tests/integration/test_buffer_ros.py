@@ -1,6 +1,7 @@
 """The buffer against a fake vision node in real rclpy: discovery, subscriptions, drops,
 recovery after a vision node restart, and signed watch events at a real HTTP receiver."""
 
+import asyncio
 import json
 import uuid
 from collections.abc import Iterator
@@ -117,6 +118,39 @@ async def test_a_new_skill_is_discovered_buffered_and_dropped_when_its_topics_go
             )
             gone = await call(client, "get_latest", {"skill": "find"})
             assert gone["_error"]["error"] == "unknown_skill"
+    finally:
+        await app.perception.close()
+
+
+async def test_a_stopped_skill_whose_topics_another_node_still_reads_stays_dropped(
+    vision: FakeVisionNode, bridge: RosBridge
+) -> None:
+    """The episodic recorder (any reader) keeps a stopped skill's topics in the graph with no
+    publisher: the buffer drops the skill once and does not follow it again (it used to
+    re-subscribe and drop it every grace period, for as long as the reader lived)."""
+    from ros2_vision_interfaces.msg import VisionDetectionArray
+
+    app = build_app(_config(vision), bridge=bridge)
+    tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+    await app.perception.start()
+    try:
+        with RosBridge(_name("reader")) as reader:
+            reader.create_subscription(
+                VisionDetectionArray, "/vision/find/detections_meta", lambda _m: None
+            )
+            reader.create_subscription(
+                VisionDetectionArray, "/vision/ghost/detections_meta", lambda _m: None
+            )
+            await tasks.create({"name": "find", "mode": "ground_and_segment", "grounding": "mug"})
+            following = lambda: app.perception.list_buffers()["following"]  # noqa: E731
+            await async_wait_until(lambda: "find" in following(), 10.0, "the skill followed")
+            await tasks.manage("find", "delete")
+            await async_wait_until(lambda: "find" not in following(), 10.0, "the skill dropped")
+            followed_again = []
+            for _ in range(20):  # 2 s: more than six grace periods (0.3 s) and graph polls
+                await asyncio.sleep(0.1)
+                followed_again += [s for s in following() if s in ("find", "ghost")]
+            assert followed_again == []
     finally:
         await app.perception.close()
 

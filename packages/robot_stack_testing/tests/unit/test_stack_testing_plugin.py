@@ -8,6 +8,7 @@ import socket
 import sys
 import time
 from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
@@ -18,7 +19,7 @@ from robot_stack_testing import (
     wait_for_tcp_port,
     wait_until,
 )
-from robot_stack_testing.plugin import pick_ros_domain_id, pytest_configure
+from robot_stack_testing.plugin import TEST_PROFILE, pick_ros_domain_id, pytest_configure
 
 
 def test_every_run_discovers_only_on_loopback_in_its_own_domain(ros_domain_id: int) -> None:
@@ -40,8 +41,20 @@ def test_a_fast_dds_profile_or_static_peers_from_the_shell_are_dropped_for_the_r
     monkeypatch.setenv("ROS_DOMAIN_ID", os.environ["ROS_DOMAIN_ID"])
     pytest_configure(pytestconfig)
     assert "ROS_STATIC_PEERS" not in os.environ
-    assert "FASTDDS_DEFAULT_PROFILES_FILE" not in os.environ
+    assert os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] == str(TEST_PROFILE)
     assert "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ
+
+
+def test_the_tests_profile_only_shortens_a_reliable_writers_heartbeat() -> None:
+    profiles = ElementTree.parse(TEST_PROFILE).getroot()
+    ns = {"dds": "http://www.eprosima.com"}
+    section = profiles.find("dds:profiles", ns)
+    assert section is not None
+    assert [child.tag.split("}")[1] for child in section] == ["data_writer"]
+    period = profiles.find(".//dds:data_writer/dds:times/dds:heartbeat_period", ns)
+    assert period is not None
+    sec, nanosec = period.findtext("dds:sec", "", ns), period.findtext("dds:nanosec", "", ns)
+    assert int(sec) + int(nanosec) / 1e9 == 0.1
 
 
 def test_domain_override_wins_over_random_choice(monkeypatch: pytest.MonkeyPatch) -> None:

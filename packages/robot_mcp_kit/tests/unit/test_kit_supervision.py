@@ -1,6 +1,7 @@
 import asyncio
 import json
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import pytest
 from mcp import Client
@@ -249,11 +250,23 @@ class StarvedSleep:
         await asyncio.sleep(0)
 
 
-async def run_watchdog(supervision: Supervision, clock: Clock, sleep: StarvedSleep) -> list[str]:
-    ended: list[str] = []
+@dataclass(frozen=True)
+class Ended:
+    """One call of the watchdog's ``end_motion``: why, when (the fake clock), after how many
+    sleeps."""
+
+    reason: str
+    at: float
+    sleeps: int
+
+
+async def run_watchdog(supervision: Supervision, clock: Clock, sleep: StarvedSleep) -> list[Ended]:
+    """The watchdog (0.05 s period) until ``sleep`` has run its ticks; motion is under way until
+    the first end."""
+    ended: list[Ended] = []
 
     async def end_motion(reason: str) -> None:
-        ended.append(reason)
+        ended.append(Ended(reason, clock.now, sleep.calls))
 
     watchdog = asyncio.create_task(
         watch_supervision(
@@ -304,7 +317,9 @@ async def test_a_lapse_after_starvation_still_ends_motion_once_the_grace_is_over
 
     ended = await run_watchdog(supervision, clock, sleep)
 
-    assert ended == ["supervision was lost: the supervising brain stopped renewing its lease"]
+    assert [end.reason for end in ended] == [
+        "supervision was lost: the supervising brain stopped renewing its lease"
+    ]
 
 
 async def test_without_starvation_a_lapse_ends_motion_at_the_first_look() -> None:
@@ -312,25 +327,12 @@ async def test_without_starvation_a_lapse_ends_motion_at_the_first_look() -> Non
     supervision = supervised(clock)
     supervision.renew("brain-1", 0.8, latched=False)
     sleep = StarvedSleep(clock, ticks=30)
-    checks_before_end: list[int] = []
 
-    async def end_motion(reason: str) -> None:
-        checks_before_end.append(sleep.calls)
-
-    watchdog = asyncio.create_task(
-        watch_supervision(
-            supervision, end_motion, lambda: not checks_before_end, 0.05, clock=clock, sleep=sleep
-        )
-    )
-    try:
-        async with asyncio.timeout(5):
-            await sleep.done.wait()
-    finally:
-        watchdog.cancel()
+    ended = await run_watchdog(supervision, clock, sleep)
 
     # 0.8 s of 0.05 s periods: the look right after the lapse (16, or 17 by float rounding)
-    assert len(checks_before_end) == 1
-    assert checks_before_end[0] in (16, 17)
+    assert len(ended) == 1
+    assert ended[0].sleeps in (16, 17)
 
 
 async def test_a_server_late_on_every_tick_still_ends_motion_soon_after_the_lapse() -> None:
@@ -342,21 +344,8 @@ async def test_a_server_late_on_every_tick_still_ends_motion_soon_after_the_laps
     sleep = StarvedSleep(clock, ticks=12)
     for tick in range(1, 13):
         sleep.starved[tick] = 0.15  # each 0.05 s sleep takes 0.2 s
-    ended_at: list[float] = []
 
-    async def end_motion(reason: str) -> None:
-        ended_at.append(clock.now)
+    ended = await run_watchdog(supervision, clock, sleep)
 
-    watchdog = asyncio.create_task(
-        watch_supervision(
-            supervision, end_motion, lambda: not ended_at, 0.05, clock=clock, sleep=sleep
-        )
-    )
-    try:
-        async with asyncio.timeout(5):
-            await sleep.done.wait()
-    finally:
-        watchdog.cancel()
-
-    assert len(ended_at) == 1
-    assert ended_at[0] - 100.8 <= 0.25 + 0.2 + 1e-6  # the lapse, the grace, one late tick
+    assert len(ended) == 1
+    assert ended[0].at - 100.8 <= 0.25 + 0.2 + 1e-6  # the lapse, the grace, one late tick

@@ -252,6 +252,21 @@ def test_navigation_is_installed_to_drive_the_robots_nav2_over_ros(installed: Pa
     assert "/dev/shm" in unit_values(service, "ReadWritePaths")  # Fast DDS shared memory
 
 
+def test_the_motion_servers_run_with_a_100_ms_dds_writer_heartbeat(installed: Path) -> None:
+    """The lock and the feedback repair a lost sample in ~0.1 s (RUNBOOK "Supervision"); a robot's
+    own profile in ros.env overrides the unit's line (EnvironmentFile= wins over Environment=)."""
+    for name in ("robot-mcp-navigation", "robot-mcp-manipulation"):
+        service = installed / f"etc/systemd/system/{name}.service"
+        (profile,) = [
+            v.split("=", 1)[1]
+            for v in unit_values(service, "Environment")
+            if v.startswith("FASTDDS_DEFAULT_PROFILES_FILE=")
+        ]
+        assert profile == "/opt/robot-stack/deploy/fastdds-motion-servers.xml"
+        assert (installed / profile.lstrip("/")).is_file()
+        assert unit_values(service, "EnvironmentFile")[0] == "/etc/robot-stack/ros.env"
+
+
 def test_users_and_units_are_created_and_enabled(installed: Path) -> None:
     actions = (installed / "install-actions.log").read_text().splitlines()
     useradds = [a for a in actions if a.startswith("useradd ")]

@@ -149,6 +149,10 @@ def test_launch_arguments_change_what_the_node_gets(description: list[Recorded])
 
 
 @pytest.mark.slow
+# The build takes 22 s on the idle 2-core machine and 46 s under two busy loops (measured,
+# issue 39); a CI beside two more stacks (load 15-27) ran past the suite's 120 s default. Its
+# deadline is sized from those figures with room for that load, not the unit-test default.
+@pytest.mark.timeout(600)
 def test_colcon_builds_the_ros_packages_against_the_pip_wheels(tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if not k.startswith(("AMENT_", "COLCON_"))}
     result = subprocess.run(
@@ -156,7 +160,7 @@ def test_colcon_builds_the_ros_packages_against_the_pip_wheels(tmp_path: Path) -
         capture_output=True,
         text=True,
         env=env,
-        timeout=900,
+        timeout=570,  # ends a hung build inside the test's own 600 s, with a clear TimeoutExpired
         check=False,
     )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]

@@ -253,7 +253,9 @@ def test_the_operator_watches_the_robot_go_round_the_closed_door_and_finish(
     # The robot sees the mailroom's west door closed (its costmap): the map marks the way
     # blocked and the plan swings round by the east corridor.
     expect(map_region.get_by_test_id("blocked")).to_have_count(1, timeout=STEP_TIMEOUT_MS)
-    wait_until(lambda: robot_xy(page)[0] > 17.5, STEP_TIMEOUT_MS / 1000, "the robot in the east corridor")
+    wait_until(
+        lambda: robot_xy(page)[0] > 17.5, STEP_TIMEOUT_MS / 1000, "the robot in the east corridor"
+    )
     shoot(page, "04-detour")
     shoot(tablet, "04-detour")
 

@@ -19,6 +19,10 @@ from robot_mcp_kit.settings_fields import (
 from robot_sim.manipulation_settings import ManipulationSettings
 
 APP_NAME = "robot-sim"
+BASE_LOCK_TOPIC = "/robot/supervisor_lock"
+"""The navigation server's dead-man lock (``NAV_LOCK_TOPIC``): the base's twist_mux lock."""
+ARM_LOCK_TOPIC = "/robot/supervisor_lock/manipulation"
+"""The manipulation server's dead-man lock (``MANIP_LOCK_TOPIC``): the arm controller's gate."""
 
 
 def default_world_path() -> Path:
@@ -66,8 +70,13 @@ class SimSettings(BaseModel):
     # issue 27: honour the motion servers' dead-man locks like a robot's twist_mux (on in the
     # local stack, whose navigation server publishes one; off for robot-sim driven alone)
     supervisor_lock: bool = Field(default=False, alias="SIM_SUPERVISOR_LOCK")
+    # the base's locks (twist_mux in front of the base controller)
     supervisor_lock_topics: tuple[RosName, ...] = Field(
-        default=("/robot/supervisor_lock",), alias="SIM_SUPERVISOR_LOCK_TOPICS"
+        default=(BASE_LOCK_TOPIC,), alias="SIM_SUPERVISOR_LOCK_TOPICS"
+    )
+    # issue 39: the arm's locks (its controller's command gate): the manipulation server's
+    arm_lock_topics: tuple[RosName, ...] = Field(
+        default=(ARM_LOCK_TOPIC,), alias="SIM_ARM_LOCK_TOPICS"
     )
     supervisor_lock_timeout_s: float = Field(
         default=0.5, gt=0.0, le=5.0, alias="SIM_SUPERVISOR_LOCK_TIMEOUT_S"
@@ -78,18 +87,21 @@ class SimSettings(BaseModel):
     )
     log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
 
-    @field_validator("supervisor_lock_topics", mode="before")
+    @field_validator("supervisor_lock_topics", "arm_lock_topics", mode="before")
     @classmethod
     def _topic_list(cls, value: object) -> object:
         if isinstance(value, str):
             return tuple(t.strip() for t in value.split(",") if t.strip())
         return value
 
-    @field_validator("supervisor_lock_topics")
+    @field_validator("supervisor_lock_topics", "arm_lock_topics")
     @classmethod
     def _some_lock_topic(cls, value: tuple[str, ...]) -> tuple[str, ...]:
         if not value:
-            raise ValueError("comma-separated absolute ROS names such as /robot/supervisor_lock")
+            raise ValueError(
+                f"comma-separated absolute ROS names such as {BASE_LOCK_TOPIC} (a part with "
+                "no lock could never be stopped by supervision)"
+            )
         return value
 
     def manipulation(self) -> ManipulationSettings:

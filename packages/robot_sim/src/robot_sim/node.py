@@ -30,7 +30,7 @@ from robot_sim.gripper import Gripper
 from robot_sim.manipulation_server import ManipulationServer
 from robot_sim.nav2_server import NavigateToPoseServer
 from robot_sim.render.renderer import camera_matrix
-from robot_sim.supervisor_lock import SupervisorLockGate
+from robot_sim.supervisor_lock import ArmLockGate, SupervisorLockGate
 from robot_sim.world_params import HELD, WorldParameters, objects_parameter
 
 logger = structlog.get_logger(__name__)
@@ -86,6 +86,7 @@ class SimNode(Node):
             wall,
         )
         self.lock: SupervisorLockGate | None = None
+        self.arm_lock: ArmLockGate | None = None
         if settings.supervisor_lock:  # twist_mux's locks in front of the drive (issue 27)
             self.lock = SupervisorLockGate(
                 self,
@@ -96,7 +97,11 @@ class SimNode(Node):
                 self.navigator.wake,
             )
             self.navigator.held = self.lock.locked
-            self.manipulation.held = self.lock.locked  # the arm's controller stops too
+            # the arm's controller obeys its own server's lock (issue 39), not twist_mux's
+            self.arm_lock = ArmLockGate(
+                self, settings.arm_lock_topics, settings.supervisor_lock_timeout_s, wall
+            )
+            self.manipulation.held = self.arm_lock.locked
             self.manipulation.held_timeout_s = settings.progress_timeout_s
             self.navigator.progress_timeout_s = settings.progress_timeout_s
         self._amcl = self.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", AMCL_QOS)

@@ -20,6 +20,15 @@ ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105) once the progre
 (``nav2_server``, ``SIM_PROGRESS_TIMEOUT_S``); a goal sent while locked waits the same way. The
 motion servers cancel their own goals when supervision ends, so a goal resumes only after a
 brief lock its server never saw end (a starved host), never after a lapse or a latch.
+
+The arm has its own locks (issue 39): a robot's arm controller (its safety controller or its
+ros2_control command gate) sits behind the manipulation server's lock
+(``/robot/supervisor_lock/manipulation``), never behind twist_mux — a dead arm server must not
+hold the wheels of a robot that can still drive, and a dead navigation server must not freeze an
+arm mid-grasp that its own supervised server still runs. :class:`ArmLockGate` is that gate: the
+same rules (never heard, ``true`` or silent longer than the timeout = locked); while locked the
+gripper's pick or place stands still (``manipulation_server``) and gives up ``ARM_NOT_READY``
+after ``SIM_PROGRESS_TIMEOUT_S``.
 """
 
 from __future__ import annotations
@@ -43,7 +52,61 @@ CHECK_HZ = 50.0
 """How often a silent lock is looked for (a ``true`` halts at once, on arrival)."""
 
 
+class DeadManLocks:
+    """One twist_mux-rules lock per topic (``robot_ros_bridge.dead_man_lock``), subscribed
+    reliable like twist_mux; ``on_true`` runs when a ``true`` arrives (a halt at once)."""
+
+    def __init__(
+        self,
+        node: Node,
+        topics: Sequence[str],
+        timeout_s: float,
+        clock: Callable[[], float],
+        group: MutuallyExclusiveCallbackGroup,
+        on_true: Callable[[], None] = lambda: None,
+    ) -> None:
+        self._clock = clock
+        self._on_true = on_true
+        self._mutex = threading.Lock()
+        self._locks = {topic: TwistMuxLock(timeout_s, LOCK_PRIORITY) for topic in topics}
+        self.started = clock()
+        for topic in topics:
+            node.create_subscription(
+                Bool, topic, self._subscriber(topic), LOCK_QOS, callback_group=group
+            )
+
+    def _subscriber(self, topic: str) -> Callable[[Any], None]:
+        def on_message(msg: Any) -> None:
+            with self._mutex:
+                self._locks[topic].on_message(bool(msg.data), self._clock())
+            if msg.data:
+                self._on_true()
+
+        return on_message
+
+    def held_by(self, now: float | None = None) -> list[str]:
+        """The lock topics that are locked now (empty: the part may move)."""
+        now = self._clock() if now is None else now
+        with self._mutex:
+            return [topic for topic, lock in self._locks.items() if lock.is_locked(now)]
+
+    def engaged_at(self, now: float) -> float:
+        """When the locks that hold now engaged (twist_mux's view: a ``true`` when it came,
+        a silent lock when its timeout ran out, one never heard since we started)."""
+        with self._mutex:
+            times = [
+                lock.stamp
+                if lock.data and lock.stamp is not None
+                else (lock.stamp + lock.timeout_s if lock.stamp is not None else self.started)
+                for lock in self._locks.values()
+                if lock.is_locked(now)
+            ]
+        return min(times, default=now)
+
+
 class SupervisorLockGate:
+    """The base's locks (twist_mux in front of the base controller): the drive halts."""
+
     def __init__(
         self,
         node: Node,
@@ -56,66 +119,38 @@ class SupervisorLockGate:
         self._drive = drive
         self._clock = clock
         self._on_halt = on_halt
-        self._mutex = threading.Lock()
         self._enforcing = threading.Lock()  # the gate's timer and the pose timer
-        self._locks = {topic: TwistMuxLock(timeout_s, LOCK_PRIORITY) for topic in topics}
-        self._was_locked: bool | None = None
-        self._started = clock()
-        self._last_open = self._started  # the last moment the locks were seen open
         group = MutuallyExclusiveCallbackGroup()
-        for topic in topics:
-            node.create_subscription(
-                Bool, topic, self._subscriber(topic), LOCK_QOS, callback_group=group
-            )
+        self._locks = DeadManLocks(node, topics, timeout_s, clock, group, self.enforce)
+        self._was_locked: bool | None = None
+        self._last_open = self._locks.started  # the last moment the locks were seen open
         node.create_timer(1.0 / CHECK_HZ, self.enforce, callback_group=group)
-        logger.info("supervisor_lock_honoured", topics=list(topics), timeout_s=timeout_s)
-
-    def _subscriber(self, topic: str) -> Callable[[Any], None]:
-        def on_message(msg: Any) -> None:
-            with self._mutex:
-                self._locks[topic].on_message(bool(msg.data), self._clock())
-            if msg.data:
-                self.enforce()
-
-        return on_message
+        logger.info(
+            "supervisor_lock_honoured", part="base", topics=list(topics), timeout_s=timeout_s
+        )
 
     def held_by(self) -> list[str]:
         """The lock topics that hold the base now (empty: velocity commands pass)."""
-        now = self._clock()
-        with self._mutex:
-            return [topic for topic, lock in self._locks.items() if lock.is_locked(now)]
+        return self._locks.held_by()
 
     def locked(self) -> bool:
         return bool(self.held_by())
-
-    def _engaged_at(self, now: float) -> float:
-        """When the locks that hold now engaged (twist_mux's view: a ``true`` when it came,
-        a silent lock when its timeout ran out, one never heard since we started)."""
-        with self._mutex:
-            times = [
-                lock.stamp
-                if lock.data and lock.stamp is not None
-                else (lock.stamp + lock.timeout_s if lock.stamp is not None else self._started)
-                for lock in self._locks.values()
-                if lock.is_locked(now)
-            ]
-        return min(times, default=now)
 
     def enforce(self) -> None:
         """Halt the drive while any lock is locked; log each change of the locks."""
         with self._enforcing:
             now = self._clock()
-            held = self.held_by()
+            held = self._locks.held_by(now)
             if bool(held) != self._was_locked:
                 self._was_locked = bool(held)
                 if held:
-                    logger.warning("supervisor_lock_engaged", topics=held)
+                    logger.warning("supervisor_lock_engaged", part="base", topics=held)
                 else:
-                    logger.info("supervisor_lock_released")
+                    logger.info("supervisor_lock_released", part="base")
             if not held:
                 self._last_open = now
                 return
-            at = min(now, max(self._engaged_at(now), self._last_open))
+            at = min(now, max(self._locks.engaged_at(now), self._last_open))
             if not self._drive.state(at).driving:  # (advancing the drive no further than at)
                 return
             state = self._drive.halt(at)
@@ -127,3 +162,43 @@ class SupervisorLockGate:
                 y=round(state.pose.y, 2),
             )
         self._on_halt()
+
+
+class ArmLockGate:
+    """The arm's locks (the arm controller's command gate): ``locked()`` holds the gripper's
+    running pick or place where it is (``ManipulationServer.held``); each change is logged."""
+
+    def __init__(
+        self,
+        node: Node,
+        topics: Sequence[str],
+        timeout_s: float,
+        clock: Callable[[], float],
+    ) -> None:
+        self._mutex = threading.Lock()
+        group = MutuallyExclusiveCallbackGroup()
+        self._locks = DeadManLocks(node, topics, timeout_s, clock, group, self.check)
+        self._was_locked: bool | None = None
+        node.create_timer(1.0 / CHECK_HZ, self.check, callback_group=group)
+        logger.info(
+            "supervisor_lock_honoured", part="arm", topics=list(topics), timeout_s=timeout_s
+        )
+
+    def held_by(self) -> list[str]:
+        """The lock topics that hold the arm now (empty: the arm may move)."""
+        return self._locks.held_by()
+
+    def locked(self) -> bool:
+        return bool(self.held_by())
+
+    def check(self) -> None:
+        """Log each change of the arm's locks (the gripper reads ``locked`` itself)."""
+        held = self.held_by()
+        with self._mutex:
+            if bool(held) == self._was_locked:
+                return
+            self._was_locked = bool(held)
+        if held:
+            logger.warning("supervisor_lock_engaged", part="arm", topics=held)
+        else:
+            logger.info("supervisor_lock_released", part="arm")

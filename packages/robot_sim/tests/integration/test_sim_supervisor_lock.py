@@ -23,6 +23,7 @@ from .conftest import Received, Sim
 
 pytestmark = pytest.mark.ros
 LOCK = "/robot/supervisor_lock"
+ARM_LOCK = "/robot/supervisor_lock/manipulation"
 
 
 @pytest.fixture
@@ -122,8 +123,22 @@ def test_a_silent_lock_publisher_halts_the_drive_after_the_timeout(
     wait_until(lambda: still_since(sim.amcl, 0.5), 10, "the pose still")
 
 
-def test_the_arm_obeys_the_same_locks_as_the_base(sim: Sim) -> None:
+def test_the_arm_obeys_its_own_servers_lock_over_ros_and_the_base_its_own(
+    sim: Sim, lock: LockTopic
+) -> None:
+    """Issue 39: with the base's lock open the arm is still held until the manipulation
+    server's lock (never heard here) says otherwise; the arm gives up as the base does."""
     assert sim.node.lock is not None
-    assert sim.node.manipulation.held == sim.node.lock.locked
-    assert sim.node.manipulation.held()  # never heard: locked
+    assert sim.node.arm_lock is not None
+    wait_until(lambda: not sim.node.lock.locked(), 10, "the base's lock open")
+    assert sim.node.manipulation.held == sim.node.arm_lock.locked
+    assert sim.node.arm_lock.held_by() == [ARM_LOCK]  # never heard: locked
+    arm = sim.client.create_publisher(Bool, ARM_LOCK, LOCK_QOS)
+    timer = sim.client.create_timer(0.05, lambda: arm.publish(Bool(data=False)))
+    wait_until(lambda: not sim.node.manipulation.held(), 10, "the arm's lock open")
+
+    sim.client.destroy_timer(timer)  # the arm's server died
+
+    wait_until(sim.node.manipulation.held, 10, "the arm held by its silent lock")
+    assert not sim.node.lock.locked()  # the base's lock stays open: its wheels may turn
     assert sim.node.manipulation.held_timeout_s == 1.5  # SIM_PROGRESS_TIMEOUT_S, as the base

@@ -1,16 +1,26 @@
 import asyncio
+import contextlib
+import dataclasses
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
 
 import pytest
 from mcp import Client
 from mcp.server.mcpserver import MCPServer
 
-from robot_mcp_kit.mcp_runtime import install_json_tool_errors
+from robot_mcp_kit.caller import PRINCIPAL_SCOPE_KEY, CallerContext
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors, parse_tool_error
 from robot_mcp_kit.supervision import (
+    FOREIGN_HOLDER,
+    LOCK_TOPIC_SHARED,
+    NOT_PERMITTED,
     NOT_SUPERVISED,
+    POSE_TOPIC_SHARED,
     SAFETY_STOP_LATCHED,
+    SUPERVISION_ALARM,
     LeaseError,
     Supervision,
 )
@@ -349,3 +359,244 @@ async def test_a_server_late_on_every_tick_still_ends_motion_soon_after_the_laps
 
     assert len(ended) == 1
     assert ended[0].at - 100.8 <= 0.25 + 0.2 + 1e-6  # the lapse, the grace, one late tick
+
+
+# -- issue 35: the lease is the brain's alone, alarms, the sweep below -------------------------
+
+
+class AsPrincipal:
+    """Test middleware: every request arrives as ``principal`` had presented its credential."""
+
+    def __init__(self, principal: str) -> None:
+        self.principal = principal
+
+    async def __call__(self, ctx: Any, call_next: Any) -> Any:
+        request = SimpleNamespace(scope={PRINCIPAL_SCOPE_KEY: self.principal})
+        return await CallerContext()(dataclasses.replace(ctx, request=request), call_next)
+
+
+def motion_server(supervision: Supervision, principal: str | None) -> MCPServer:
+    server = MCPServer("motion")
+    install_json_tool_errors(server)
+    if principal is not None:
+        server.middleware.append(AsPrincipal(principal))
+    add_supervise_tool(server, supervision)
+    return server
+
+
+@pytest.mark.parametrize("principal", ["operator", "anonymous", "mallory"])
+async def test_supervise_from_anyone_but_the_brain_is_not_permitted_and_changes_nothing(
+    principal: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=True, reason="person in the way")
+
+    async with Client(motion_server(supervision, principal)) as client:
+        lifted = await client.call_tool(
+            "supervise", {"holder": "brain-1", "latched": False, "ttl_s": 2}
+        )
+
+    assert lifted.is_error
+    error = parse_tool_error(lifted.content[0].text)  # type: ignore[union-attr]
+    assert error is not None
+    assert error["error"] == NOT_PERMITTED
+    assert principal in error["detail"]
+    assert supervision.refusal() is not None  # still latched
+    assert supervision.refusal().code == SAFETY_STOP_LATCHED  # type: ignore[union-attr]
+    assert supervision.locked()
+    logged = capsys.readouterr().out
+    assert "supervise_refused" in logged
+
+
+@pytest.mark.parametrize("principal", ["brain", None])  # None: the in-process (local) parent
+async def test_the_brain_and_the_local_parent_still_renew_the_lease(principal: str | None) -> None:
+    supervision = Supervision(max_ttl_s=2.0)
+
+    async with Client(motion_server(supervision, principal)) as client:
+        ok = await client.call_tool("supervise", {"holder": "brain-1", "latched": False})
+
+    answer = json.loads(ok.content[0].text)  # type: ignore[union-attr]
+    assert not ok.is_error
+    assert answer["supervised"] is True
+    assert answer["lock"] == "open"
+    assert answer["alarms"] == []
+
+
+async def test_another_holder_while_the_lease_is_fresh_is_an_intrusion_alarm() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+
+    async with Client(motion_server(supervision, "brain")) as client:
+        intruded = await client.call_tool(
+            "supervise", {"holder": "x", "latched": False, "ttl_s": 2}
+        )
+        status = json.loads(
+            (await client.call_tool("supervise", {"holder": "brain-1", "latched": False}))
+            .content[0]
+            .text  # type: ignore[union-attr]
+        )
+
+    assert intruded.is_error
+    assert parse_tool_error(intruded.content[0].text)["error"] == NOT_PERMITTED  # type: ignore[index,union-attr]
+    assert supervision.lease is not None
+    assert supervision.lease.holder == "brain-1"
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == SUPERVISION_ALARM
+    assert FOREIGN_HOLDER in refused.detail
+    assert supervision.locked()
+    assert status["lock"] == "locked"
+    assert [a["code"] for a in status["alarms"]] == [FOREIGN_HOLDER]
+    assert "someone other than the supervising brain" in status["alarms"][0]["detail"]
+    assert isinstance(status["alarms"][0]["at"], float)
+
+
+def test_a_new_holder_is_taken_without_alarm_after_a_lapse_or_a_release() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=True)
+    clock.now += 1.0  # lapsed: the brain restarted
+    supervision.renew("brain-2", 0.8, latched=True)
+    supervision.release("brain-2")
+    supervision.renew("brain-3", 0.8, latched=False)
+
+    assert supervision.alarms() == []
+    assert supervision.lease is not None
+    assert supervision.lease.holder == "brain-3"
+
+
+def test_an_alarm_is_acknowledged_only_by_the_holders_latched_renewal_once_its_cause_is_gone() -> (
+    None
+):
+    clock = Clock()
+    supervision = supervised(clock, alarm_quiet_s=1.0)
+    supervision.renew("brain-1", 0.8, latched=False)
+    assert supervision.raise_alarm(LOCK_TOPIC_SHARED, "a second publisher")
+    assert not supervision.raise_alarm(LOCK_TOPIC_SHARED, "a second publisher")  # not new
+
+    clock.now += 0.5
+    supervision.renew("brain-1", 0.8, latched=True)  # the cause was seen 0.5 s ago: stays
+    assert [a.code for a in supervision.alarms()] == [LOCK_TOPIC_SHARED]
+    clock.now += 0.6
+    supervision.renew("brain-1", 0.8, latched=False)  # not latched: no acknowledgement
+    assert [a.code for a in supervision.alarms()] == [LOCK_TOPIC_SHARED]
+    supervision.renew("brain-1", 0.8, latched=True)
+
+    assert supervision.alarms() == []
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == SAFETY_STOP_LATCHED  # the brain's latch
+
+
+def test_a_standing_condition_keeps_its_alarm_through_every_acknowledgement() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    for _ in range(10):
+        supervision.raise_alarm(POSE_TOPIC_SHARED, "a second publisher on /amcl_pose")
+        supervision.renew("brain-1", 0.8, latched=True)
+        clock.now += 0.2
+    assert [a.code for a in supervision.alarms()] == [POSE_TOPIC_SHARED]
+
+
+def test_after_a_stop_the_lock_opens_only_once_the_goals_below_were_swept() -> None:
+    clock = Clock()
+    supervision = supervised(clock, sweeps=True)
+    supervision.renew("brain-1", 0.8, latched=False)
+    assert supervision.sweep_due() is None
+    assert not supervision.locked()
+
+    supervision.renew("brain-1", 0.8, latched=True)
+    assert supervision.sweep_due() is None  # owed, but only once the stop ended
+    supervision.renew("brain-1", 0.8, latched=False)  # Clear stop
+    stops = supervision.sweep_due()
+    assert stops is not None
+
+    assert supervision.locked()
+    refused = supervision.refusal()
+    assert refused is not None
+    assert refused.code == SAFETY_STOP_LATCHED
+    assert supervision.status()["latched"] is True  # the brain waits for this to turn false
+    supervision.mark_swept(stops)
+    assert not supervision.locked()
+    assert supervision.refusal() is None
+
+
+def test_a_lapse_is_a_stop_whose_sweep_comes_before_the_lock_opens_again() -> None:
+    clock = Clock()
+    supervision = supervised(clock, sweeps=True)
+    supervision.renew("brain-1", 0.8, latched=False)
+    clock.now += 1.0
+    supervision.renew("brain-1", 0.8, latched=False)  # back after a lapse
+
+    due = supervision.sweep_due()
+    assert due is not None
+    assert supervision.locked()
+    supervision.mark_swept(due)
+    assert not supervision.locked()
+
+
+async def test_the_watchdog_cancels_every_goal_below_on_a_stop_and_again_before_reopening() -> None:
+    clock = Clock()
+    supervision = supervised(clock, sweeps=True)
+    supervision.renew("brain-1", 0.8, latched=False)
+    swept: list[bool] = []
+
+    async def cancel_all() -> bool:
+        swept.append(supervision.locked())
+        return True
+
+    assert supervision.sweep_due() is None
+
+    async def end_motion(reason: str) -> None:
+        return None
+
+    watchdog = asyncio.create_task(
+        watch_supervision(
+            supervision, end_motion, lambda: False, period_s=0.005, cancel_all=cancel_all
+        )
+    )
+    try:
+        supervision.renew("brain-1", 0.8, latched=True)
+        await async_wait(lambda: len(swept) >= 1)
+        supervision.renew("brain-1", 0.8, latched=False)
+        await async_wait(lambda: not supervision.locked())
+    finally:
+        watchdog.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await watchdog
+
+    assert len(swept) == 2  # once on the latch, once after the clear before the lock opened
+    assert swept == [True, True]  # locked both times
+
+
+async def test_an_alarm_ends_running_motion_at_once_naming_it() -> None:
+    clock = Clock()
+    supervision = supervised(clock)
+    supervision.renew("brain-1", 0.8, latched=False)
+    ended: list[str] = []
+
+    async def end_motion(reason: str) -> None:
+        ended.append(reason)
+
+    watchdog = asyncio.create_task(
+        watch_supervision(supervision, end_motion, lambda: not ended, period_s=0.005)
+    )
+    try:
+        await asyncio.sleep(0.02)
+        supervision.raise_alarm(LOCK_TOPIC_SHARED, "another node publishes the lock topic")
+        await async_wait(lambda: bool(ended))
+    finally:
+        watchdog.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await watchdog
+
+    assert ended[0].startswith("supervision raised an alarm")
+    assert "LOCK_TOPIC_SHARED" in ended[0]
+
+
+async def async_wait(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
+    async with asyncio.timeout(timeout_s):
+        while not condition():  # noqa: ASYNC110 - polls state the watchdog changes
+            await asyncio.sleep(0.002)

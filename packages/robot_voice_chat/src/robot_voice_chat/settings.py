@@ -170,6 +170,9 @@ class ChatConfig(BaseModel):
     max_tool_rounds: int = Field(4, ge=1)
     history_turns: int = Field(10, ge=0)
     turn_timeout_s: float = Field(60.0, gt=0)
+    # "I'm busy" for a mission that is already running is said aloud once per burst: again
+    # only after this long without one (each turn still gets it on screen; issue 39)
+    busy_reply_repeat_s: float = Field(30.0, ge=0)
     # Tools of motion servers the fast path may call (they do not move the robot).
     motion_read_tools: list[str] = Field(
         default_factory=lambda: ["get_pose", "list_locations", "get_task", "list_tasks"]

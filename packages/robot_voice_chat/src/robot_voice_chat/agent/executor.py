@@ -11,6 +11,7 @@ from pathlib import Path
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
+from robot_voice_chat.agent.abort import abort_run, busy_note, is_abort
 from robot_voice_chat.agent.archive import MissionArchive
 from robot_voice_chat.agent.bargein import BargeIn
 from robot_voice_chat.agent.dispatch import TaskDispatcher
@@ -28,7 +29,6 @@ from robot_voice_chat.agent.run import (
     SafetyStopLatchedError,
 )
 from robot_voice_chat.agent.skills import SkillLedger
-from robot_voice_chat.agent.supervision_words import stop_hint
 from robot_voice_chat.agent.task_registry import TaskRegistry
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
@@ -201,6 +201,15 @@ class MissionExecutor:
         mission = run.mission
         if self.is_stop(text):
             return await self.safety_stop(reason=f"user said {text!r}")
+        if mission.state != "paused" and is_abort(text):  # heard at once, also over a question
+            await self.output.log_line(run, "user_turn", text)
+            return await abort_run(
+                run,
+                text=text,
+                registry=self.registry,
+                dispatcher=self.dispatcher,
+                approvals=self.approvals,
+            )
         if self.approvals is not None:  # a yes/no to the approval the mission waits for
             answer = self.approvals.answer_from_chat(text, run.mission.id, acting())
             if answer is not None:
@@ -222,10 +231,7 @@ class MissionExecutor:
             echoed = plain_instruction(mission.instruction)
             return f"Your answer went to the paused mission ({echoed})."
         run.post(f"[user] {text}")
-        return (
-            f"I'm busy with a mission ({plain_instruction(mission.instruction)}; it is "
-            f"{mission.state}); your message went to it.{stop_hint(self.supervisor)}"
-        )
+        return busy_note(mission, self.supervisor)
 
     def _held_by_latch(self, run: MissionRun, text: str) -> str | None:
         """While the software stop is latched a paused mission cannot go on: an answer other

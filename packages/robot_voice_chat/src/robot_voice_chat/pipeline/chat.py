@@ -48,10 +48,11 @@ class TurnResult:
 
 
 def busy_message(mission: Mission, offer_stop: bool = True) -> str:
-    """``offer_stop``: every motion server answers, so a stop halts the robot (issue 27)."""
-    stop = " Say stop if you want me to halt." if offer_stop else ""
+    """One sentence; ``offer_stop``: every motion server answers, so a stop halts the robot
+    (issue 27)."""
+    how = "; say stop to halt me, or abort to end it" if offer_stop else ""
     doing = f"{plain_instruction(mission.instruction)}; it is {mission.state}"
-    return f"I'm busy with a mission right now ({doing}).{stop}"
+    return f"I'm busy with a mission right now ({doing}){how}."
 
 
 class ChatPipeline:
@@ -73,6 +74,8 @@ class ChatPipeline:
         self._config = config
         self._history: list[Message] = []
         self._fast_turns: set[asyncio.Task[TurnResult]] = set()
+        # (mission id, monotonic time) of the last busy reply said aloud: once per burst
+        self._busy_said: tuple[str, float] | None = None
 
     async def handle_turn(self, text: str, turn_id: str | None = None) -> TurnResult:
         turn_id = turn_id or uuid.uuid4().hex[:8]
@@ -220,13 +223,15 @@ class ChatPipeline:
     async def _start_mission(self, call: ToolCall, turn_id: str) -> tuple[ToolResult, TurnResult]:
         instruction = str(call.arguments.get("instruction", "")).strip()
         ack = str(call.arguments.get("ack", "")).strip() or "On it."
+        busy: Mission | None = None
         try:
             if not instruction:
                 raise ValueError("I need to know what to do")
             mission = await self._executor.start(instruction)
         except MissionBusyError as exc:
             supervisor = self._executor.supervisor
-            reply = busy_message(exc.mission, supervisor is None or supervisor.all_fresh())
+            busy = exc.mission
+            reply = busy_message(busy, supervisor is None or supervisor.all_fresh())
             route: Route = "error"
             mission_id = None
         except (MissionsDisabledError, ValueError) as exc:
@@ -234,9 +239,23 @@ class ChatPipeline:
         else:
             reply, route, mission_id = ack, "mission_started", mission.id
         await self._emitter.emit(ChatMessage(turn_id=turn_id, role="assistant", text=reply))
-        await self._speech.say(reply)
+        if busy is None or self._say_busy(busy):
+            await self._speech.say(reply)
         result = ToolResult(tool_call_id=call.id, content=reply, is_error=route == "error")
         return result, TurnResult(turn_id, reply, route, mission_id)
+
+    def _say_busy(self, mission: Mission) -> bool:
+        """Whether this busy reply is said aloud: the first of a burst for ``mission`` is,
+        the rest are only shown (twenty messages at once must not make the robot say the
+        same thing fifteen times)."""
+        now = time.monotonic()
+        said = self._busy_said
+        repeat_s = self._config.busy_reply_repeat_s
+        if said is not None and said[0] == mission.id and now - said[1] < repeat_s:
+            logger.info("busy_reply_not_repeated", mission_id=mission.id)
+            return False
+        self._busy_said = (mission.id, now)
+        return True
 
     def _remember(self, user: str, reply: str) -> None:
         self._history += [

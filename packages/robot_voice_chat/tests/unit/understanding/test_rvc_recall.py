@@ -337,6 +337,7 @@ async def test_without_perception_what_do_you_see_answers_from_memory(tmp_path: 
     o.tools._definitions.pop("perception.what_do_you_see")
     mission = await o.run("what do you see?")
     assert mission.summary == (
-        "I can't look right now (perception is not connected). "
+        "The part of me that collects what my camera sees isn't answering, so I can't look "
+        "right now. "
         "I have no record of seeing anything in the last day."
     )

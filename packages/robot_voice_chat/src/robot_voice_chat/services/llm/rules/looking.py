@@ -2,7 +2,8 @@
 watch for a condition, recall what was seen last). Mixed into :class:`~.program.MissionProgram`.
 
 Words = world: "I can't see right now" is never "it isn't there" (a grounder that could not
-answer says so), and a camera that cannot look at all is told as such.
+answer says so), and a camera that cannot look at all is told as such, naming the part that
+does not answer ("My camera system isn't answering, so I can't look right now."; issue 39).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import re
 from typing import Any
 
 from robot_voice_chat.services.llm.base import ToolDefinition
+from robot_voice_chat.services.llm.rules.plain import down_sentence, part_down, server_part
 from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence, names_of
 from robot_voice_chat.services.llm.rules.steps import Call, Finished, PlanStep, Steps
 from robot_voice_chat.services.llm.rules.surface import as_json, has_tool, task_id_of
@@ -71,6 +73,9 @@ class Looking:
             )
         )
         if started.is_error:
+            part = part_down(started.content)
+            if part is not None:
+                raise Finished("failed", down_sentence(part, f"look for the {obj}"))
             raise Finished(
                 "failed", f"I couldn't start looking for the {obj}: {self.reason(started.content)}."
             )
@@ -84,15 +89,13 @@ class Looking:
                 {"step_id": read, "skill": skill, "timeout_s": self.settings.find_timeout_s},
             )
         )
-        down = (yield from self._vision_down()) if seen.is_error else None
+        down = (yield from self._vision_down(seen.content)) if seen.is_error else None
         stops = [Call(STOP_SKILL, {"step_id": stop, "skill_id": skill})]
         if any(PREWARM in line for line in self.reactions_fired):
             stops.append(Call(STOP_SKILL, {"skill_id": "prewarm_find_object"}))
         yield from self.act(*stops)
         if down is not None:  # not "I couldn't see it": the camera could not look at all
-            raise Finished(
-                "failed", f"I couldn't look for the {obj}: my camera is unavailable ({down})."
-            )
+            raise Finished("failed", down_sentence(down, f"look for the {obj}"))
         if seen.is_error:
             return ""
         looked = as_json(seen.content)
@@ -105,13 +108,17 @@ class Looking:
         self.seen = looked  # the arm takes its detection from here
         return _labels(looked)
 
-    def _vision_down(self) -> Steps:
-        """After a wait with no result: is the vision node reachable at all? The reason if
-        not (skill_control cannot reach it), else None (it runs: nothing was seen)."""
-        if not has_tool(self.tools, LIST_SKILLS):
-            return None
+    def _vision_down(self, waited: str) -> Steps:
+        """After a wait with no result: is the camera reachable at all? The part that does
+        not answer ("My camera system": skill_control cannot reach the vision node; the
+        perception buffer itself), else None (it runs: nothing was seen)."""
+        part = part_down(waited)
+        if part is not None or not has_tool(self.tools, LIST_SKILLS):
+            return part
         [listed] = yield from self.act(Call(LIST_SKILLS))
-        return self.reason(listed.content) if listed.is_error else None
+        if not listed.is_error:
+            return None
+        return part_down(listed.content) or "My camera system"
 
     def _remembered(self) -> Steps:
         """What the robot saw last, when and where (the episodic memory), or "" without it."""
@@ -134,9 +141,8 @@ class Looking:
         if not has_tool(self.tools, WHAT_DO_YOU_SEE) and has_tool(self.tools, WHAT_HAPPENED):
             self.steps = [PlanStep(self.step_id(2), "Tell the user", None)]
             memory = yield from self._remembered()
-            raise Finished(
-                "succeeded", f"I can't look right now (perception is not connected). {memory}"
-            )
+            said = down_sentence(server_part("perception"), "look")
+            raise Finished("succeeded", f"{said} {memory}")
         self.needs(WHAT_DO_YOU_SEE)
         self.doing = "looking around"
         self.steps = [
@@ -148,6 +154,7 @@ class Looking:
                 self.plan_call(), Call(WHAT_DO_YOU_SEE, {"step_id": self.step_id(1)})
             )
         )[1:]
+        down = part_down(view.content) if view.is_error else None
         data = as_json(view.content) if not view.is_error else None
         text = _scene_text(data) if isinstance(data, dict) and data.get("mode") == "warm" else ""
         if not text and has_tool(self.tools, INSTANTIATE) and has_tool(self.tools, WAIT_RESULT):
@@ -165,7 +172,9 @@ class Looking:
                     ),
                 )
             )[1:]
-            if not started.is_error:
+            if started.is_error:
+                down = part_down(started.content) or down
+            else:
                 info = as_json(started.content)
                 skill = (
                     str(info.get("skill_id", "describe_scene"))
@@ -185,13 +194,10 @@ class Looking:
                 yield from self.act(Call(STOP_SKILL, {"step_id": stop, "skill_id": skill}))
                 fresh_data = as_json(fresh.content) if not fresh.is_error else None
                 text = _scene_text(fresh_data) if isinstance(fresh_data, dict) else ""
-                down = (yield from self._vision_down()) if fresh.is_error else None
-                if down is not None:
-                    memory = yield from self._remembered()
-                    raise Finished(
-                        "failed",
-                        f"I can't look right now: my camera is unavailable ({down}). " + memory,
-                    )
+                down = (yield from self._vision_down(fresh.content)) if fresh.is_error else None
+        if not text and down is not None:  # never an old sighting as if it were now
+            memory = yield from self._remembered()
+            raise Finished("failed", f"{down_sentence(down, 'look')} {memory}".rstrip())
         if not text:
             memory = yield from self._remembered()
             if memory:

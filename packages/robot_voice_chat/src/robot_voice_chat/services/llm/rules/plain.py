@@ -30,7 +30,10 @@ REASONS = {
     "NAVIGATION_TIMEOUT": "the drive took too long",
     "BASE_UNAVAILABLE": "the robot base is not answering",
     "SERVER_RESTARTED": "it restarted and lost track of the task",
-    "SERVICE_UNAVAILABLE": "the vision node is not answering",
+    "SERVICE_UNAVAILABLE": "my camera system is not answering",
+    "SERVICE_TIMEOUT": "my camera system did not answer in time",
+    "BRIDGE_CLOSED": "my camera system is not answering",
+    "ARM_UNAVAILABLE": "my arm is not answering",
     "TIMEOUT": "it took too long",
     "CANCELLED": "it was cancelled",
     "UNKNOWN_TASK": "it no longer knows that task",
@@ -84,6 +87,51 @@ def reason_of(content: str, names: Names | None = None, known: Iterable[str] = (
     if server is not None and server["server"] in SERVICES:
         return f"my {service_name(server['server'])} could not do it"
     return "something went wrong there"
+
+
+# The part of the robot that does not answer, named as a person would (issue 39 item 5): the
+# ROS side's codes (the vision node behind skill_control and perception, the arm, the base),
+# and a server the brain lost (the perception buffer, the camera's controls, ...).
+_DOWN_CODES = {
+    "SERVICE_UNAVAILABLE": "My camera system",
+    "SERVICE_TIMEOUT": "My camera system",
+    "BRIDGE_CLOSED": "My camera system",
+    "ARM_UNAVAILABLE": "My arm",
+    "BASE_UNAVAILABLE": "The robot's base",
+}
+_DOWN_SERVERS = {
+    "perception": "The part of me that collects what my camera sees",
+    "skill_control": "The part of me that runs my camera",
+    "manipulation": "My arm",
+    "navigation": "My navigation",
+    "episodic": "My memory of what happened",
+    "memory": "My memory of how to do things",
+}
+
+
+def part_down(content: str) -> str | None:
+    """The part of the robot a failed call says is not answering ("My camera system"), or
+    None when the failure is of another kind (a refusal, nothing found, ...)."""
+    code, detail = _parts(content)
+    lost = _NOT_CONNECTED.search(detail)
+    if lost is not None:
+        return server_part(lost["server"])
+    if code.upper() in _DOWN_CODES:
+        return _DOWN_CODES[code.upper()]
+    server = _SERVER_TOOL.search(detail) if _TIMED_OUT.search(detail) else None
+    if server is not None and server["server"] in _DOWN_SERVERS:
+        return _DOWN_SERVERS[server["server"]]
+    return None
+
+
+def server_part(server: str) -> str:
+    """A server the brain lost as the part of the robot it is ("My arm")."""
+    return _DOWN_SERVERS.get(server, f"My {service_name(server)}")
+
+
+def down_sentence(part: str, doing: str) -> str:
+    """``My camera system isn't answering, so I can't look right now.``"""
+    return f"{part} isn't answering, so I can't {doing} right now."
 
 
 def _why_not_approved(why: str) -> str:

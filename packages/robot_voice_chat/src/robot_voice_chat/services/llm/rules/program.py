@@ -154,8 +154,8 @@ class MissionProgram(Looking, Driving, Carrying):
         heard = self.user_turns[-1]
         doing = self.activity()
         return (
-            f"I heard {heard!r}, but I'm busy {doing}. Offline I can't change a running "
-            "mission: say stop to halt me, then give me the new task."
+            f"I heard {heard!r}, but I'm busy {doing}; say stop to halt me, or abort to end "
+            "the mission and then give me the new task."
         )
 
     def absorb(self, observation: Observation) -> None:

@@ -119,9 +119,12 @@ async def test_the_robot_goes_round_the_closed_mailroom_door_and_finds_the_packa
     )
     mask_url = findings[0].mask_url
     assert mask_url.startswith(stack.url("vision", "/masks/find_object/"))
+    picture_credential = stack.services.secrets["vision_artifacts"]
     async with httpx.AsyncClient(timeout=5.0) as http:
-        mask = await http.get(mask_url)
+        mask = await http.get(mask_url, headers={"Authorization": f"Bearer {picture_credential}"})
+        refused = await http.get(mask_url)  # any other local process (issue 35)
     assert mask.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert refused.status_code == 401
     for result in (r["result"] for r in snapshot["events"] if r["kind"] == "tool_result"):
         assert "iVBOR" not in result  # no PNG payloads
         assert len(result) < 2000  # no pixel arrays

@@ -7,9 +7,11 @@ bit-packed (≈38 KB per 640×480 mask) and the last ``overlays_per_skill`` over
 until ``deleted_skills_kept`` later deletions: a planner typically reads a ``mask_ref`` and
 stops the skill right after, and the reference must still resolve for whoever acts on it.
 
-Routes (all GET, bound to 127.0.0.1):
+Routes (all GET, bound to 127.0.0.1). Every route but ``/healthz`` needs the credential of
+:mod:`robot_mcp_perception.artifacts_auth` (``Authorization: Bearer <ARTIFACTS_AUTH_TOKEN>``;
+401 with ``WWW-Authenticate`` otherwise):
 - ``/healthz`` — the node's real state (frame age, models, skills); HTTP 503 unless
-  ``status`` is ``ok``;
+  ``status`` is ``ok``; open (no pixels, and readiness checks carry no credential);
 - ``/skills/{skill}/masks`` — the kept mask refs of a skill;
 - ``/masks/{skill}/{stamp_ns}/{index}.png`` — one mask (mono8 PNG);
 - ``/overlays/{skill}/latest.png`` and ``/overlays/{skill}/{stamp_ns}.png``;
@@ -36,10 +38,13 @@ import structlog
 import uvicorn
 from PIL import Image as PILImage
 from starlette.applications import Starlette
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
+from starlette.types import ASGIApp, Receive, Scope, Send
 
+from robot_mcp_perception.artifacts_auth import ArtifactsAuth
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.models.base import Image
 from robot_mcp_perception.pipelines.common import SkillResult
@@ -189,8 +194,61 @@ class ArtifactStore:
             return sum(m.bits.nbytes for per in self._masks.values() for m in per.values())
 
 
+OPEN_PATHS = frozenset({"/healthz"})
+
+
+class PictureAuthMiddleware:
+    """Every request but :data:`OPEN_PATHS` must carry the credential; else 401 with
+    ``WWW-Authenticate: Bearer realm="vision"`` and a JSON sentence saying what is missing."""
+
+    def __init__(self, app: ASGIApp, auth: ArtifactsAuth) -> None:
+        self.app = app
+        self.auth = auth
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope.get("path") in OPEN_PATHS:
+            await self.app(scope, receive, send)
+            return
+        request = Request(scope)
+        verdict = self.auth.check(request.headers.get("authorization"))
+        if verdict == "ok":
+            await self.app(scope, receive, send)
+            return
+        client = request.client
+        logger.warning(
+            "artifacts_auth_rejected",
+            reason=verdict,
+            path=scope.get("path", ""),
+            client=f"{client.host}:{client.port}" if client else None,
+        )
+        await _unauthorized(verdict)(scope, receive, send)
+
+
+def _unauthorized(verdict: str) -> JSONResponse:
+    challenge = 'Bearer realm="vision"'
+    if verdict == "invalid":
+        challenge += ', error="invalid_token"'
+        body = {"error": "invalid_token", "detail": "this credential is not the vision node's."}
+    elif verdict == "unconfigured":
+        body = {
+            "error": "unauthorized",
+            "detail": "the vision node has no credential configured (ARTIFACTS_AUTH_TOKEN), "
+            "so it serves no pictures.",
+        }
+    else:
+        body = {
+            "error": "unauthorized",
+            "detail": "pictures need the vision node's credential: Authorization: Bearer <token>.",
+        }
+    return JSONResponse(body, status_code=401, headers={"WWW-Authenticate": challenge})
+
+
 def build_app(
-    store: ArtifactStore, health: HealthProvider, latest_frame: LatestFrame | None = None
+    store: ArtifactStore,
+    health: HealthProvider,
+    latest_frame: LatestFrame | None = None,
+    *,
+    auth: ArtifactsAuth,
 ) -> Starlette:
     async def healthz(request: Request) -> JSONResponse:
         payload = health()
@@ -230,7 +288,8 @@ def build_app(
             Route("/masks/{skill}/{stamp_ns:int}/{index:int}.png", mask),
             Route("/overlays/{skill}/latest.png", overlay),
             Route("/overlays/{skill}/{stamp_ns:int}.png", overlay),
-        ]
+        ],
+        middleware=[Middleware(PictureAuthMiddleware, auth=auth)],
     )
 
 

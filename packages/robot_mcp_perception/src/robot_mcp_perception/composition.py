@@ -24,6 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from pydantic import ValidationError
 
+from robot_mcp_perception.artifacts_auth import artifacts_auth_from_env
 from robot_mcp_perception.frames import FolderFrameSource, FrameSource, FrameSourceError
 from robot_mcp_perception.logging_setup import configure_logging
 from robot_mcp_perception.models.base import Grounder, ModelUnavailableError, Segmenter
@@ -158,6 +159,7 @@ def build_runtime(overrides: Sequence[str] = (), config_dir: Path | None = None)
     cfg = compose_config(overrides, config_dir)
     settings = validate_config(cfg)
     configure_logging(settings.logging.json_logs, settings.logging.level)
+    artifacts_auth = artifacts_auth_from_env(os.environ)  # before any model is loaded
     frame_source: FrameSource = instantiate_adapter(cfg.frame_source, FrameSource)
     if isinstance(frame_source, FolderFrameSource):
         try:
@@ -177,6 +179,7 @@ def build_runtime(overrides: Sequence[str] = (), config_dir: Path | None = None)
         gate_factory=_gate_factory(),
         overlay_renderer=_overlay_renderer(),
         pipeline_settings=PipelineSettings(**_known(pipeline, PipelineSettings)),
+        artifacts_auth=artifacts_auth,
     )
 
 

@@ -7,9 +7,10 @@ directly with fakes.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from robot_mcp_perception.artifacts import OverlayRenderer
+from robot_mcp_perception.artifacts_auth import ArtifactsAuth
 from robot_mcp_perception.engine import SkillRunner
 from robot_mcp_perception.frames import FrameSource
 from robot_mcp_perception.models.base import Grounder, Segmenter
@@ -32,3 +33,5 @@ class Runtime:
     overlay_renderer: OverlayRenderer | None = None
     pipeline_settings: PipelineSettings | None = None
     serve_artifacts: bool = True
+    artifacts_auth: ArtifactsAuth = field(default_factory=ArtifactsAuth)
+    """Who may read pictures (default: nobody; ``composition`` reads the environment)."""

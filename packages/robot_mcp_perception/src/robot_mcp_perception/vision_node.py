@@ -130,11 +130,25 @@ class VisionNode(Node):
         self._server: ArtifactServer | None = None
         if art.enabled and runtime.serve_artifacts:  # first: a busy port stops us before work
             self._server = ArtifactServer(
-                build_app(self.artifacts, self.health, runtime.frame_source.latest),
+                build_app(
+                    self.artifacts,
+                    self.health,
+                    runtime.frame_source.latest,
+                    auth=runtime.artifacts_auth,
+                ),
                 art.host,
                 art.port,
             )
             self._server.start()
+            if runtime.artifacts_auth.open:
+                logger.warning(
+                    "artifacts_auth_disabled", detail="ARTIFACTS_AUTH=off: pictures open"
+                )
+            elif runtime.artifacts_auth.token is None:
+                logger.warning(
+                    "artifacts_auth_unconfigured",
+                    detail="no ARTIFACTS_AUTH_TOKEN: every picture is refused (401)",
+                )
         self.scheduler.start()
         self._create_default_skills()
         runtime.frame_source.start(self, on_frame=self.engine.dispatch)

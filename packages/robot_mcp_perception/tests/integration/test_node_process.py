@@ -27,6 +27,9 @@ from robot_stack_testing import ProcessLauncher, wait_for_tcp_port, wait_until
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
+ARTIFACTS_TOKEN = "artifacts-credential-of-the-node-process-test"
+
+
 @pytest.fixture
 def node_env(tmp_path: Path, tcp_port: int) -> dict[str, str]:
     frames = tmp_path / "scenes"
@@ -43,6 +46,7 @@ def node_env(tmp_path: Path, tcp_port: int) -> dict[str, str]:
         "_target_: robot_mcp_perception.models.null.NullSegmenter\ncost_class: local\n"
     )
     return {
+        "ARTIFACTS_AUTH_TOKEN": ARTIFACTS_TOKEN,
         "PERCEPTION_CONFIG_DIR": str(config),
         "PERCEPTION_CONFIG_OVERRIDES": (
             f"grounder=it_annotation segmenter=it_none frame_source=folder "
@@ -154,7 +158,10 @@ def test_a_separate_process_gets_usable_masks_meta_and_scene_outputs_then_delete
     assert [d.label for d in same.detections] == [d.label for d in array.detections]
     assert all(len(d.mask.data) == 0 for d in same.detections)
     ref = json.loads(array.detections[0].extra)["mask_ref"]
-    png = httpx.get(ref["url"], timeout=5.0)
+    png = httpx.get(ref["url"], timeout=5.0, headers={"Authorization": f"Bearer {ARTIFACTS_TOKEN}"})
+    refused = httpx.get(ref["url"], timeout=5.0)  # any other local process: no picture
+    assert refused.status_code == 401, refused.text
+    assert refused.headers["www-authenticate"].startswith("Bearer")
     assert png.status_code == 200
     assert png.headers["content-type"] == "image/png"
     assert json.loads(scene_text[0].data)

@@ -8,8 +8,10 @@ from typing import Any
 import httpx
 import numpy as np
 from PIL import Image as PILImage
+from pydantic import SecretStr
 
 from robot_mcp_perception.artifacts import ArtifactServer, ArtifactStore, build_app
+from robot_mcp_perception.artifacts_auth import ArtifactsAuth
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.pipelines.common import Detection, SkillResult
 from robot_stack_testing import wait_for_tcp_port
@@ -30,6 +32,11 @@ def _frame(stamp_ns: int) -> Frame:
     return Frame(np.full((48, 64, 3), 90, np.uint8), stamp_ns, "cam", 1)
 
 
+TOKEN = "artifacts-credential-of-the-endpoint-tests"
+AUTH = ArtifactsAuth(SecretStr(TOKEN))
+HEADERS = {"Authorization": f"Bearer {TOKEN}"}
+
+
 def _health() -> dict[str, Any]:
     return {"status": "ok", "skills": []}
 
@@ -37,10 +44,10 @@ def _health() -> dict[str, Any]:
 async def test_masks_are_addressable_by_their_mask_ref() -> None:
     store = ArtifactStore("http://127.0.0.1:9112")
     refs = store.add("find", "/vision/find/detections", _frame(111), _result())
-    app = build_app(store, _health)
+    app = build_app(store, _health, auth=AUTH)
 
     async with httpx.AsyncClient(
-        transport=httpx.ASGITransport(app=app), base_url="http://t"
+        transport=httpx.ASGITransport(app=app), base_url="http://t", headers=HEADERS
     ) as client:
         response = await client.get(refs[0]["path"])
         missing = await client.get("/masks/find/111/7.png")
@@ -68,10 +75,10 @@ async def test_overlays_are_rendered_on_request() -> None:
 
     store = ArtifactStore("http://127.0.0.1:9112", renderer=render)
     store.add("find", "/vision/find/detections", _frame(5), _result())
-    app = build_app(store, _health)
+    app = build_app(store, _health, auth=AUTH)
 
     async with httpx.AsyncClient(
-        transport=httpx.ASGITransport(app=app), base_url="http://t"
+        transport=httpx.ASGITransport(app=app), base_url="http://t", headers=HEADERS
     ) as client:
         latest = await client.get("/overlays/find/latest.png")
         by_stamp = await client.get("/overlays/find/5.png")
@@ -126,7 +133,7 @@ def test_a_recreated_skill_is_no_longer_retired() -> None:
 
 def test_server_answers_healthz_on_loopback(tcp_port: int) -> None:
     store = ArtifactStore(f"http://127.0.0.1:{tcp_port}")
-    server = ArtifactServer(build_app(store, _health), "127.0.0.1", tcp_port)
+    server = ArtifactServer(build_app(store, _health, auth=ArtifactsAuth()), "127.0.0.1", tcp_port)
     server.start()
     try:
         wait_for_tcp_port(tcp_port, 5.0)

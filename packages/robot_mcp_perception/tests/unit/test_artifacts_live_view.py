@@ -8,8 +8,10 @@ from typing import Any
 import httpx
 import numpy as np
 from PIL import Image as PILImage
+from pydantic import SecretStr
 
 from robot_mcp_perception.artifacts import ArtifactStore, build_app
+from robot_mcp_perception.artifacts_auth import ArtifactsAuth
 from robot_mcp_perception.frames import Frame
 from robot_mcp_perception.pipelines.common import Detection, SkillResult
 
@@ -31,9 +33,13 @@ def _paint_red_box(image: Any, result: SkillResult) -> Any:
     return out
 
 
+TOKEN = "artifacts-credential-of-the-live-view-tests"
+AUTH = ArtifactsAuth(SecretStr(TOKEN))
+
+
 async def _get(app: Any, path: str) -> httpx.Response:
     async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://t") as c:
-        return await c.get(path)
+        return await c.get(path, headers={"Authorization": f"Bearer {TOKEN}"})
 
 
 async def test_the_live_view_draws_kept_overlays_on_the_newest_frame() -> None:
@@ -41,7 +47,7 @@ async def test_the_live_view_draws_kept_overlays_on_the_newest_frame() -> None:
     store.add("find", "/vision/find/detections", _frame(1), _result())
     newest = _frame(2, grey=200)
 
-    response = await _get(build_app(store, dict, lambda: newest), "/frames/latest.jpg")
+    response = await _get(build_app(store, dict, lambda: newest, auth=AUTH), "/frames/latest.jpg")
 
     assert response.status_code == 200
     assert response.headers["content-type"] == "image/jpeg"
@@ -58,7 +64,9 @@ async def test_a_retired_skill_is_not_drawn_on_the_live_view() -> None:
     store.add("find", "/vision/find/detections", _frame(1), _result())
     store.retire("find")
 
-    response = await _get(build_app(store, dict, lambda: _frame(2)), "/frames/latest.jpg")
+    response = await _get(
+        build_app(store, dict, lambda: _frame(2), auth=AUTH), "/frames/latest.jpg"
+    )
 
     pixels = np.asarray(PILImage.open(io.BytesIO(response.content)))
     assert abs(int(pixels[15, 15, 0]) - 90) < 12
@@ -66,7 +74,7 @@ async def test_a_retired_skill_is_not_drawn_on_the_live_view() -> None:
 
 async def test_no_frame_yet_is_a_503_json() -> None:
     store = ArtifactStore("http://127.0.0.1:9112")
-    for app in (build_app(store, dict, lambda: None), build_app(store, dict)):
+    for app in (build_app(store, dict, lambda: None, auth=AUTH), build_app(store, dict, auth=AUTH)):
         response = await _get(app, "/frames/latest.jpg")
         assert response.status_code == 503
         assert response.json()["error"] == "no_frame"
@@ -84,7 +92,9 @@ async def test_the_live_view_draws_no_semantic_output_text() -> None:
     described = SkillResult(outputs={"scene_description": "A kitchen counter."})
     store.add("scene", "/vision/scene/detections", _frame(1), described)
 
-    response = await _get(build_app(store, dict, lambda: _frame(2)), "/frames/latest.jpg")
+    response = await _get(
+        build_app(store, dict, lambda: _frame(2), auth=AUTH), "/frames/latest.jpg"
+    )
 
     assert response.status_code == 200
     assert [r.outputs for r in drawn] == [{}]

@@ -29,10 +29,14 @@ class LaunchedProcess:
 
 
 class ProcessLauncher:
-    """Launches argv lists (never a shell) with stdout+stderr captured to a log file."""
+    """Launches argv lists (never a shell) with stdout+stderr captured to a log file.
 
-    def __init__(self, log_dir: Path) -> None:
+    ``umask`` (e.g. ``0o077``, the local stack's): every process starts with it, so what it
+    creates is private to this user, and the log files are created 0600."""
+
+    def __init__(self, log_dir: Path, umask: int | None = None) -> None:
         self._log_dir = log_dir
+        self._umask = umask
         self._processes: list[LaunchedProcess] = []
 
     def start(
@@ -45,7 +49,11 @@ class ProcessLauncher:
         log_path = self._log_dir / f"{name}-{len(self._processes)}.log"
         full_env = {**os.environ, **(env or {})}
         full_env.setdefault("PYTHONUNBUFFERED", "1")
-        with log_path.open("wb") as log:
+        log_mode = 0o666 if self._umask is None else 0o600
+        flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
+        with os.fdopen(os.open(log_path, flags, log_mode), "wb") as log:
+            if self._umask is not None:
+                os.fchmod(log.fileno(), 0o600)  # also a log left by an earlier run
             popen = subprocess.Popen(  # noqa: S603 - argv list from the test itself
                 list(argv),
                 stdout=log,
@@ -53,6 +61,7 @@ class ProcessLauncher:
                 stdin=subprocess.DEVNULL,
                 env=full_env,
                 cwd=cwd,
+                umask=-1 if self._umask is None else self._umask,
             )
         launched = LaunchedProcess(name, popen, log_path)
         self._processes.append(launched)

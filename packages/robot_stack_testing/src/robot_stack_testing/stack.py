@@ -11,6 +11,15 @@ tokens per run and expands ``{mcp_token_<name>}`` (the brain's: the server's
 (an operator's tool's: the server's ``MCP_OPERATOR_TOKEN``); :attr:`LocalStack.credentials`
 and :attr:`LocalStack.operator_credentials` hand them to the test.
 
+Other per-run secrets: for every name under ``secrets:`` the runner draws one fresh token and
+expands ``{secret_<name>}`` (e.g. the vision node's ``ARTIFACTS_AUTH_TOKEN`` and the brain's
+``VISION_ARTIFACTS_TOKEN``); :attr:`LocalStack.secrets` hands them to the test.
+
+State is private to this user (issue 35): the run's directory is 0700 (tightened when an
+earlier run left it, or anything in it, readable to others), every service starts with umask
+077 (its outboxes, ``memory.sqlite3``, episodic store and pose files are created 0600, its
+directories 0700) and the runner's logs are 0600.
+
 The file's top-level ``env:`` goes to every service (a service's own ``env:`` wins): the local
 stack's Fast DDS profile (``deploy/fastdds-local.xml``: camera frames over shared memory).
 :func:`stack_environment` gives it to processes a test or benchmark starts beside the stack.
@@ -85,6 +94,34 @@ def stack_credentials(path: Path) -> list[str]:
     """The servers the file wants a per-run MCP credential for (its ``credentials:`` list)."""
     document: dict[str, Any] = yaml.safe_load(path.read_text())
     return [str(name) for name in document.get("credentials") or []]
+
+
+def stack_secrets(path: Path) -> list[str]:
+    """The names of the file's other per-run secrets (its ``secrets:`` list)."""
+    document: dict[str, Any] = yaml.safe_load(path.read_text())
+    return [str(name) for name in document.get("secrets") or []]
+
+
+def secret_placeholders(secrets: Mapping[str, str]) -> dict[str, str]:
+    """``{secret_<name>}`` for each secret."""
+    return {f"secret_{name}": value for name, value in secrets.items()}
+
+
+STATE_UMASK = 0o077
+"""The umask of every process the local stack starts: files 0600, directories 0700."""
+
+
+def make_private(directory: Path) -> None:
+    """``directory`` (created if missing) and everything under it readable by this user
+    only: 0700 / owner bits only for what an earlier run (or a wider umask) left open."""
+    directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+    directory.chmod(0o700)
+    for path in directory.rglob("*"):
+        if path.is_symlink():
+            continue
+        mode = path.stat().st_mode & 0o7777
+        if mode & 0o077:
+            path.chmod(mode & 0o700)
 
 
 def credential_placeholders(
@@ -254,17 +291,19 @@ def local_stack(
 
     The yielded :class:`LocalStack` maps service names to their processes and can stop and
     restart one of them (same argv and environment)."""
-    var_dir.mkdir(parents=True, exist_ok=True)
+    make_private(var_dir)
     path = stack_file or root / "deploy" / "local-stack.yaml"
     names = stack_credentials(path)
     if credentials is None:
         credentials = {name: fresh_token() for name in names}
     operators = {name: fresh_token() for name in names}
+    secrets = {name: fresh_token() for name in stack_secrets(path)}
     substitutions = {
         "python": sys.executable,
         "root": str(root),
         "var": str(var_dir),
         **credential_placeholders(credentials, operators),
+        **secret_placeholders(secrets),
     }
     services = [
         service
@@ -274,7 +313,14 @@ def local_stack(
     busy = busy_ports(services)
     if busy:
         raise PortsBusyError(busy)
-    stack = LocalStack(ProcessLauncher(var_dir), root, dict(env), dict(credentials), operators)
+    stack = LocalStack(
+        ProcessLauncher(var_dir, umask=STATE_UMASK),
+        root,
+        dict(env),
+        dict(credentials),
+        operators,
+        secrets,
+    )
     try:
         deferred = [service for service in services if service.ready.defer]
         for service in services:
@@ -299,6 +345,7 @@ class LocalStack(dict[str, LaunchedProcess]):
         env: dict[str, str],
         credentials: dict[str, str] | None = None,
         operator_credentials: dict[str, str] | None = None,
+        secrets: dict[str, str] | None = None,
     ) -> None:
         super().__init__()
         self.launcher = launcher
@@ -308,6 +355,8 @@ class LocalStack(dict[str, LaunchedProcess]):
         """This run's MCP credential of each server for the brain."""
         self.operator_credentials = operator_credentials or {}
         """This run's MCP credential of each server for an operator's tool."""
+        self.secrets = secrets or {}
+        """This run's other secrets by name (the file's ``secrets:``)."""
         self.specs: dict[str, ServiceSpec] = {}
 
     def launch(self, service: ServiceSpec) -> LaunchedProcess:

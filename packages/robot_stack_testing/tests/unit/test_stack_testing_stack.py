@@ -18,9 +18,11 @@ from robot_stack_testing.stack import (
     free_port_overrides,
     load_stack,
     local_stack,
+    secret_placeholders,
     stack_credentials,
     stack_defaults,
     stack_environment,
+    stack_secrets,
 )
 
 HTTP_SERVER = (
@@ -143,6 +145,7 @@ def test_the_repository_stack_file_names_every_server() -> None:
         load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v"})
     names = stack_credentials(path)
     tokens = credential_placeholders(dict.fromkeys(names, "t"), dict.fromkeys(names, "o"))
+    tokens |= secret_placeholders(dict.fromkeys(stack_secrets(path), "s"))
     services = load_stack(path, {"python": sys.executable, "root": "/r", "var": "/v", **tokens})
     assert [s.name for s in services] == [
         "robot_sim",
@@ -299,6 +302,7 @@ def test_the_shipped_stack_gives_every_mcp_server_and_the_brain_the_same_credent
     tokens = {name: f"token-of-{name}" for name in names}
     operators = {name: f"operator-token-of-{name}" for name in names}
     placeholders = credential_placeholders(tokens, operators)
+    placeholders |= secret_placeholders(dict.fromkeys(stack_secrets(path), "s"))
     substitutions = {"python": "py", "root": "r", "var": "v", **placeholders}
     services = {s.name: s for s in load_stack(path, substitutions)}
     for name in names:
@@ -338,6 +342,7 @@ def test_the_shipped_stack_hands_every_service_the_fast_dds_profile() -> None:
     path = root / "deploy" / "local-stack.yaml"
     names = stack_credentials(path)
     tokens = credential_placeholders(dict.fromkeys(names, "t"), dict.fromkeys(names, "o"))
+    tokens |= secret_placeholders(dict.fromkeys(stack_secrets(path), "s"))
     substitutions = {"python": "py", "root": str(root), "var": "v", **tokens}
     profile = str(root / "deploy" / "fastdds-local.xml")
     for service in load_stack(path, substitutions):

@@ -149,7 +149,10 @@ def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
         speech_output=build_adapter("speech_output", config.speech_output, emitter=emitter),
         speech_input=build_adapter("speech_input", config.speech_input),
         camera=HttpCameraFeed(
-            config.ui.camera_url, config.ui.camera_timeout_s, config.ui.camera_max_bytes
+            config.ui.camera_url,
+            config.ui.camera_timeout_s,
+            config.ui.camera_max_bytes,
+            token=config.ui.camera_token,
         ),
     )
 

@@ -9,7 +9,7 @@ from typing import Any, Literal
 
 import platformdirs
 from limits import parse
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from robot_voice_chat.services.tools.base import McpServerConfig
@@ -206,10 +206,19 @@ class UiConfig(BaseModel):
 
     static_dir: str = ""  # "" = the package's static/ (built by `make setup`)
     camera_url: str = "http://127.0.0.1:9112"  # the vision node's artifacts server
+    # The vision node's ARTIFACTS_AUTH_TOKEN (VISION_ARTIFACTS_TOKEN): its pictures need it;
+    # empty = none (the node then refuses the frame and the UI shows the camera offline).
+    camera_token: SecretStr | None = None
     camera_timeout_s: float = Field(2.0, gt=0)
     camera_max_bytes: int = Field(8 * 1024 * 1024, gt=0)  # larger frames are refused
     chat_history_size: int = Field(50, ge=0)
     tool_timeout_s: float = Field(3.0, gt=0)  # pose / locations / detections for the UI
+
+    @field_validator("camera_token")
+    @classmethod
+    def _camera_token(cls, token: SecretStr | None) -> SecretStr | None:
+        value = token.get_secret_value().strip() if token is not None else ""
+        return SecretStr(value) if value else None
 
 
 class ControlConfig(BaseModel):

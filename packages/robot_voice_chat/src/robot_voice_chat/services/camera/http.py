@@ -2,11 +2,14 @@
 
 The brain serves what this returns on the operator's origin, so only an image comes through:
 an upstream answering anything else (e.g. ``text/html`` with a script), or more than
-``max_bytes``, is treated as a camera that cannot deliver a frame."""
+``max_bytes``, is treated as a camera that cannot deliver a frame. The node's pictures need
+its credential (``ARTIFACTS_AUTH_TOKEN`` there, ``VISION_ARTIFACTS_TOKEN`` here), sent as
+``Authorization: Bearer`` with the frame request only; its ``/healthz`` is open."""
 
 from __future__ import annotations
 
 import httpx
+from pydantic import SecretStr
 
 from robot_voice_chat.services.camera.base import (
     IMAGE_TYPES,
@@ -23,16 +26,32 @@ DEFAULT_MAX_BYTES = 8 * 1024 * 1024
 
 class HttpCameraFeed(CameraFeed):
     def __init__(
-        self, base_url: str, timeout_s: float = 2.0, max_bytes: int = DEFAULT_MAX_BYTES
+        self,
+        base_url: str,
+        timeout_s: float = 2.0,
+        max_bytes: int = DEFAULT_MAX_BYTES,
+        *,
+        token: SecretStr | None = None,
     ) -> None:
         self.url = base_url.rstrip("/") + FRAME_PATH
+        self._token = token
         self.max_bytes = max_bytes
         self.health_url = base_url.rstrip("/") + HEALTH_PATH
         self._client = httpx.AsyncClient(timeout=timeout_s)
 
     async def latest_frame(self) -> CameraFrame:
+        headers = (
+            {"Authorization": f"Bearer {self._token.get_secret_value()}"}
+            if self._token is not None
+            else {}
+        )
         try:
-            async with self._client.stream("GET", self.url) as response:
+            async with self._client.stream("GET", self.url, headers=headers) as response:
+                if response.status_code == 401:
+                    raise CameraOfflineError(
+                        f"the vision node refused the brain's credential ({self.url}): set "
+                        "VISION_ARTIFACTS_TOKEN to the node's ARTIFACTS_AUTH_TOKEN"
+                    )
                 if response.status_code != 200:
                     raise CameraOfflineError(
                         f"the vision node has no frame ({response.status_code} from {self.url})"

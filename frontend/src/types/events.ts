@@ -76,10 +76,21 @@ teaching?: boolean
 }
 
 export interface SafetyStatePayload {
+alarms?: SafetyAlarm[]
 by?: (string | null)
 latched: boolean
 reason?: (string | null)
 since?: (number | null)
+}
+/**
+ * A supervision alarm a motion server reports (issue 35): someone other than the brain
+ * reached for the robot's controls. ``detail`` is the server's plain-English sentence.
+ */
+export interface SafetyAlarm {
+at?: number
+code: string
+detail?: string
+server: string
 }
 
 export interface SendMessagePayload {

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import uuid
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -29,6 +31,7 @@ from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
 from robot_voice_chat.api.seen_events import SeenEvents, SqliteSeenEvents
+from robot_voice_chat.control.alarms import BY_SUPERVISION, AlarmAnnouncer
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.elicitation import approval_elicitation
 from robot_voice_chat.control.guard import GuardedToolBackend
@@ -54,10 +57,11 @@ from robot_voice_chat.settings import (
     resolve_path,
     state_path,
 )
-from robot_voice_chat.socket_events import SafetyState
+from robot_voice_chat.socket_events import ChatMessage, SafetyState
 from robot_voice_chat.socket_origins import origin_policy
 
 logger = structlog.get_logger(__name__)
+LEASE_RECONNECT_S = 1.0  # the lease's own connection retries a lost motion server this often
 
 
 class ConfigError(RuntimeError):
@@ -225,7 +229,6 @@ def assemble(
     emitter = EpisodicNoteEmitter(emitter, adapters.tools)
     agent = config.agent
     latch = SafetyLatch(FileLatchStore(data_dir(agent) / "safety"))
-    latch.add_listener(_announce_latch(emitter))
     policy = load_policy(config)
     trace = TraceRecorder(state_path(agent, agent.trace_dir, "missions"))
     approvals = ApprovalBroker(
@@ -235,12 +238,15 @@ def assemble(
         timeout_s=config.control.approval_timeout_s,
     )
     # the lease is the brain's own control traffic: the supervisor alone holds the raw backend
+    # on a thread of its own with its own connections (issue 39): a busy loop cannot starve it
     supervisor = MotionSupervisor(
         adapters.tools,
         latch,
         period_s=config.control.lease_period_s,
         ttl_s=config.control.lease_ttl_s,
+        lease_tools=_lease_tools(config, adapters.tools),
     )
+    latch.add_listener(_announce_latch(emitter, supervisor))
     # the one choke point: everything below holds the guarded backend, never the raw one
     guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals, supervisor)
     adapters = replace(adapters, tools=guarded)
@@ -268,6 +274,12 @@ def assemble(
             approvals,
             lambda: executor.active.id if executor.active else None,
             min(agent.tool_timeout_s, config.tools.call_timeout_s),
+        )
+    )
+    supervisor.set_notice_handler(
+        AlarmAnnouncer(
+            stop=lambda reason: executor.safety_stop(reason, by=BY_SUPERVISION),
+            tell=_tell(emitter, adapters.speech_output),
         )
     )
     pipeline = ChatPipeline(
@@ -304,11 +316,41 @@ def load_policy(config: AppConfig) -> ToolPolicy:
     return policy
 
 
-def _announce_latch(emitter: EventEmitter) -> Any:
+def _announce_latch(emitter: EventEmitter, supervisor: MotionSupervisor) -> Any:
     async def announce(state: LatchState) -> None:
-        await emitter.emit(SafetyState(**state.model_dump()))
+        await emitter.emit(SafetyState(**state.model_dump(), alarms=supervisor.alarms()))
 
     return announce
+
+
+def _lease_tools(config: AppConfig, tools: ToolBackend) -> Callable[[], ToolBackend] | None:
+    """The lease's own MCP connections to the motion servers (same URLs, transports and
+    credential as the brain's), built on the supervisor's thread; None for in-process fakes."""
+    if not isinstance(tools, McpToolBackend):
+        return None
+    motion = [cfg for cfg in tools.servers().values() if cfg.motion]
+
+    def build() -> ToolBackend:
+        return McpToolBackend(
+            motion,
+            call_timeout_s=config.control.lease_ttl_s,
+            connect_timeout_s=config.tools.connect_timeout_s,
+            reconnect_interval_s=min(config.tools.reconnect_interval_s, LEASE_RECONNECT_S),
+            health_interval_s=config.tools.health_interval_s,
+            quiet_tools=frozenset({SUPERVISE_TOOL}),
+        )
+
+    return build
+
+
+def _tell(emitter: EventEmitter, speech: SpeechOutput) -> Callable[[str], Awaitable[None]]:
+    """Said and shown as the robot's words, outside any mission's own lines."""
+
+    async def tell(text: str) -> None:
+        await emitter.emit(ChatMessage(turn_id=uuid.uuid4().hex[:8], role="assistant", text=text))
+        await speech.say(text)
+
+    return tell
 
 
 def bootstrap(config: AppConfig) -> Container:

@@ -57,14 +57,26 @@ class MissionEventLine(SocketEvent):
     ts: float
 
 
+class SafetyAlarm(BaseModel):
+    """A supervision alarm a motion server reports (issue 35): someone other than the brain
+    reached for the robot's controls. ``detail`` is the server's plain-English sentence."""
+
+    server: str
+    code: str  # FOREIGN_HOLDER, LOCK_TOPIC_SHARED, POSE_TOPIC_SHARED, MAP_TOPIC_SHARED, ...
+    detail: str = ""
+    at: float = 0.0  # epoch seconds the server raised it
+
+
 class SafetyState(SocketEvent):
-    """The latched software stop (``GET /api/safety`` returns the same fields)."""
+    """The latched software stop (``GET /api/safety`` returns the same fields) and the
+    supervision alarms the motion servers report now."""
 
     EVENT: ClassVar[str] = "safety_state"
     latched: bool
     since: float | None = None  # epoch seconds
     by: str | None = None
     reason: str | None = None
+    alarms: list[SafetyAlarm] = Field(default_factory=list)
 
 
 class ApprovalRequested(SocketEvent):

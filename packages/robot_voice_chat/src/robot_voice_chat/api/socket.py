@@ -13,6 +13,7 @@ import socketio
 import structlog
 from pydantic import ValidationError
 
+from robot_voice_chat.api.routes.safety import safety_view
 from robot_voice_chat.api.socket_sessions import SocketSessions
 from robot_voice_chat.composition import Container
 from robot_voice_chat.socket_events import SendMessage
@@ -38,7 +39,7 @@ def register_handlers(container: Container, sessions: SocketSessions | None = No
             raise socketio.exceptions.ConnectionRefusedError("login required")
         logger.info("socket_connected", sid=sid)
         await sio.emit("teaching_state", {"armed": container.teaching.armed}, to=sid)
-        await sio.emit("safety_state", container.executor.latch.state.model_dump(), to=sid)
+        await sio.emit("safety_state", safety_view(container).model_dump(), to=sid)
 
     @sio.event  # type: ignore[untyped-decorator]
     async def disconnect(sid: str, *_: Any) -> None:

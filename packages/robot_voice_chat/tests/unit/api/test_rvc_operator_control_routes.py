@@ -82,7 +82,7 @@ async def test_safety_routes_report_stop_and_clear(tmp_path: Path) -> None:
         cleared = await c.post("/api/safety/clear", json={"reason": "corridor checked"})
         again = await c.post("/api/safety/clear", json={"reason": "corridor checked"})
 
-    assert before == {"latched": False, "since": None, "by": None, "reason": None}
+    assert before == {"latched": False, "since": None, "by": None, "reason": None, "alarms": []}
     assert stopped["latched"] is True
     assert stopped["reason"] == "person in the way"
     assert ready == stopped
@@ -92,3 +92,40 @@ async def test_safety_routes_report_stop_and_clear(tmp_path: Path) -> None:
     assert again.status_code == 409
     journal = (tmp_path / "data" / "safety" / "latch.journal").read_text()
     assert "corridor checked" in journal
+
+
+async def test_safety_names_the_alarm_that_latched_the_stop(tmp_path: Path) -> None:
+    """Issue 35: a motion server's alarm latches the stop; /api/safety and readyz say why in
+    words (the reason) and which alarm (its code and the server's own sentence)."""
+    container, tools = brain(tmp_path, FakeLLM([]))
+    alarm = {"code": "LOCK_TOPIC_SHARED", "detail": "Another node publishes the lock.", "at": 5.0}
+    tools.add(
+        "navigation.supervise",
+        lambda a: {
+            "supervised": True,
+            "latched": a["latched"],
+            "lock": "locked",
+            "alarms": [alarm],
+        },
+        holder="string",
+        latched="boolean",
+    )
+    app = create_app(container, manage_lifecycle=False)
+    assert container.supervisor is not None
+    await container.supervisor.start()
+    try:
+        async with httpx.AsyncClient(
+            transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+        ) as c:
+            await async_wait_until(lambda: container.executor.latch.latched, 5, "the latch")
+            safety = (await c.get("/api/safety")).json()
+            ready = (await c.get("/api/readyz")).json()["data"]
+    finally:
+        await container.supervisor.aclose()
+
+    assert safety["latched"] is True
+    assert safety["by"] == "the robot's supervision"
+    assert safety["reason"] == "another program is publishing on the motion lock of my navigation"
+    assert safety["alarms"] == [{"server": "navigation", **alarm}]
+    assert ready["safety"]["alarms"] == safety["alarms"]
+    assert ready["supervision"]["alarms"] == safety["alarms"]

@@ -8,6 +8,7 @@ from typing import Any
 from fastapi import APIRouter
 
 from robot_voice_chat.api.deps import ContainerDep
+from robot_voice_chat.api.routes.safety import safety_view
 
 router = APIRouter(prefix="/api", tags=["health"])
 
@@ -54,7 +55,7 @@ async def readyz(container: ContainerDep) -> dict[str, Any]:
             "servers_without_event_secret": container.config.tools.servers_without_event_secret(),
             # HTTP servers the brain has no credential for: they answer 401 (issue 27)
             "servers_without_credential": container.config.tools.servers_without_credential(),
-            "safety": container.executor.latch.state.model_dump(),
+            "safety": safety_view(container).model_dump(),
             "policy": container.policy_summary(),
             # the lease on every motion server (issue 27): fresh, unreachable, unsupported
             "supervision": container.supervisor.summary() if container.supervisor else None,

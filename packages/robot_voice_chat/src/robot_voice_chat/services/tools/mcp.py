@@ -222,6 +222,11 @@ class McpToolBackend(ToolBackend):
         )
         return outcome
 
+    def retry_now(self, server: str) -> None:
+        conn = self._connections.get(server)
+        if conn is not None and conn.state != "connected":
+            conn.wake.set()
+
     async def start(self) -> None:
         for conn in self._connections.values():
             conn.task = asyncio.create_task(self._supervise(conn), name=f"mcp-{conn.config.name}")

@@ -126,6 +126,11 @@ class Driving:
                 )
             suggestion, route = detour
             tried.add(suggestion)
+            if route == [leg]:  # "call navigate_to(<the same place>) to resume": a retry
+                current = self._add_step(current, f"Resume the drive to {self.say(leg)}")
+                said = f"{_capital(self._failure_said(failure))}. I'll drive on to {self.say(leg)}."
+                before = [self.plan_call(), Call("say", {"text": said})]
+                continue
             current = self._add_step(current, f"Detour via {self.say(route[0])}")
             plan = self._suggestion(suggestion) or f"drive via {self.say(route[0])}"
             said = f"{_capital(self._failure_said(failure))}. I'll {plan}."

@@ -44,6 +44,7 @@ _TIMED_OUT = re.compile(r"timed out after")
 _SERVER_TOOL = re.compile(r"\b(?P<server>[a-z_]+)\.[a-z_]+\b")
 # navigate_to("corridor_b") inside a suggestion; "call navigate_to(...) again"
 _NAV_CALL = re.compile(r"""navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\)""")
+_CALL_NAV = re.compile(r"""\bcall navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\)""")
 _AGAIN = re.compile(r"""call navigate_to\(\s*["']?(?P<place>[\w\- ]+?)["']?\s*\) again""")
 # the guard's refusal after an approval was not given: "<tool> was not sent: denied (<why>)"
 _NOT_APPROVED = re.compile(r"was not sent: (?:denied \((?P<why>.*)\)|(?P<other>.*))$")
@@ -174,6 +175,8 @@ def suggestion_of(text: str, names: Names | None = None, known: Iterable[str] = 
     planner (``retry``, ``retry_after_s:300``) or cannot be said plainly."""
     say = names or by_id
     said = _AGAIN.sub(lambda m: f"send me to {say(m['place'])} again", text)
+    # "call navigate_to("x") to resume the drive": the call is the planner's, the drive mine
+    said = _CALL_NAV.sub(lambda m: f"drive to {say(m['place'])}", said)
     said = _NAV_CALL.sub(lambda m: f"a drive to {say(m['place'])}", said)
     said = re.sub(r"\s*\([^()]*\)", "", said)  # the calls a planner would make
     said = plain_text(said.strip().rstrip("."), say, known)

@@ -21,6 +21,8 @@ interface HistoryLine {
   mission_id?: string;
   outcome?: string;
   summary?: string;
+  /** mission_finished: the mission's human title, served with the line (issue 39) */
+  instruction?: string;
 }
 
 export async function fetchHistory(): Promise<FeedItem[]> {
@@ -37,7 +39,7 @@ export async function fetchHistory(): Promise<FeedItem[]> {
           kind: 'summary',
           key,
           missionId: line.mission_id ?? key,
-          instruction: '',
+          instruction: line.instruction ?? '',
           outcome: line.outcome ?? '',
           summary: line.summary ?? '',
           steps: [],

@@ -23,4 +23,10 @@ describe('SummaryCard', () => {
     expect(screen.queryByText(/Planner:/)).toBeNull();
     expect(screen.getByText('The package is in the mailroom.')).toBeInTheDocument();
   });
+
+  it('never shows an internal mission id as the title', () => {
+    render(<SummaryCard item={{ ...base, instruction: '' }} />);
+    expect(screen.getByRole('heading', { level: 3 })).toHaveTextContent('Mission');
+    expect(screen.queryByText(/m-abc123/)).toBeNull();
+  });
 });

@@ -10,7 +10,7 @@ export function SummaryCard({ item }: { item: Summary }) {
   return (
     <article aria-label={`Mission summary ${item.missionId}`} className="rounded-lg border border-line bg-surface px-3 py-2">
       <header className="flex items-center gap-2">
-        <h3 className="min-w-0 flex-1 truncate text-sm font-semibold">{item.instruction || `Mission ${item.missionId}`}</h3>
+        <h3 className="min-w-0 flex-1 truncate text-sm font-semibold">{item.instruction || 'Mission'}</h3>
         <StatusChip state={item.outcome as MissionState} />
       </header>
       {item.summary && <p className="mt-1 text-sm">{item.summary}</p>}

@@ -11,6 +11,7 @@ import pytest
 import respx
 import socketio
 
+from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.composition import Adapters, Container, assemble
 from robot_voice_chat.services.camera.base import CameraFrame, CameraOfflineError, FakeCameraFeed
@@ -150,6 +151,23 @@ async def test_chat_history_keeps_the_last_complete_lines_but_no_deltas(tmp_path
     assert all(isinstance(line["ts"], float) for line in lines)
     assert last[0]["mission_id"] == "m-1"
     assert bad.status_code == 422
+
+
+async def test_a_finished_mission_in_the_history_keeps_its_human_title(tmp_path: Path) -> None:
+    """Issue 39: after a page reload the card was titled "Mission m-af2fa4"."""
+    container = container_for(tmp_path)
+    mission = Mission.new("go to the kitchen")
+    container.executor.store.add(mission)
+    await container.emitter.emit(
+        MissionFinished(mission_id=mission.id, outcome="succeeded", summary="I'm in the kitchen.")
+    )
+    await container.emitter.emit(
+        MissionFinished(mission_id="m-gone", outcome="failed", summary="x")
+    )
+    app = create_app(container, manage_lifecycle=False)
+    async for c in client_for(app):
+        lines = (await c.get("/api/chat/history")).json()["lines"]
+    assert [line.get("instruction") for line in lines] == ["go to the kitchen", ""]
 
 
 async def test_camera_frame_is_proxied_without_caching(tmp_path: Path) -> None:

@@ -1,4 +1,8 @@
-"""GET /api/chat/history — the last conversation lines, so a reload shows them again."""
+"""GET /api/chat/history — the last conversation lines, so a reload shows them again.
+
+A ``mission_finished`` line is served with its mission's human title (``instruction``), read
+from the mission itself (this process life's store, else the archive): a reloaded page shows
+the card as "go to the kitchen", never as "Mission m-…" (issue 39)."""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ from typing import Any
 from fastapi import APIRouter, Query
 
 from robot_voice_chat.api.deps import ContainerDep
+from robot_voice_chat.robot_words import plain_instruction
 
 router = APIRouter(prefix="/api/chat", tags=["chat"])
 
@@ -15,4 +20,12 @@ router = APIRouter(prefix="/api/chat", tags=["chat"])
 async def chat_history(
     container: ContainerDep, limit: int = Query(50, ge=1, le=500)
 ) -> dict[str, Any]:
-    return {"lines": container.history.lines(limit)}
+    lines = container.history.lines(limit)
+    titled = []
+    for line in lines:
+        if line.get("event") == "mission_finished" and "instruction" not in line:
+            mission = await container.executor.find_mission(str(line.get("mission_id", "")))
+            title = plain_instruction(mission.instruction) if mission is not None else ""
+            line = {**line, "instruction": title}
+        titled.append(line)
+    return {"lines": titled}

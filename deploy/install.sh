@@ -183,12 +183,18 @@ write_env_files() {
   perc="${perc:-$(new_secret)}"
   admin_key="$(env_value ADMIN_SECRET_KEY "$ETC/brain.env")"
   admin_key="${admin_key:-$(new_secret)}"
+  # The vision node's pictures (camera frame, masks, overlays) need a credential (issue 35):
+  # ARTIFACTS_AUTH_TOKEN there, VISION_ARTIFACTS_TOKEN for the brain's camera proxy.
+  local vision_token
+  vision_token="$(env_value VISION_ARTIFACTS_TOKEN "$ETC/brain.env")"
+  vision_token="${vision_token:-$(env_value ARTIFACTS_AUTH_TOKEN "$ETC/vision.env")}"
+  vision_token="${vision_token:-$(new_secret)}"
   # argon2 hashes contain '$': single quotes keep systemd's env-file parser from touching them
   local quoted_hash=""
   [[ -n "${ADMIN_PASSWORD_HASH:-}" ]] && quoted_hash="'$ADMIN_PASSWORD_HASH'"
 
   env_file ros ROS_DOMAIN_ID=42 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-  env_file vision GEMINI_API_KEY= PERCEPTION_CONFIG_OVERRIDES=
+  env_file vision GEMINI_API_KEY= PERCEPTION_CONFIG_OVERRIDES= "ARTIFACTS_AUTH_TOKEN=$vision_token"
   env_file skill-control LOG_LEVEL=INFO
   env_file perception-buffer "RVC_EVENT_SECRET=$perc" LOG_LEVEL=INFO
   # The robot's Nav2 drives the base (README "Deploying on a robot"); NAV_MAP is the robot's map
@@ -205,7 +211,7 @@ write_env_files() {
   env_file memory "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file episodic "ROBOT_ID=$(hostname -s 2>/dev/null || echo robot-1)" LOG_LEVEL=INFO
   env_file brain "NAV_EVENT_SECRET=$nav" "PERCEPTION_EVENT_SECRET=$perc" \
-    "MANIP_EVENT_SECRET=$manip" \
+    "MANIP_EVENT_SECRET=$manip" "VISION_ARTIFACTS_TOKEN=$vision_token" \
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local

@@ -60,6 +60,7 @@ SECRETS_OF = {
         "PERCEPTION_EVENT_SECRET",
         "MANIP_EVENT_SECRET",
         "ADMIN_SECRET_KEY",
+        "VISION_ARTIFACTS_TOKEN",
         *(f"{name}_MCP_TOKEN" for _, name in MCP_SERVERS.values()),
     },
     "robot-mcp-navigation": {
@@ -74,7 +75,7 @@ SECRETS_OF = {
         "RVC_EVENT_SECRET@perception-buffer",
         *credentials_of("mcp-perception-buffer"),
     },
-    "robot-mcp-perception": set(),
+    "robot-mcp-perception": {"VISION_ARTIFACTS_TOKEN"},  # its pictures' (ARTIFACTS_AUTH_TOKEN)
     "mcp-skill-control": credentials_of("mcp-skill-control"),
     "robot-mcp-memory": credentials_of("robot-mcp-memory"),
     "robot-mcp-episodic": credentials_of("robot-mcp-episodic"),
@@ -190,8 +191,11 @@ def test_each_unit_runs_as_its_own_user_and_gets_only_its_own_secrets(installed:
         assert service["User"] == service["Group"] == name
         assert secrets_readable_by(installed, name) == {value_of[k] for k in SECRETS_OF[name]}, name
     assert len(set(users.values())) == len(UNITS)  # nobody shares a user
-    # the vision node cannot read the operator's session key or the event secrets
-    assert not secrets_readable_by(installed, "robot-mcp-perception") & set(value_of.values())
+    # the vision node cannot read the operator's session key, the event secrets or any MCP
+    # credential: only its own pictures' credential, which the brain's camera proxy holds
+    assert secrets_readable_by(installed, "robot-mcp-perception") == {
+        value_of["VISION_ARTIFACTS_TOKEN"]
+    }
 
 
 def test_event_secrets_are_generated_and_shared_with_the_brain(installed: Path) -> None:
@@ -338,6 +342,19 @@ def test_a_unit_that_does_not_match_its_service_entry_is_refused(tmp_path: Path)
     assert "robot-voice-chat: its EnvironmentFile= lines" in result.stderr
 
 
+def test_the_vision_nodes_picture_credential_is_generated_and_shared_with_the_brain(
+    installed: Path,
+) -> None:
+    """Issue 35: the vision node's camera frame, masks and overlays need ARTIFACTS_AUTH_TOKEN;
+    the brain's camera proxy sends its copy, VISION_ARTIFACTS_TOKEN."""
+    etc = installed / "etc/robot-stack"
+    token = env_file(etc / "vision.env")["ARTIFACTS_AUTH_TOKEN"]
+    assert len(token) >= 32
+    assert env_file(etc / "brain.env")["VISION_ARTIFACTS_TOKEN"] == token
+    service = installed / "etc/systemd/system/robot-mcp-perception.service"
+    assert not [e for e in unit_values(service, "Environment") if e.startswith("ARTIFACTS_AUTH=")]
+
+
 def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
     run_install(tmp_path, "--skip-build")
     brain = tmp_path / "etc/robot-stack/brain.env"
@@ -353,6 +370,7 @@ def test_rerunning_keeps_secrets_and_operator_edits(tmp_path: Path) -> None:
         "ADMIN_SECRET_KEY",
         "NAVIGATION_MCP_TOKEN",
         "EPISODIC_MCP_TOKEN",
+        "VISION_ARTIFACTS_TOKEN",
     ):
         assert after[key] == before[key]
     assert list(after) == list(before)  # nothing appended twice

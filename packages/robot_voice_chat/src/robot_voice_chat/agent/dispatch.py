@@ -12,6 +12,7 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
+from robot_voice_chat.agent.lapse import RECOVER_WAIT_S, IssuedCall, carrying_on, is_lapse
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
@@ -99,6 +100,11 @@ class TaskDispatcher:
         self.latched = latched
         self.supervisor = supervisor
         self.stopped_orphans: set[tuple[str, str]] = set()  # (server, task) stopped while latched
+        # supervision lapses with the brain alive (agent.lapse): each motion call as sent, the
+        # task a re-issued one replaced (old id → new), and the steps re-issued once already
+        self.issued: dict[str, IssuedCall] = {}
+        self.aliases: dict[str, str] = {}
+        self.recovered: set[tuple[str, str | None]] = set()
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -122,6 +128,9 @@ class TaskDispatcher:
             )
             return result
         step_id, args = strip_step_id(call.arguments)
+        task_id = args.get("task_id")
+        if isinstance(task_id, str) and task_id in self.aliases:  # a task re-issued after a lapse
+            args = {**args, "task_id": self.current_task_id(task_id)}
         mission = run.mission
         step = mission.step(step_id)
         server_cfg = self.tools.servers().get(call.name.partition(".")[0])
@@ -174,6 +183,8 @@ class TaskDispatcher:
             await self.output.say(run, notice)
         info = None if outcome.is_error else parse_task_info(outcome.text)
         if info is not None:
+            if motion:
+                self.issued[str(info["task_id"])] = IssuedCall(call.name, args, step_id)
             await self._register_task(run, call.name, step_id, info, sent_at)
         elif step is not None:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
@@ -219,6 +230,7 @@ class TaskDispatcher:
         step_id: str | None,
         info: dict[str, Any],
         sent_at: float,
+        shown_as: str | None = None,
     ) -> None:
         server, _, tool = dotted.partition(".")
         # A watcher is started on skill_control but owned (events, cancel) by perception.
@@ -235,6 +247,7 @@ class TaskDispatcher:
             skill_id=skill_id if isinstance(skill_id, str) else None,
             skill_server=server if isinstance(skill_id, str) else None,
             since=sent_at,
+            shown_as=shown_as,
         )
         step = run.mission.step(step_id)
         if step is not None:
@@ -299,6 +312,14 @@ class TaskDispatcher:
             if handle is None:
                 self._stop_orphan_if_latched(event)
             return False
+        if event.type == "task_failed" and self._lapse_to_recover(run, handle, event):
+            self.registry.resolve(event)
+            self.spawn(self._recover_lapse(run, handle, event))
+            return True
+        return await self._deliver(run, handle, event)
+
+    async def _deliver(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> bool:
+        """Reactions, the step, the mission's log and the planner's inbox for ``event``."""
         for reaction in run.reactions.take(event):
             await self._react(run, reaction, event)
         self.registry.resolve(event)
@@ -325,6 +346,105 @@ class TaskDispatcher:
             await self.output.log_line(run, "task_event", text)
             run.post(text)
         return True
+
+    def current_task_id(self, task_id: str) -> str:
+        """The task that carries on ``task_id`` after lapses (itself if none re-issued it)."""
+        seen = {task_id}
+        while task_id in self.aliases and self.aliases[task_id] not in seen:
+            task_id = self.aliases[task_id]
+            seen.add(task_id)
+        return task_id
+
+    def _lapse_to_recover(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> bool:
+        """A motion step of the running mission cancelled because supervision lapsed, with the
+        brain alive, the stop not latched, the mission not paused and the step not re-issued
+        yet: recovered here instead of failing (agent.lapse)."""
+        issued = self.issued.get(handle.task_id)
+        return (
+            self.supervisor is not None
+            and self._is_motion(handle.server)
+            and issued is not None
+            and is_lapse(event.payload)
+            and not self.latched()
+            and run.mission.state == "running"
+            and not run.awaiting_user
+            and (run.mission.id, issued.step_id) not in self.recovered
+        )
+
+    async def _recover_lapse(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> None:
+        """Re-lease, wait for the server's lock to open, re-issue the step's call once and say
+        so once; if any of that fails, the planner gets the failure as it came."""
+        assert self.supervisor is not None
+        issued = self.issued.pop(handle.task_id)
+        mission = run.mission
+        self.recovered.add((mission.id, issued.step_id))
+        logger.warning(
+            "supervision_lapse_recovering",
+            server=handle.server,
+            task_id=handle.task_id,
+            step_id=issued.step_id,
+        )
+        step = mission.step(issued.step_id)
+        if step is not None:
+            step.detail = "safety link lost for a moment: resuming"
+            await self.output.emit_plan(run)
+        opened = await self.supervisor.wait_lock_open(handle.server, RECOVER_WAIT_S)
+        if not (opened and self._still_running(run)):
+            logger.warning(
+                "supervision_lapse_not_recovered",
+                server=handle.server,
+                task_id=handle.task_id,
+                lock_open=opened,
+            )
+            if self._still_running(run):
+                await self._deliver(run, handle, event)
+            return
+        if issued.step_id is not None:
+            self.motion_steps_in_flight.add(issued.step_id)
+        try:
+            sent_at = time.time()
+            with dispatching(DispatchContext(mission.id, issued.step_id)):
+                outcome = await self.tools.call_tool(
+                    issued.tool, issued.arguments, self.config.tool_timeout_s
+                )
+        finally:
+            if issued.step_id is not None:
+                self.motion_steps_in_flight.discard(issued.step_id)
+        info = None if outcome.is_error else parse_task_info(outcome.text)
+        self.trace.record(
+            mission.id,
+            "lapse_recovered" if info is not None else "lapse_not_recovered",
+            tool=issued.tool,
+            arguments=issued.arguments,
+            step_id=issued.step_id,
+            replaces=handle.task_id,
+            result=outcome.text[:500],
+            is_error=outcome.is_error,
+        )
+        if info is None:
+            logger.warning(
+                "supervision_lapse_not_recovered", server=handle.server, result=outcome.text[:200]
+            )
+            if self._still_running(run):  # a stop meanwhile owns the step: nothing to add
+                await self._deliver(run, handle, event)
+            return
+        new_id = str(info["task_id"])
+        self.issued[new_id] = issued
+        self.aliases[handle.task_id] = new_id
+        logger.info("supervision_lapse_recovered", replaces=handle.task_id, task_id=new_id)
+        await self._register_task(
+            run, issued.tool, issued.step_id, info, sent_at, shown_as=handle.label
+        )
+        if self._still_running(run):
+            await self.output.say(run, carrying_on(issued))
+
+    def _still_running(self, run: MissionRun) -> bool:
+        return (
+            self.current_run() is run
+            and run.mission.state == "running"
+            and not run.awaiting_user
+            and not self.latched()
+        )
 
     def _stop_orphan_if_latched(self, event: TaskEvent) -> None:
         """Motion the brain did not start, reported while the software stop is latched: stop

@@ -29,13 +29,16 @@ class TaskHandle:
     # "watch-<skill_id>"); an event the server stamped before this instance existed belongs
     # to an earlier one. Servers share the brain's clock (loopback, ARCHITECTURE §1).
     since: float = 0.0
+    # the label of the task this one re-issued after a supervision lapse (agent.lapse): the
+    # planner keeps waiting on the task it started and reads this one's events under its name
+    shown_as: str | None = None
 
     def predates(self, event: TaskEvent) -> bool:
         return event.ts < self.since
 
     @property
     def label(self) -> str:
-        return f"[task {self.task_id} {self.server}.{self.tool}]"
+        return self.shown_as or f"[task {self.task_id} {self.server}.{self.tool}]"
 
 
 def parse_task_info(text: str) -> dict[str, Any] | None:

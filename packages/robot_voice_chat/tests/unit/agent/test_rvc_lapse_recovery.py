@@ -1,0 +1,200 @@
+"""A mission recovers from a supervision lapse with the brain alive (issue 39 item 1): the drive
+the server cancelled is re-issued once, within the same mission, said once; never while the
+stop is latched, never after an operator's stop, never twice for one step."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from robot_mcp_kit.models import TaskEvent
+from robot_mcp_kit.supervision import LAPSE_REASONS
+from robot_stack_testing import async_wait_until
+from robot_voice_chat.agent.harness import Harness, make_harness, task_info
+from robot_voice_chat.agent.lapse import IssuedCall, carrying_on, is_lapse
+from robot_voice_chat.robot_words import leaks
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
+
+PLAN = reply(
+    "",
+    ("set_plan", {"steps": [{"id": "s1", "title": "Drive", "tool": "navigation.navigate_to"}]}),
+    ("navigation.navigate_to", {"step_id": "s1", "location": "kitchen"}),
+)
+WAIT = reply("", ("wait_for_events", {"reason": "driving"}))
+DONE = reply("", ("finish_mission", {"outcome": "succeeded", "summary": "I'm in the kitchen."}))
+GAVE_UP = reply("", ("finish_mission", {"outcome": "failed", "summary": "I couldn't get there."}))
+LAPSED = (
+    f"navigation to kitchen was cancelled ({LAPSE_REASONS['lapsed']}); the robot halted where it is"
+)
+SAID = (
+    "I lost my safety link for a moment and stopped; it's back, so I'm carrying on to the kitchen."
+)
+
+
+def event(task_id: str, type_: str, seq: int, **payload: Any) -> TaskEvent:
+    return TaskEvent(
+        event_id=f"e-{task_id}-{seq}",
+        task_id=task_id,
+        server="navigation",
+        tool="navigate_to",
+        type=type_,  # type: ignore[arg-type]
+        seq=seq,
+        ts=time.time(),
+        payload=payload,
+    )
+
+
+def lapsed(task_id: str, seq: int = 1) -> TaskEvent:
+    return event(
+        task_id, "task_failed", seq, error_code="CANCELLED", message=LAPSED, recoverable=True
+    )
+
+
+class Navigation:
+    def __init__(self) -> None:
+        self.drives = 0
+        self.lock = "open"
+
+    def navigate_to(self, arguments: dict[str, Any]) -> str:
+        self.drives += 1
+        return task_info(f"nav-{self.drives}")
+
+
+async def supervised(tmp_path: Path, planner: FakeLLM) -> tuple[Harness, Navigation]:
+    nav = Navigation()
+    h = make_harness(tmp_path, planner, supervisor=(0.05, 0.5))
+    h.tools.add("navigation.navigate_to", nav.navigate_to, location="string")
+    h.tools.add(
+        "navigation.supervise",
+        lambda a: {
+            "supervised": True,
+            "latched": a["latched"],
+            "lock": "locked" if a["latched"] else nav.lock,
+        },
+        holder="string",
+    )
+    assert h.supervisor is not None
+    await h.supervisor.start()
+    await async_wait_until(lambda: h.supervisor and h.supervisor.fresh("navigation"), 5, "lease")
+    return h, nav
+
+
+@pytest.fixture
+async def drive(tmp_path: Path) -> Any:
+    h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, DONE]))
+    mission = await h.executor.start("drive to the kitchen")
+    await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "driving")
+    yield h, nav, mission
+    await h.executor.shutdown()
+    assert h.supervisor is not None
+    await h.supervisor.aclose()
+
+
+async def test_a_drive_cancelled_by_a_lapse_is_reissued_and_the_mission_arrives(
+    drive: Any,
+) -> None:
+    h, nav, mission = drive
+
+    await h.executor.on_task_event(lapsed("nav-1"))
+    await async_wait_until(lambda: nav.drives == 2, 5, "the drive re-issued")
+    await async_wait_until(lambda: SAID in h.speech.spoken, 5, "said once")
+    await h.executor.on_task_event(event("nav-2", "task_done", 1, result={"arrived": "kitchen"}))
+    await h.executor.wait_idle(5)
+
+    assert mission.state == "succeeded"
+    assert h.tools.called("navigation.navigate_to") == [{"location": "kitchen"}] * 2
+    assert h.speech.spoken.count(SAID) == 1
+    assert [s.title for s in mission.steps] == ["Drive"]  # no extra step, no "Detour via"
+    assert mission.steps[0].task_id == "nav-2"
+    assert mission.steps[0].status == "succeeded"
+    planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
+    assert "[task nav-1 navigation.navigate_to] done:" in planner_saw  # the task it waits on
+    assert "supervision was lost" not in planner_saw
+
+
+async def test_the_drive_waits_until_the_lock_is_open_again(drive: Any) -> None:
+    h, nav, _ = drive
+    nav.lock = "locked"
+    assert h.supervisor is not None
+    await async_wait_until(
+        lambda: h.supervisor and not h.supervisor.lock_open("navigation"), 5, "locked"
+    )
+
+    await h.executor.on_task_event(lapsed("nav-1"))
+    await async_wait_until(
+        lambda: ((h.executor.run and h.executor.run.mission.steps[0].detail) or "").startswith(
+            "safety link lost"
+        ),
+        5,
+        "the step shows the wait",
+    )
+    assert nav.drives == 1  # not sent into a locked base
+    nav.lock = "open"
+
+    await async_wait_until(lambda: nav.drives == 2, 5, "re-issued once the lock opened")
+
+
+async def test_a_second_lapse_of_the_same_step_goes_to_the_planner(tmp_path: Path) -> None:
+    h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, GAVE_UP]))
+    try:
+        mission = await h.executor.start("drive to the kitchen")
+        await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "driving")
+        await h.executor.on_task_event(lapsed("nav-1"))
+        await async_wait_until(lambda: nav.drives == 2, 5, "re-issued")
+        await async_wait_until(lambda: SAID in h.speech.spoken, 5, "said")
+
+        await h.executor.on_task_event(lapsed("nav-2", seq=2))
+        await h.executor.wait_idle(5)
+    finally:
+        await h.executor.shutdown()
+        assert h.supervisor is not None
+        await h.supervisor.aclose()
+
+    assert nav.drives == 2
+    assert mission.state == "failed"
+    planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
+    assert "[task nav-1 navigation.navigate_to] failed CANCELLED" in planner_saw
+
+
+async def test_no_recovery_while_the_stop_is_latched(drive: Any) -> None:
+    h, nav, _ = drive
+    h.latch.engage("operator", "person in the way")
+
+    await h.executor.on_task_event(lapsed("nav-1"))
+    await async_wait_until(lambda: len(h.planner.requests) >= 3, 5, "the planner told")
+
+    assert nav.drives == 1
+    assert SAID not in h.speech.spoken
+
+
+async def test_no_recovery_after_an_operator_stop(drive: Any) -> None:
+    h, nav, mission = drive
+    await h.executor.on_user_turn("stop")
+    await h.latch.clear("operator", "checked")
+
+    await h.executor.on_task_event(lapsed("nav-1"))
+
+    assert mission.state == "paused"
+    assert nav.drives == 1
+    assert SAID not in h.speech.spoken
+
+
+def test_only_a_lapse_is_recovered_and_the_words_are_plain() -> None:
+    assert is_lapse({"error_code": "CANCELLED", "message": LAPSED})
+    assert is_lapse(
+        {"error_code": "CANCELLED", "message": "the pick was cancelled (NOT_SUPERVISED)"}
+    )
+    latched = f"navigation to kitchen was cancelled ({LAPSE_REASONS['latched']})"
+    assert not is_lapse({"error_code": "CANCELLED", "message": latched})
+    assert not is_lapse({"error_code": "DOOR_CLOSED", "message": LAPSED})
+    for call in [
+        IssuedCall("navigation.navigate_to", {"location": "desk_alice"}, "s1"),
+        IssuedCall("manipulation.pick", {"label": "yellow package", "mask_ref": "m-1"}, "s2"),
+        IssuedCall("manipulation.place", {}, "s3"),
+        IssuedCall("manipulation.release", {}, "s4"),
+        IssuedCall("navigation.dock", {}, "s5"),
+    ]:
+        assert leaks(carrying_on(call)) == [], call

@@ -23,7 +23,7 @@ export function App() {
       <AppHeader />
       <SafetyBanner />
       <main className="grid min-h-0 flex-1 grid-cols-1 gap-3 overflow-y-auto p-3 lg:grid-cols-[minmax(0,1fr)_380px] lg:overflow-hidden">
-        <div className="flex min-h-[60vh] flex-col gap-3 lg:min-h-0">
+        <div className="flex min-h-[40vh] flex-col gap-3 lg:min-h-0">
           <div className="max-h-[55%] shrink-0 overflow-y-auto">
             <MissionPanel />
           </div>
@@ -32,9 +32,11 @@ export function App() {
             <MessageBox />
           </section>
         </div>
+        {/* The map first: the whole of it stays in view above the status bar at 1280×800 and,
+            below the chat, at 768 px wide (issue 39); the camera follows it. */}
         <aside className="grid grid-cols-1 content-start gap-3 md:grid-cols-2 lg:grid-cols-1 lg:overflow-y-auto">
-          <CameraView />
           <MapView />
+          <CameraView />
           <HistoryPanel />
         </aside>
       </main>

@@ -55,7 +55,7 @@ export function MissionPanel() {
     <section aria-label="Mission" className="overflow-hidden rounded-lg border border-line bg-surface">
       <header className="flex flex-wrap items-center gap-2 border-b border-line px-3 py-2">
         <h2 className="min-w-0 flex-1 truncate text-sm font-semibold" title={mission.instruction}>
-          {mission.instruction || mission.id}
+          {mission.instruction || 'Mission'}
         </h2>
         {mission.teaching && <span className="text-xs text-accent">teaching</span>}
         <StatusChip state={mission.state} />

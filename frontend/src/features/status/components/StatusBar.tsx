@@ -54,7 +54,7 @@ export function StatusBar() {
           Object.entries(ready.data.mcp_servers).map(([name, state]) => (
             <span key={name} className="flex items-center gap-1" title={`${name}: ${state}`}>
               <span aria-hidden="true" className={`h-2 w-2 rounded-full ${SERVER_TONE[state]}`} />
-              {name} <span className="text-muted">{state}</span>
+              {name} <span className="sr-only text-muted lg:not-sr-only">{state}</span>
             </span>
           ))}
         {ready && (

@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 
+from robot_voice_chat.agent.abort import aborted_summary, aborting_note, busy_note
 from robot_voice_chat.agent.bargein import STOP_QUESTION
 from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.agent.recovery import SUMMARY, stopped_after_restart
@@ -26,7 +27,13 @@ from robot_voice_chat.control.latch_store import LatchState
 from robot_voice_chat.pipeline.chat import ChatPipeline, busy_message
 from robot_voice_chat.robot_words import check_robot_words, leaks, witnessing
 from robot_voice_chat.services.llm.rules.chat import INTRO, RulesChat
-from robot_voice_chat.services.llm.rules.plain import reason_of, suggestion_of
+from robot_voice_chat.services.llm.rules.plain import (
+    down_sentence,
+    part_down,
+    reason_of,
+    server_part,
+    suggestion_of,
+)
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
     last_seen_sentence,
@@ -198,6 +205,28 @@ TEMPLATES: list[tuple[str, Callable[[], str]]] = [
             json.dumps({"items": [sighting("meeting_room", ago="just now")]}),
             OFFICE_PLACES.spoken,
         ),
+    ),
+    # issue 39: abort, the busy reply, the part that does not answer
+    ("busy note", lambda: busy_note(Mission.new("go to desk_alice"), None)),
+    ("aborting", lambda: aborting_note(Mission.new("go to meeting_room"))),
+    ("aborted", lambda: aborted_summary(Mission.new("fetch the mug from the kitchen"))),
+    *[
+        (f"down: {server}", lambda server=server: down_sentence(server_part(server), "look"))
+        for server in ("perception", "skill_control", "manipulation", "navigation", "episodic")
+    ],
+    *[
+        (
+            f"down: {code}",
+            lambda code=code: down_sentence(
+                part_down(json.dumps({"error": code, "detail": "/vision/create_skill x_y"})) or "",
+                "look for the red mug",
+            ),
+        )
+        for code in ("service_unavailable", "service_timeout", "ARM_UNAVAILABLE")
+    ],
+    (
+        "resume a drive",
+        lambda: suggestion_of('call navigate_to("desk_bob") to resume the drive') or "",
     ),
 ]
 

@@ -42,9 +42,9 @@ def is_abort(text: str) -> bool:
     return bool(_ABORT.search(said) or _WHOLE.match(said))
 
 
-def aborted_summary(run: MissionRun) -> str:
+def aborted_summary(mission: Mission) -> str:
     """How the mission's end is told (the summary card and the spoken line)."""
-    return f"I aborted the mission ({plain_instruction(run.mission.instruction)}) as you asked."
+    return f"I aborted the mission ({plain_instruction(mission.instruction)}) as you asked."
 
 
 async def abort_run(
@@ -58,7 +58,7 @@ async def abort_run(
     """End ``run`` as cancelled and cancel its motion now; what the person is shown at once
     (the summary is told when the loop closes the mission)."""
     mission = run.mission
-    run.finished = ("cancelled", aborted_summary(run))
+    run.finished = ("cancelled", aborted_summary(mission))
     if run.llm_call is not None:
         run.llm_call.cancel()
     if approvals is not None:  # nothing waiting for a yes may run for an aborted mission
@@ -69,6 +69,11 @@ async def abort_run(
     logger.warning(
         "mission_aborted", said=text, mission_id=mission.id, cancelled=[h.task_id for h in live]
     )
+    return aborting_note(mission)
+
+
+def aborting_note(mission: Mission) -> str:
+    """What the person is shown at once when their abort was heard."""
     return f"Aborting the mission ({plain_instruction(mission.instruction)})."
 
 

@@ -267,11 +267,14 @@ class MotionSupervisor:
 
     def _reconnect(self, server: str) -> None:
         if self._lease_tools is not None and self._lease_tools is not self.tools:
-            self._lease_tools.retry_now(server)
+            self._lease_tools.check_now(server)
         self._set_wakes(server)
 
     async def _on_lease_connect(self, server: str) -> None:
+        """The lease's own connection (re)connected ``server``: renew now, and the brain's
+        connection retries now too (the server is back)."""
         self._set_wakes(server)
+        self._to_owner(self.tools.check_now, server)
 
     async def ensure_fresh(self, server: str, timeout_s: float | None = None) -> bool:
         """Before a motion call: a fresh lease on ``server`` (one is asked for at once when
@@ -406,7 +409,22 @@ class MotionSupervisor:
             "thread": self.threaded,
             "servers": {s: v.as_dict(self.ttl_s, now) for s, v in list(self._views.items())},
             "alarms": self.alarms(),
+            "renewals": self.renewal_summary(),
         }
+
+    def renewal_summary(self) -> dict[str, Any]:
+        """Percentiles (ms) of the recent renewals' gaps and lateness (readiness, benchmarks):
+        a gap near the TTL is a lapse a moment away."""
+        stats = self.renewal_stats()
+        out: dict[str, Any] = {"n": len(stats["gaps"])}
+        for name, values in stats.items():
+            if values:
+                ordered = sorted(values)
+                for label, q in (("p50", 0.5), ("p99", 0.99)):
+                    index = min(len(ordered) - 1, round(q * (len(ordered) - 1)))
+                    out[f"{name}_{label}_ms"] = round(ordered[index] * 1000, 1)
+                out[f"{name}_max_ms"] = round(ordered[-1] * 1000, 1)
+        return out
 
     # --- renewing (on the renewals' loop) ------------------------------------------------
     async def _loop(self, server: str) -> None:
@@ -462,6 +480,10 @@ class MotionSupervisor:
             state: LeaseState = (
                 "refused" if isinstance(answer, dict) or refused is not None else "unreachable"
             )
+            if state == "unreachable" and tools is not self.tools:
+                # the brain's own connection may not have noticed yet: a mission told of a
+                # lost motion server must not wait for its next health check
+                self._to_owner(self.tools.check_now, server)
             return self._set(view, state, outcome.text[:200])
         if server in self._not_permitted:
             self._not_permitted.discard(server)

@@ -42,6 +42,7 @@ class Server:
         self.threads: set[str] = set()
         self.alarms: list[dict[str, Any]] = []
         self.refuse = False
+        self.down = False
         self.renewed = threading.Event()
         self._lock = threading.Lock()
 
@@ -50,6 +51,8 @@ class Server:
             self.leases.append(arguments)
             self.threads.add(threading.current_thread().name)
         self.renewed.set()
+        if self.down:
+            return ToolOutcome(text="error: navigation.supervise failed: closed", is_error=True)
         if self.refuse:
             body = {"error": "not_permitted", "detail": "supervise is the brain's alone"}
             return ToolOutcome(text=json.dumps(body), is_error=True)
@@ -282,3 +285,37 @@ async def test_stopping_ends_the_thread(server: Server, latch: SafetyLatch) -> N
     await async_wait_until(lambda: server.leases, 5, "a renewal")
     await supervisor.aclose()
     assert not any(t.name == "supervision" for t in threading.enumerate())
+
+
+class Brain(FakeToolBackend):
+    """The brain's own backend: records when it is asked to check a server now."""
+
+    def __init__(self, server: Server) -> None:
+        super().__init__([NAV])
+        self.add("navigation.supervise", server.supervise, holder="string")
+        self.checked: list[tuple[str, str]] = []
+
+    def check_now(self, server: str) -> None:
+        self.checked.append((server, threading.current_thread().name))
+
+
+async def test_a_lost_server_is_checked_at_once_by_the_brains_own_connection(
+    server: Server, latch: SafetyLatch
+) -> None:
+    """The lease's connection notices a dead motion server first: the brain's connection is
+    told to check it now (a mission hears of the loss without waiting for a health check),
+    on the brain's own loop."""
+    brain = Brain(server)
+    supervisor = MotionSupervisor(
+        brain, latch, period_s=0.05, ttl_s=0.5, lease_tools=lambda: backend(server)
+    )
+    await supervisor.start()
+    try:
+        await async_wait_until(lambda: supervisor.fresh("navigation"), 5, "a first lease")
+        server.down = True
+        await async_wait_until(lambda: brain.checked, 5, "the brain's connection checked")
+    finally:
+        await supervisor.aclose()
+
+    assert brain.checked[0] == ("navigation", threading.current_thread().name)
+    assert supervisor.summary()["servers"]["navigation"]["state"] == "unreachable"

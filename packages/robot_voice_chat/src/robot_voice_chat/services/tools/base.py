@@ -138,9 +138,9 @@ class ToolBackend(abc.ABC):
         """Declare MCP elicitation to the servers and route their questions to ``handler``;
         adapters without servers keep the default (nothing to ask)."""
 
-    def retry_now(self, server: str) -> None:  # noqa: B027 - optional hook
-        """Connect to ``server`` now if it is not connected (instead of at the next retry);
-        adapters without connections keep the default."""
+    def check_now(self, server: str) -> None:  # noqa: B027 - optional hook
+        """Health-check ``server`` now, or connect to it now if it is down (instead of at the
+        next interval); adapters without connections keep the default."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Begin connecting; adapters without connections keep the default."""

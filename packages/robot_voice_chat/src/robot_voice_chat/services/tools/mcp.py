@@ -222,9 +222,9 @@ class McpToolBackend(ToolBackend):
         )
         return outcome
 
-    def retry_now(self, server: str) -> None:
+    def check_now(self, server: str) -> None:
         conn = self._connections.get(server)
-        if conn is not None and conn.state != "connected":
+        if conn is not None:
             conn.wake.set()
 
     async def start(self) -> None:

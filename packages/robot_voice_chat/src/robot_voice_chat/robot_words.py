@@ -1,6 +1,8 @@
 """What the robot says is plain words (issue 31): no task ids, tool names, error codes,
 snake_case ids or raw server strings in anything said or shown as the robot's words (mission
-summaries, chat replies, spoken lines); codes stay in step details and logs.
+summaries, chat replies, spoken lines); codes stay in step details and logs. Issue 39 adds the
+robot's whereabouts (a named place, never map coordinates) and its parts (the arm, the base,
+never a server's name).
 
 :func:`leaks` is the one checker: the unit sweep over the sentence templates and the e2e tests
 call it on every reply they see, so a new sentence that leaks is caught wherever it comes from.
@@ -48,6 +50,25 @@ _PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
     ("zero seconds", re.compile(r"(?<![\d.])0(?:\.0+)? ?s(?:ec(?:onds?)?)?\b")),
     # a software stop is a software stop
     ("emergency stop", re.compile(r"\bemergency[ -]stop|\be-stop\b", re.IGNORECASE)),
+    # where the robot is, as a person says it (issue 39): a named place, never the map's
+    # numbers ("near (14.0, 6.0)", "at x=14.0", "theta: 1.57")
+    (
+        "coordinates",
+        re.compile(
+            r"\b(?:near|at|around|to|from|pose|position)\s+\(\s*-?\d+(?:\.\d+)?\s*,\s*-?\d"
+            r"|\b(?:x|y|theta)\s*[=:]\s*-?\d"
+        ),
+    ),
+    # a part of the robot by its server's name ("the robot's manipulation holds itself
+    # stopped", "my skill control"): the arm, the base, the camera skills
+    (
+        "server name",
+        re.compile(
+            r"\b(?:robot's|its|my) (?:manipulation|skill[ _]control|perception[ _]buffer)\b"
+            r"|\brobot's (?:navigation|episodic)\b",
+            re.IGNORECASE,
+        ),
+    ),
 )
 
 

@@ -2,9 +2,11 @@
 never "Stopped." about a motion it could not stop.
 
 The chain a sentence relies on: a motion server without a fresh lease from the brain cancels
-its motion and locks the robot's base (its dead-man lock on the robot's twist_mux); a dead
-server's lock falls silent, which twist_mux reads as locked. So once the brain's lease on a
-server has surely run out, the robot's base holds itself stopped — and only then is it said.
+its motion and locks its own part of the robot — navigation the base (its dead-man lock on the
+robot's twist_mux), manipulation the arm (its lock on the arm controller's command gate); a dead
+server's lock falls silent, which reads as locked. So once the brain's lease on a server has
+surely run out, that part holds itself stopped — and only then is it said, naming the part the
+lock holds (issue 39: never "the base" for a lost arm server while the arm could move).
 """
 
 from __future__ import annotations
@@ -14,9 +16,25 @@ import time
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import service_name
 
+PARTS = {"navigation": "base", "manipulation": "arm"}
+"""The part of the robot each motion server's dead-man lock holds."""
+
 
 def _clock(wall: float) -> str:
     return time.strftime("%H:%M:%S", time.localtime(wall))
+
+
+def held_part(servers: list[str] | tuple[str, ...] | set[str]) -> str:
+    """ "the robot's base", "the robot's arm", or "the robot's base and arm": the parts the
+    locks of ``servers`` hold (a motion server of another kind: its own name)."""
+    parts = list(dict.fromkeys(PARTS.get(s, service_name(s)) for s in sorted(servers)))
+    parts.sort(key=lambda p: (p != "base", p))
+    return "the robot's " + " and ".join(parts)
+
+
+def _holds(servers: list[str]) -> str:
+    verb = "holds itself" if len(servers) == 1 else "hold themselves"
+    return f"{held_part(servers)} {verb} stopped"
 
 
 async def unconfirmed_stop(supervisor: MotionSupervisor | None, server: str) -> str:
@@ -27,13 +45,13 @@ async def unconfirmed_stop(supervisor: MotionSupervisor | None, server: str) -> 
         if outcome == "lapsed":
             return (
                 f"I could not reach my {name}, so it could not confirm the stop. "
-                f"My supervision of it lapsed at {_clock(when)}, and without supervision the "
-                "robot's base holds itself stopped."
+                f"My supervision of it lapsed at {_clock(when)}, and without supervision "
+                f"{_holds([server])}."
             )
         if outcome == "latched":
             return (
                 f"My {name} did not confirm the stop, but it has taken the software stop, "
-                "which holds the robot's base stopped."
+                f"which holds {held_part([server])} stopped."
             )
     return (
         f"I could not reach my {name}, so I cannot confirm that the robot stopped. If it "
@@ -49,8 +67,8 @@ async def lost_motion_server(supervisor: MotionSupervisor | None, server: str) -
         if outcome == "lapsed":
             return (
                 f"I lost contact with my {name}. My supervision of it lapsed at "
-                f"{_clock(when)}, so the robot's base holds itself stopped. I'm waiting for "
-                "the server to come back."
+                f"{_clock(when)}, so {_holds([server])}. I'm waiting for the server to come "
+                "back."
             )
     return (
         f"I lost contact with my {name} and am waiting for it to come back. I cannot tell "

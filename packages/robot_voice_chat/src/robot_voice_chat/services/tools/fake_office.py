@@ -51,6 +51,11 @@ class OfficeWorld:
         self.drive_s = drive_s
         self.door_closed = door_closed
         self.at = "dock"
+        # list_locations with distances (off by off_m from ``at``: a drive halted on its way)
+        self.distances = False
+        self.off_m = 0.0
+        self.unreachable: set[str] = set()  # places no drive reaches (no way through)
+        self.drive_times: dict[str, float] = {}  # drives that take longer than drive_s
         self.deliver: Deliver | None = None
         self.tasks: dict[str, dict[str, Any]] = {}
         self.driving: asyncio.Task[None] | None = None
@@ -90,10 +95,14 @@ class OfficeWorld:
         return next((p for p, aliases in PLACES.items() if key == p or key in aliases), None)
 
     def list_locations(self, args: dict[str, Any]) -> dict[str, Any]:
-        return {
-            "map": "office",
-            "locations": [{"name": p, "aliases": a, "description": p} for p, a in PLACES.items()],
-        }
+        locations: list[dict[str, Any]] = [
+            {"name": p, "aliases": a, "description": p} for p, a in PLACES.items()
+        ]
+        if self.distances:  # as the real server: each place's distance from the robot
+            for item in locations:
+                here = item["name"] == self.at
+                item["distance_m"] = self.off_m + (0.0 if here else 8.0)
+        return {"map": "office", "locations": locations}
 
     def navigate_to(self, args: dict[str, Any]) -> dict[str, Any]:
         place = self.resolve(str(args.get("location", "")))
@@ -117,14 +126,21 @@ class OfficeWorld:
 
     async def _drive(self, task_id: str, place: str, triggers: list[Any]) -> None:
         seq = itertools.count()
+        drive_s = self.drive_times.get(place, self.drive_s)
         await self._post(task_id, "progress", next(seq), eta_s=15, pct=25)
-        await asyncio.sleep(self.drive_s / 2)
+        await asyncio.sleep(drive_s / 2)
         for trigger in triggers:
             if isinstance(trigger, dict) and trigger.get("type") == "eta_below":
                 await self._post(
                     task_id, "trigger_fired", next(seq), eta_s=9.0, trigger=dict(trigger)
                 )
-        await asyncio.sleep(self.drive_s / 2)
+        await asyncio.sleep(drive_s / 2)
+        if place in self.unreachable:
+            failure = {"error_code": "NO_PATH", "message": "no valid path: the way is blocked",
+                       "recoverable": False, "suggestions": []}  # fmt: skip
+            self.tasks[task_id].update(state="failed", error=failure)
+            await self._post(task_id, "task_failed", next(seq), **failure)
+            return
         if place == "mailroom" and self.door_closed and self.at != "corridor_b":
             self.door_closed = False  # once: the next drive there gets in
             failure = {
@@ -136,7 +152,7 @@ class OfficeWorld:
             self.tasks[task_id].update(state="failed", error=failure)
             await self._post(task_id, "task_failed", next(seq), **failure)
             return
-        self.at = place
+        self.at, self.off_m = place, 0.0
         self.tasks[task_id].update(state="succeeded", result={"arrived": place})
         await self._post(task_id, "task_done", next(seq), result={"arrived": place})
 
@@ -170,6 +186,7 @@ class OfficeWorld:
     def _halt(self) -> None:
         if self.driving is not None and not self.driving.done():
             self.driving.cancel()
+            self.off_m = 3.0  # it stopped on its way, 3 m from where it set off
             for task in self.tasks.values():
                 if task["state"] == "running" and task["task_id"].startswith("nav-"):
                     task["state"] = "cancelled"

@@ -43,6 +43,9 @@ class OfficeArm:
         self.held: str | None = None
         self.fail_grasps = 0
         self.drops = False  # a place that reports success while the thing fell off the table
+        # a pick whose server was killed after the grasp: the gripper holds it, and the
+        # restarted server reports the pick lost (SERVER_RESTARTED), as robot-sim's world shows
+        self.lost_after_grasp = False
         self.running: asyncio.Task[None] | None = None
         self._ids = itertools.count(1)
         tools = world.tools
@@ -92,6 +95,9 @@ class OfficeArm:
             else:
                 here.remove(label)
                 self.held = label
+                if self.lost_after_grasp:
+                    self.lost_after_grasp = False
+                    failure = ("SERVER_RESTARTED", "the server restarted and lost the task", True)
         elif self.held is None:
             failure = ("NOTHING_HELD", "the gripper holds nothing", False)
         else:

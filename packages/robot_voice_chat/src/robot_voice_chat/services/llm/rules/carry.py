@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from robot_voice_chat.held_words import names_it
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
 from robot_voice_chat.services.llm.rules.steps import Call, Finished, Outcome, PlanStep, Steps
 from robot_voice_chat.services.llm.rules.surface import Failure, as_json, has_tool, task_id_of
@@ -174,6 +175,11 @@ class Carrying:
             if outcome.kind != "error":
                 failure: Failure = yield from self._failure(task_id, outcome.line, MANIP_GET_TASK)
                 code = failure.code
+            # words = world (issue 39): a pick reported failed — a restarted or killed arm
+            # server, a cancel too late — may have closed the gripper on it all the same
+            holding = yield from self._held_now()
+            if holding is not None and names_it(obj, holding):
+                break
             if look_again and code in RETRIED:
                 look_again = False
                 look, pick = self._retry_steps(step, obj)
@@ -190,6 +196,7 @@ class Carrying:
                 step = pick
                 continue
             tried = " (I tried twice)" if not look_again else ""
+            # the gripper holds something else (told at the mission's end), or nothing
             raise Finished(
                 "failed",
                 f"I couldn't pick up the {obj}: {said(code)}{tried}. It is still{where}.",

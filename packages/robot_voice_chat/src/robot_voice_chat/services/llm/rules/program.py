@@ -13,6 +13,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from robot_voice_chat.held_words import holding_answer, names_it
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.rules.carry import (
@@ -231,18 +232,26 @@ class MissionProgram(Looking, Driving, Carrying):
         carry = self.can_carry()
         plan: list[tuple[Command, dict[str, str]]] = []
         at: str | None = None  # where the legs before this one leave the robot
+        # issue 39: what the gripper holds before any search (a search for it is answered from
+        # the gripper, a fetch of it needs no drive, look or pick); until a leg picks or puts
+        in_gripper = (yield from self._held_now()) if carry and self._searches() else None
         for leg in self.legs:
             ids: dict[str, str] = {}
             takes = leg.kind in ("fetch", "pick") and leg.obj is not None
             if leg.kind in ("pick", "put", "release") and not carry:
                 raise Finished("failed", f"{NO_ARM}, so I can't pick things up or put them down.")
-            if leg.place is not None and not _already_there(leg, at):
+            searched = leg.obj is not None and leg.kind in ("find", "fetch", "pick")
+            if in_gripper is not None and searched and names_it(leg.obj or "", in_gripper):
+                ids["in_hand"] = in_gripper  # (a label, not a step)
+            if leg.place is not None and not _already_there(leg, at) and "in_hand" not in ids:
                 self.needs(NAVIGATE, LIST_LOCATIONS)
                 ids["drive"] = self.add_step(f"Drive to the {leg.place}", NAVIGATE)
-            if leg.obj is not None and leg.kind in ("find", "fetch", "pick"):
+            if searched and "in_hand" not in ids:
                 self.needs(INSTANTIATE, WAIT_RESULT, STOP_SKILL)
-                ids["look"] = self.add_look(leg.obj, f"Look for the {leg.obj}")
-            if takes and carry:
+                ids["look"] = self.add_look(leg.obj or "", f"Look for the {leg.obj}")
+            if takes or leg.kind in ("put", "release"):
+                in_gripper = None  # the gripper's contents change from here
+            if takes and carry and "in_hand" not in ids:
                 ids["pick"] = self.add_step(f"Pick up the {leg.obj}", PICK)
                 ids["held"] = self.add_step("Check what I hold", GET_HELD)
             if leg.to is not None and (carry or not takes):
@@ -272,6 +281,9 @@ class MissionProgram(Looking, Driving, Carrying):
         said: list[str] = []
         place: str | None = None
         for leg, ids in plan:
+            if "in_hand" in ids:  # in the gripper: said from the arm's word, not looked for
+                self.holding = ids["in_hand"]
+                said.append(self._in_hand(leg, ids["in_hand"]))
             if "drive" in ids and leg.place is not None:
                 place = names[leg.place]
                 yield from self._drive(place, ids["drive"], prepare=leg.obj)
@@ -328,10 +340,23 @@ class MissionProgram(Looking, Driving, Carrying):
                             "I can see it there.")  # fmt: skip
             elif "pick" in ids and "deliver" not in ids and "release" not in ids:
                 said.append("I'm holding it; tell me where to bring it.")
-            bare_drive = not ({"look", "put", "release", "deliver"} & set(ids))
+            bare_drive = not ({"look", "put", "release", "deliver", "in_hand"} & set(ids))
             if bare_drive and place is not None:
                 said.append(f"I'm {located(spoken(place))}.")
         raise Finished("succeeded", " ".join(said))
+
+    def _searches(self) -> bool:
+        """Some leg looks for a thing (find, fetch, pick): the gripper is read first."""
+        return any(leg.obj and leg.kind in ("find", "fetch", "pick") for leg in self.legs)
+
+    @staticmethod
+    def _in_hand(leg: Command, label: str) -> str:
+        """A leg whose thing the gripper already holds, as the robot says it."""
+        if leg.kind == "find":
+            return holding_answer(label)
+        if leg.to is None:
+            return f"I'm already holding the {label}; tell me where to bring it."
+        return f"I already have the {label}."
 
     def _say_places_in_titles(self, names: dict[str, str], spoken: Names) -> bool:
         """Step titles name places as people say them ("Drive to Alice's desk"), never by a

@@ -1,0 +1,64 @@
+"""What the gripper holds, read before the robot speaks of the object (issue 39 item 3).
+
+After a failure, a restart of a server, a stop or an abort the plan's own idea of the object is
+no longer to be trusted: a killed arm server may have finished the grasp, an aborted carry
+leaves the package in the gripper 20 m from anywhere. So a mission that did not succeed is told
+with what the arm's server says now (``manipulation.get_held``), and where the robot is (the
+nearest named place, from ``navigation.list_locations``' distances), in the words of
+``robot_voice_chat.held_words``.
+"""
+
+from __future__ import annotations
+
+import structlog
+
+from robot_voice_chat.held_words import (
+    Held,
+    held_from,
+    says_it_holds,
+    still_holding,
+    whereabouts_of,
+    without_false_places,
+)
+from robot_voice_chat.services.tools.base import ToolBackend
+
+logger = structlog.get_logger(__name__)
+
+GET_HELD = "manipulation.get_held"
+LIST_LOCATIONS = "navigation.list_locations"
+READ_TIMEOUT_S = 3.0
+"""At most this long for each read at a mission's end (a lost server answers an error sooner)."""
+
+
+async def read_held(tools: ToolBackend, timeout_s: float = READ_TIMEOUT_S) -> Held:
+    """What the gripper holds now (``Held(False)`` without an arm, or when it does not answer)."""
+    if not tools.has_tool(GET_HELD):
+        return Held(False)
+    outcome = await tools.call_tool(GET_HELD, {}, timeout_s)
+    return held_from(outcome.text, outcome.is_error)
+
+
+async def whereabouts(tools: ToolBackend, timeout_s: float = READ_TIMEOUT_S) -> str | None:
+    """Where the robot is in words, or None when navigation cannot say."""
+    if not tools.has_tool(LIST_LOCATIONS):
+        return None
+    outcome = await tools.call_tool(LIST_LOCATIONS, {}, timeout_s)
+    return None if outcome.is_error else whereabouts_of(outcome.text)
+
+
+async def tell_what_is_held(
+    tools: ToolBackend, summary: str, timeout_s: float = READ_TIMEOUT_S
+) -> str:
+    """The end of a mission that did not succeed, told with what the gripper holds now: the
+    held thing and where the robot is added (once), a claim that it is elsewhere dropped.
+    Unchanged when the gripper is empty or the arm does not answer."""
+    timeout_s = min(timeout_s, READ_TIMEOUT_S)
+    held = await read_held(tools, timeout_s)
+    logger.info("mission_end_held_read", known=held.known, label=held.label)
+    if held.label is None:
+        return summary
+    told = without_false_places(summary, held.label)
+    if says_it_holds(told, held.label):
+        return told
+    where = await whereabouts(tools, timeout_s)
+    return " ".join(s for s in (told, still_holding(held.label, where)) if s)

@@ -10,9 +10,10 @@ are tool errors whose text is JSON ``{"error": code, "detail": sentence}`` with 
 
 ``forget`` with ``dry_run=false`` deletes only for the robot's brain (over HTTP: the brain's
 credential, ``MCP_AUTH_TOKEN``; over stdio or in-process: the parent process) and only with an
-operator's approval of that exact call in the request's ``_meta``
-(:mod:`robot_mcp_kit.caller`); otherwise ``not_permitted`` or ``approval_required``, nothing
-deleted. The approving operator is written to the forget audit.
+operator's approval of that exact call, signed by the brain with this server's approval secret
+(``MCP_APPROVAL_SECRET``) and used once (:mod:`robot_mcp_kit.approvals`); otherwise
+``not_permitted``, ``approval_required`` or ``approval_invalid``, nothing deleted. The
+approving operator is written to the forget audit.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from robot_mcp_episodic.config import SERVER_NAME
 from robot_mcp_episodic.service import DIGEST_KINDS, Episodic, EpisodicError
 from robot_mcp_episodic.store.base import StoreError
 from robot_mcp_kit.annotations import DELETES, READ_ONLY, RECORDS
+from robot_mcp_kit.approvals import ApprovalError, ApprovalVerifier, require_approval
 from robot_mcp_kit.caller import BRAIN, LOCAL, Caller, current_caller, install_caller_context
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 
@@ -61,17 +63,12 @@ DELETERS = frozenset({BRAIN, LOCAL})
 
 
 def deletion_refusal(caller: Caller) -> tuple[str, str] | None:
-    """Why ``caller`` may not delete memories (code, sentence), or None when it may."""
+    """Why ``caller`` may not delete memories (code, sentence), or None when its principal
+    may (the approval is checked next, by :func:`require_approval`)."""
     if caller.principal not in DELETERS:
         return (
             "not_permitted",
             f"only the robot's brain may delete memories; this client is {caller.principal!r}",
-        )
-    if caller.approval is None:
-        return (
-            "approval_required",
-            "deleting memories needs an operator's approval of this exact request: preview "
-            "with dry_run=true, ask the person, then call again once it is approved",
         )
     return None
 
@@ -96,7 +93,9 @@ async def _answer(tool: str, work: Callable[[], dict[str, Any]]) -> dict[str, An
         ) from exc
 
 
-def build_server(memory: Episodic) -> MCPServer:
+def build_server(memory: Episodic, approvals: ApprovalVerifier | None = None) -> MCPServer:
+    """The ``episodic`` MCP server bound to ``memory``. ``approvals``: the approval check
+    (``serve_mcp`` installs one from ``MCP_APPROVAL_SECRET`` when it serves; tests pass one)."""
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
 
     @server.tool(annotations=READ_ONLY)
@@ -178,12 +177,17 @@ def build_server(memory: Episodic) -> MCPServer:
         then call again with dry_run=false to delete it from the index and the recordings.
         Every deletion is audited (see memory_status)."""
         caller = current_caller()
-        approved_by = caller.approval.by if caller.approval is not None else None
+        approved_by: str | None = None
         if not dry_run:
             refusal = deletion_refusal(caller)
             if refusal is not None:
                 logger.warning("forget_refused", principal=caller.principal, error=refusal[0])
                 raise tool_error(*refusal)
+            try:
+                approved_by = require_approval(caller).by  # verified once, logged
+            except ApprovalError as refused:
+                logger.warning("forget_refused", principal=caller.principal, error=refused.code)
+                raise
         return await _answer(
             "forget", lambda: memory.forget(start, end, label, place, dry_run, approved_by)
         )
@@ -205,4 +209,4 @@ def build_server(memory: Episodic) -> MCPServer:
         Returns {"id", "time", "kind", "place"}."""
         return await _answer("record_note", lambda: memory.record_note(kind, text, mission_id))
 
-    return install_caller_context(install_json_tool_errors(server))
+    return install_caller_context(install_json_tool_errors(server), approvals)

@@ -1,6 +1,7 @@
 """The real ``robot-mcp-episodic`` process over each transport, on SQLite and PostgreSQL, its
 refusals to start (exit 2, one line), and ``forget`` over HTTP only for the brain's credential
-with an operator's approval (issue 27 item 3)."""
+with an operator's approval signed with the server's approval secret (issue 27 item 3, issue 35
+item 4)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 
-from robot_mcp_kit.caller import approval_meta
+from robot_mcp_kit.approvals import signed_approval
 from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing import (
     LaunchedProcess,
@@ -32,6 +33,18 @@ pytestmark = [pytest.mark.ros]
 SERVER = str(Path(sys.executable).parent / "robot-mcp-episodic")
 BRAIN = fresh_token()
 OPERATOR = fresh_token()
+APPROVALS = fresh_token()
+
+
+def approval(arguments: dict[str, Any], by: str, approval_id: str) -> dict[str, Any]:
+    return signed_approval(
+        APPROVALS,
+        server="episodic",
+        tool="forget",
+        arguments=arguments,
+        approval_id=approval_id,
+        by=by,
+    )
 
 
 def start(launcher: ProcessLauncher, env: dict[str, str]) -> tuple[LaunchedProcess, int]:
@@ -61,7 +74,7 @@ async def test_notes_survive_a_restart_on_postgres_and_only_the_approved_brain_f
     env = {
         "MCP_TRANSPORT": "sse", "EPISODIC_DIR": str(tmp_path), "EPISODIC_STORE": "postgres",
         "EPISODIC_POSTGRES_DSN": postgres_dsn, "ROBOT_ID": "robot-7",
-        "MCP_OPERATOR_TOKEN": OPERATOR,
+        "MCP_OPERATOR_TOKEN": OPERATOR, "MCP_APPROVAL_SECRET": APPROVALS,
     }  # fmt: skip
     process, port = start(launcher, env)
     async with Client(mcp_transport(f"http://127.0.0.1:{port}/sse", BRAIN)) as client:
@@ -77,24 +90,32 @@ async def test_notes_survive_a_restart_on_postgres_and_only_the_approved_brain_f
         found = await tool_answer(brain, "search_memory", {"query": "kettle"})
         status = await tool_answer(brain, "memory_status", {})
         unapproved = await tool_answer(brain, "forget", everything)
+        genuine = approval(everything, "alice", "ap-123456789abc")
+        mallory = {k: {**v, "by": "mallory"} for k, v in genuine.items()}  # issue 35's forgery
+        forged = await tool_answer(brain, "forget", everything, mallory)
     async with Client(mcp_transport(url, OPERATOR)) as operator:  # the Inspector, say
-        approved_anyway = approval_meta("forget", everything, "ap-123456789abc", "mallory")
-        not_brain = await tool_answer(operator, "forget", everything, approved_anyway)
+        not_brain = await tool_answer(operator, "forget", everything, genuine)
         kept = await tool_answer(operator, "search_memory", {"query": "kettle"})
     assert found["found"] is True
     assert status["robot_id"] == "robot-7"
     assert unapproved["_error"]["error"] == "approval_required"
+    assert forged["_error"]["error"] == "approval_invalid"
+    assert "(bad_signature)" in forged["_error"]["detail"]
     assert not_brain["_error"]["error"] == "not_permitted"
     assert kept["found"] is True  # nothing was deleted
 
     async with Client(mcp_transport(url, BRAIN)) as brain:
-        meta = approval_meta("forget", everything, "ap-123456789abc", "alice")
-        done = await tool_answer(brain, "forget", everything, meta)
+        done = await tool_answer(brain, "forget", everything, genuine)
+        replayed = await tool_answer(brain, "forget", everything, genuine)
         status = await tool_answer(brain, "memory_status", {})
     assert done["deleted"]["notes"] == 1
+    assert replayed["_error"]["error"] == "approval_invalid"
+    assert len(status["forget_audit"]) == 1
     assert status["forget_audit"][0]["request"]["approved_by"] == "alice"
     assert BRAIN not in process.log()
     assert OPERATOR not in process.log()
+    assert APPROVALS not in process.log()
+    assert genuine["robot-stack/approval"]["sig"] not in process.log()
     assert launcher.stop(process) == 0
 
 

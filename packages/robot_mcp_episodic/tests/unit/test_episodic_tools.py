@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -13,10 +15,12 @@ from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import ManualClock
 from robot_mcp_episodic.timeparse import iso
-from robot_mcp_kit.caller import approval_meta
+from robot_mcp_kit.approvals import ApprovalVerifier, signed_approval
+from robot_mcp_kit.caller import install_caller_context
 from robot_mcp_kit.testing_mcp import tool_answer
 
 T = 1_790_000_000.0
+APPROVAL_SECRET = "episodic-approval-secret-for-the-unit-tests"
 
 
 @pytest.fixture
@@ -25,6 +29,7 @@ def app(tmp_path: Path) -> Iterator[EpisodicApp]:
     built = build_app(
         EpisodicConfig(data_dir=tmp_path, record_raw=False), record_ros=False, clock=clock
     )
+    install_caller_context(built.server, ApprovalVerifier("episodic", APPROVAL_SECRET))
     try:
         yield built
     finally:
@@ -37,11 +42,22 @@ async def call(app: EpisodicApp, tool: str, **args: Any) -> dict[str, Any]:
         return answer
 
 
+def approval(args: dict[str, Any], by: str = "alice") -> dict[str, Any]:
+    """The approval the brain signs for exactly this forget call (a fresh id each time)."""
+    return signed_approval(
+        APPROVAL_SECRET,
+        server="episodic",
+        tool="forget",
+        arguments=args,
+        approval_id=f"ap-{uuid.uuid4().hex[:12]}",
+        by=by,
+    )
+
+
 async def forget_approved(app: EpisodicApp, by: str = "alice", **args: Any) -> dict[str, Any]:
     """forget as the brain sends it after an operator approved exactly this call."""
     async with Client(app.server) as client:
-        meta = approval_meta("forget", args, "ap-0123456789ab", by)
-        answer: dict[str, Any] = await tool_answer(client, "forget", args, meta)
+        answer: dict[str, Any] = await tool_answer(client, "forget", args, approval(args, by))
         return answer
 
 
@@ -166,13 +182,65 @@ async def test_forget_deletes_nothing_without_an_approval_of_that_exact_call(
     refused = await call(app, "forget", **everything)
     assert refused["_error"]["error"] == "approval_required"
     async with Client(app.server) as client:  # an approval for another call does not count
-        meta = approval_meta("forget", {**everything, "label": "mug"}, "ap-1", "alice")
+        meta = approval({**everything, "label": "mug"})
         other = await tool_answer(client, "forget", everything, meta)
-    assert other["_error"]["error"] == "approval_required"
+    assert other["_error"]["error"] == "approval_invalid"
+    assert "(other_arguments)" in other["_error"]["detail"]
     assert (await call(app, "last_seen", query="mug"))["found"] is True
     assert (await call(app, "memory_status"))["forget_audit"] == []
     preview = await call(app, "forget", start="-5m", end="now")  # a preview needs no approval
     assert preview["would_delete"]["sightings"] == 1
+
+
+def _tampered(meta: dict[str, Any], **changes: Any) -> dict[str, Any]:
+    return {key: {**value, **changes} for key, value in meta.items()}
+
+
+async def test_a_forged_replayed_or_expired_approval_deletes_nothing(app: EpisodicApp) -> None:
+    """Issue 35: with the brain's principal, a made-up approval (approved_by "mallory")
+    deleted 12 poses and 2,392 recorded messages."""
+    indexer = app.memory.indexer
+    indexer.on_pose(T - 100, 9.0, -3.0, 0.0)
+    indexer.on_detections("detect", T - 90, [{"label": "mug", "score": 0.9}])
+    everything = {"start": "-36500d", "end": "now", "dry_run": False}
+    genuine = approval(everything)
+    key = next(iter(genuine))
+    stale = approval(everything)
+    stale[key] = {**stale[key], "expires": int(time.time()) - 600}
+    unsigned = {key: {"approval_id": "ap-123456789abc", "by": "mallory", "call": "0" * 64}}
+    for meta, check in (
+        (unsigned, "malformed"),  # issue 27's format: no signature
+        (_tampered(genuine, by="mallory"), "bad_signature"),  # a made-up approver
+        (stale, "bad_signature"),  # an expiry changed after signing
+        (_tampered(genuine, server="memory"), "bad_signature"),
+    ):
+        async with Client(app.server) as client:
+            refused = await tool_answer(client, "forget", everything, meta)
+        assert refused["_error"]["error"] == "approval_invalid", meta
+        assert f"({check})" in refused["_error"]["detail"]
+    async with Client(app.server) as client:  # the genuine one works once
+        done = await tool_answer(client, "forget", everything, genuine)
+        again = await tool_answer(client, "forget", everything, genuine)
+    assert done["deleted"]["sightings"] == 1
+    assert again["_error"]["error"] == "approval_invalid"
+    assert "(replayed)" in again["_error"]["detail"]
+    audit = (await call(app, "memory_status"))["forget_audit"]
+    assert [entry["request"]["approved_by"] for entry in audit] == ["alice"]
+
+
+async def test_an_expired_approval_deletes_nothing(app: EpisodicApp) -> None:
+    app.memory.indexer.on_detections("detect", T - 90, [{"label": "mug", "score": 0.9}])
+    everything = {"start": "-36500d", "end": "now", "dry_run": False}
+    install_caller_context(
+        app.server,
+        ApprovalVerifier("episodic", APPROVAL_SECRET, clock=lambda: time.time() + 200),
+    )
+    async with Client(app.server) as client:
+        refused = await tool_answer(client, "forget", everything, approval(everything))
+    assert refused["_error"]["error"] == "approval_invalid"
+    assert "(expired)" in refused["_error"]["detail"]
+    assert (await call(app, "last_seen", query="mug"))["found"] is True
+    assert (await call(app, "memory_status"))["forget_audit"] == []
 
 
 async def test_forget_a_whole_window_removes_every_kind(app: EpisodicApp) -> None:
@@ -195,6 +263,7 @@ async def test_forget_removes_the_label_from_index_and_recordings(tmp_path: Path
 
     clock = ManualClock(T)
     app = build_app(EpisodicConfig(data_dir=tmp_path), record_ros=False, clock=clock)
+    install_caller_context(app.server, ApprovalVerifier("episodic", APPROVAL_SECRET))
     try:
         assert app.memory.bags is not None
         for i in range(6):

@@ -11,6 +11,11 @@ Credentials: over sse / streamable-http every request must carry the server's cr
 (:mod:`robot_mcp_kit.service_auth`, ``MCP_AUTH_TOKEN``); :func:`transport_settings` reads and
 checks it with the transport, :func:`serve_mcp` puts the check in front of the whole app.
 
+Approvals: ``MCP_APPROVAL_SECRET`` (optional, any transport, >= 32 bytes) is the secret this
+server shares with the brain for signed approvals (:mod:`robot_mcp_kit.approvals`);
+:func:`serve_mcp` installs the verifier, and a tool asks for one with ``require_approval()``.
+Without it the server accepts no approval (its approval-gated tools refuse every call).
+
 Stdio: :func:`reserve_stdout` keeps the process's standard output for JSON-RPC alone, for
 the whole life of the process — native libraries (rcl, Fast DDS) that write to fd 1 at start-up
 or shutdown, outside the SDK's own serving window, land on stderr.
@@ -33,7 +38,9 @@ from mcp.server.context import CallNext, HandlerResult, ServerRequestContext
 from mcp.server.mcpserver import MCPServer
 from mcp.server.mcpserver.exceptions import ToolError
 from mcp.server.stdio import stdio_server
+from pydantic import SecretStr
 
+from robot_mcp_kit.approvals import ENV_APPROVAL_SECRET, ApprovalVerifier
 from robot_mcp_kit.caller import install_caller_context
 from robot_mcp_kit.correlation import install_mission_correlation
 from robot_mcp_kit.http_serving import serve_http
@@ -124,13 +131,16 @@ class TransportSettings:
     auth: ServiceAuth | None = None
     """The credentials an HTTP transport demands; None = read them from the environment
     when serving (:func:`robot_mcp_kit.service_auth.service_auth`)."""
+    approval_secret: SecretStr | None = None
+    """``MCP_APPROVAL_SECRET``: the key of the approvals this server accepts (None = none)."""
 
 
 def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSettings:
     """Read ``MCP_TRANSPORT`` (stdio | sse | streamable-http, default stdio), ``MCP_HOST``
     (default 127.0.0.1), ``MCP_PORT`` (default ``default_port``) and, for the HTTP
-    transports, the credentials (``MCP_AUTH_TOKEN``, ``MCP_OPERATOR_TOKEN``, ``MCP_AUTH``).
-    Raises ``ValueError`` (one readable sentence) for anything unusable."""
+    transports, the credentials (``MCP_AUTH_TOKEN``, ``MCP_OPERATOR_TOKEN``, ``MCP_AUTH``), and
+    ``MCP_APPROVAL_SECRET``. Raises ``ValueError`` (one readable sentence) for anything
+    unusable."""
     transport = env.get("MCP_TRANSPORT", "stdio").strip().lower() or "stdio"
     if transport not in TRANSPORTS:
         raise ValueError(f"MCP_TRANSPORT must be one of {', '.join(TRANSPORTS)}; got {transport!r}")
@@ -142,7 +152,11 @@ def transport_settings(env: Mapping[str, str], default_port: int) -> TransportSe
         raise ValueError(f"MCP_PORT must be an integer, got {port_text!r}") from None
     if not 0 < port < 65536:
         raise ValueError(f"MCP_PORT must be in 1..65535, got {port}")
-    return TransportSettings(transport, host, port, service_auth(env, transport))
+    auth = service_auth(env, transport)
+    secret = env.get(ENV_APPROVAL_SECRET, "").strip()
+    if secret:
+        ApprovalVerifier("-", secret)  # raises ApprovalConfigError (a ValueError) when short
+    return TransportSettings(transport, host, port, auth, SecretStr(secret) if secret else None)
 
 
 def reserve_stdout() -> BinaryIO:
@@ -171,10 +185,15 @@ async def serve_mcp(
     """Serve ``server`` on ``settings``' transport until it stops (for servers that need to
     run their own start-up and shutdown around the transport, inside one event loop).
     ``wire``: the stdout reserved by :func:`reserve_stdout` (stdio only). Over sse and
-    streamable-http every request must present ``settings.auth``'s credential."""
+    streamable-http every request must present ``settings.auth``'s credential; approvals
+    are checked with ``settings.approval_secret``."""
     install_json_tool_errors(server)
     install_mission_correlation(server)
-    install_caller_context(server)
+    secret = settings.approval_secret
+    install_caller_context(
+        server,
+        ApprovalVerifier(server.name, secret.get_secret_value()) if secret is not None else None,
+    )
     if settings.transport == "stdio" and wire is not None:
         await _serve_stdio(server, wire)
     elif settings.transport == "stdio":

@@ -1,4 +1,5 @@
-"""Who calls a tool: the principal and an operator's approval bound to the exact call."""
+"""Who calls a tool: the principal and the call (an approval is verified by
+``robot_mcp_kit.approvals``: test_kit_approvals.py)."""
 
 from __future__ import annotations
 
@@ -10,10 +11,7 @@ from mcp.types import RequestParamsMeta
 
 from robot_mcp_kit.caller import (
     APPROVAL_META_KEY,
-    Approval,
     CallerContext,
-    approval_from,
-    approval_meta,
     call_digest,
     current_caller,
     install_caller_context,
@@ -28,10 +26,13 @@ def build() -> MCPServer:
     async def erase(start: str, dry_run: bool = True) -> dict[str, Any]:
         """Reports who called."""
         caller = current_caller()
-        approval = caller.approval
+        call = caller.call
+        assert call is not None
         return {
             "principal": caller.principal,
-            "approved_by": approval.by if approval is not None else None,
+            "tool": call.tool,
+            "arguments": dict(call.arguments or {}),
+            "sent_approval": call.approval,
         }
 
     return install_caller_context(install_caller_context(server))  # installing twice is once
@@ -46,22 +47,24 @@ async def test_an_in_process_client_is_the_local_parent_and_brings_no_approval()
     assert sum(isinstance(m, CallerContext) for m in server.middleware) == 1
     async with Client(server) as client:
         answer = await client.call_tool("erase", {"start": "-1h"})
-    assert answer.structured_content == {"principal": "local", "approved_by": None}
+    assert answer.structured_content == {
+        "principal": "local",
+        "tool": "erase",
+        "arguments": {"start": "-1h"},
+        "sent_approval": None,
+    }
 
 
-async def test_an_approval_counts_only_for_the_exact_call_it_names() -> None:
-    approved = {"start": "-1h", "dry_run": False}
+async def test_the_approval_a_request_carries_reaches_the_tool_only_as_unverified_data() -> None:
+    sent = {"approval_id": "ap-1", "by": "mallory", "call": "0" * 64}
     async with Client(build()) as client:
-        same = await client.call_tool(
-            "erase", approved, meta=meta(approval_meta("erase", approved, "ap-1", "alice"))
+        answer = await client.call_tool(
+            "erase", {"start": "-1h"}, meta=meta({APPROVAL_META_KEY: sent})
         )
-        other = await client.call_tool(
-            "erase",
-            {"start": "-36500d", "dry_run": False},
-            meta=meta(approval_meta("erase", approved, "ap-1", "alice")),
-        )
-    assert same.structured_content == {"principal": "local", "approved_by": "alice"}
-    assert other.structured_content == {"principal": "local", "approved_by": None}
+    content = answer.structured_content
+    assert content is not None
+    assert content["sent_approval"] == sent  # raw: only require_approval() turns it into one
+    assert current_caller().call is None  # outside a call
 
 
 def test_the_digest_binds_the_tool_and_the_canonical_arguments() -> None:
@@ -69,23 +72,6 @@ def test_the_digest_binds_the_tool_and_the_canonical_arguments() -> None:
     assert call_digest("erase", {"a": 1}) != call_digest("forget", {"a": 1})
     assert call_digest("erase", {"a": 1}) != call_digest("erase", {"a": 2})
     assert call_digest("erase", None) == call_digest("erase", {})
-
-
-def test_malformed_approvals_are_no_approval() -> None:
-    good = approval_meta("erase", {}, "ap-1", "local operator (no login)")
-    assert approval_from(good, "erase", {}) == Approval("ap-1", "local operator (no login)")
-    entry = good[APPROVAL_META_KEY]
-    for broken in (
-        {**entry, "approval_id": "ap 1; drop"},
-        {**entry, "by": ""},
-        {**entry, "by": "x" * 129},
-        {**entry, "by": "alice\nforged log line"},
-        {**entry, "call": "0" * 64},
-        {k: v for k, v in entry.items() if k != "by"},
-    ):
-        assert approval_from({APPROVAL_META_KEY: broken}, "erase", {}) is None
-    assert approval_from({APPROVAL_META_KEY: "yes"}, "erase", {}) is None
-    assert approval_from(None, "erase", {}) is None
 
 
 class _Request:

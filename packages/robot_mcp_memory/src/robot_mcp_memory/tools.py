@@ -2,7 +2,12 @@
 
 Every tool returns a JSON string. A failure the caller can act on is a tool error whose text is
 JSON ``{"error": code, "detail": sentence}``; codes: ``invalid_document``, ``invalid_argument``,
-``not_found``, ``timeout``, ``store_unavailable``, ``internal_error``.
+``not_found``, ``timeout``, ``store_unavailable``, ``internal_error``, and for ``save_process``
+``approval_required`` / ``approval_invalid``.
+
+``save_process`` (teaching: the planner follows what it stores) stores only with an operator's
+approval of that exact call, signed by the brain with this server's approval secret
+(``MCP_APPROVAL_SECRET``) and used once (:mod:`robot_mcp_kit.approvals`), whoever calls.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from mcp.server.mcpserver import MCPServer
 from pydantic import Field
 
 from robot_mcp_kit.annotations import READ_ONLY, RECORDS
+from robot_mcp_kit.approvals import ApprovalVerifier, require_approval
+from robot_mcp_kit.caller import install_caller_context
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_memory.config import SERVER_NAME
 from robot_mcp_memory.documents import FORMAT_SPEC
@@ -35,7 +42,9 @@ SAVE_PROCESS_DESCRIPTION = (
     "and get_process return, older ones stay readable with get_process(id, version=N). Saving "
     "text identical to the current version stores nothing. A malformed document is rejected "
     'with error "invalid_document" naming every problem; fix them and send the whole document '
-    "again. Returns {id, version, created, title, message}.\n\n" + FORMAT_SPEC
+    "again. Needs an operator's approval of this exact call (the robot's brain attaches it); "
+    'without one: error "approval_required". Returns {id, version, created, title, message}.'
+    "\n\n" + FORMAT_SPEC
 )
 
 
@@ -51,10 +60,13 @@ async def _answer(tool: str, work: Callable[[], Awaitable[dict[str, Any]]]) -> s
         ) from exc
 
 
-def build_server(memory: ProcessMemory) -> MCPServer:
-    """The MCP server named ``memory`` with its five tools bound to ``memory``."""
+def build_server(memory: ProcessMemory, approvals: ApprovalVerifier | None = None) -> MCPServer:
+    """The MCP server named ``memory`` with its five tools bound to ``memory``. ``approvals``:
+    the approval check (``serve_mcp`` installs one from ``MCP_APPROVAL_SECRET``; tests pass
+    one)."""
     server: MCPServer = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS)
     install_json_tool_errors(server)  # error results carry only {"error", "detail"} JSON
+    install_caller_context(server, approvals)
 
     @server.tool(annotations=READ_ONLY)
     async def find_processes(
@@ -73,6 +85,8 @@ def build_server(memory: ProcessMemory) -> MCPServer:
     async def save_process(
         markdown: Annotated[str, Field(description="The whole process document (markdown).")],
     ) -> str:
+        approval = require_approval()  # before anything is read or stored; logged either way
+        log.info("process_save_approved", approval_id=approval.approval_id, by=approval.by)
         return await _answer("save_process", lambda: memory.save(markdown))
 
     @server.tool(annotations=RECORDS)

@@ -3,12 +3,14 @@
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
+from mcp.types import RequestParamsMeta
 
+from robot_mcp_kit.testing_mcp import approved
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -19,6 +21,7 @@ from robot_stack_testing import (
 )
 
 TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
+APPROVALS = fresh_token()  # the server's MCP_APPROVAL_SECRET (the brain signs with it)
 SERVER = str(Path(sys.executable).parent / "robot-mcp-memory")
 QUERY = "fetch the package from the mailroom"
 MAILROOM = "fetch-package-from-mailroom"
@@ -33,6 +36,7 @@ def start_robot(launcher: ProcessLauncher, dsn: str, robot_id: str) -> tuple[Lau
         env={
             "MCP_TRANSPORT": "streamable-http",
             "MCP_AUTH_TOKEN": TOKEN,
+            "MCP_APPROVAL_SECRET": APPROVALS,
             "MCP_PORT": str(port),
             "MEMORY_STORE": "postgres",
             "MEMORY_POSTGRES_DSN": dsn,
@@ -47,7 +51,13 @@ def start_robot(launcher: ProcessLauncher, dsn: str, robot_id: str) -> tuple[Lau
 
 
 async def call(client: Client, tool: str, **arguments: Any) -> dict[str, Any]:
-    result = await client.call_tool(tool, arguments, read_timeout_seconds=30)
+    meta = approved(APPROVALS, "memory", tool, arguments) if tool == "save_process" else None
+    result = await client.call_tool(
+        tool,
+        arguments,
+        read_timeout_seconds=30,
+        meta=cast(RequestParamsMeta, meta) if meta is not None else None,
+    )
     (block,) = result.content
     assert block.type == "text"
     answer: dict[str, Any] = json.loads(block.text)
@@ -150,7 +160,12 @@ async def test_a_server_spawned_from_the_root_directory_keeps_its_db_in_the_data
     data_home = tmp_path / "xdg-data"
     params = StdioServerParameters(
         command=SERVER,
-        env={"MCP_TRANSPORT": "stdio", "XDG_DATA_HOME": str(data_home), "ROBOT_ID": "r1"},
+        env={
+            "MCP_TRANSPORT": "stdio",
+            "MCP_APPROVAL_SECRET": APPROVALS,
+            "XDG_DATA_HOME": str(data_home),
+            "ROBOT_ID": "r1",
+        },
         cwd="/",
     )
 

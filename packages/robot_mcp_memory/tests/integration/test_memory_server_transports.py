@@ -4,12 +4,14 @@ import asyncio
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from mcp import Client
 from mcp.client.stdio import StdioServerParameters
+from mcp.types import RequestParamsMeta
 
+from robot_mcp_kit.testing_mcp import approved
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -20,6 +22,8 @@ from robot_stack_testing import (
 )
 
 TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
+APPROVALS = fresh_token()  # the server's MCP_APPROVAL_SECRET (the brain signs with it)
+OPERATOR = fresh_token()  # the server's MCP_OPERATOR_TOKEN (an operator's tool)
 SERVER = str(Path(sys.executable).parent / "robot-mcp-memory")
 QUERY = "could someone bring me the parcel that arrived"
 
@@ -33,6 +37,8 @@ def start_server(
         env={
             "MCP_TRANSPORT": transport,
             "MCP_AUTH_TOKEN": TOKEN,
+            "MCP_APPROVAL_SECRET": APPROVALS,
+            "MCP_OPERATOR_TOKEN": OPERATOR,
             "MCP_PORT": str(port),
             "MEMORY_DB": str(db),
             "ROBOT_ID": robot_id,
@@ -46,7 +52,13 @@ def start_server(
 
 
 async def call(client: Client, tool: str, **arguments: Any) -> tuple[bool, dict[str, Any]]:
-    result = await client.call_tool(tool, arguments, read_timeout_seconds=30)
+    meta = approved(APPROVALS, "memory", tool, arguments) if tool == "save_process" else None
+    result = await client.call_tool(
+        tool,
+        arguments,
+        read_timeout_seconds=30,
+        meta=cast(RequestParamsMeta, meta) if meta is not None else None,
+    )
     (block,) = result.content
     assert block.type == "text"
     return bool(result.is_error), json.loads(block.text)
@@ -100,6 +112,71 @@ async def test_save_find_outcome_and_rejection_over_streamable_http(
     }
 
 
+async def save(
+    client: Client, markdown: str, meta: dict[str, Any] | None
+) -> tuple[bool, dict[str, Any]]:
+    result = await client.call_tool(
+        "save_process",
+        {"markdown": markdown},
+        read_timeout_seconds=30,
+        meta=cast(RequestParamsMeta, meta) if meta is not None else None,
+    )
+    return bool(result.is_error), json.loads(result.content[0].text)  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize("transport", ["sse", "streamable-http"])
+async def test_save_process_stores_only_with_the_brains_signed_approval_once(
+    launcher: ProcessLauncher, tcp_port: int, tmp_path: Path, docs: Any, transport: str
+) -> None:
+    """Issue 35: save_process with the operator's credential stored a process, no approval.
+    Whoever calls, no approval / a forged / another call's / a stale / a replayed approval
+    stores nothing; the brain's approval of that exact call stores it once."""
+    process = start_server(launcher, tmp_path / "memory.sqlite3", transport, tcp_port)
+    url = f"http://127.0.0.1:{tcp_port}/{'sse' if transport == 'sse' else 'mcp'}"
+    doc = docs.escort
+    genuine = approved(APPROVALS, "memory", "save_process", {"markdown": doc}, by="alice")
+    key = next(iter(genuine))
+    entry = genuine[key]
+    stale = approved(APPROVALS, "memory", "save_process", {"markdown": doc})
+    stale[key]["expires"] -= 600  # changed after signing: the signature no longer verifies
+    refusals = {
+        "none": None,
+        "made-up approver": {key: {**entry, "by": "mallory"}},
+        "another secret": approved(fresh_token(), "memory", "save_process", {"markdown": doc}),
+        "other arguments": approved(APPROVALS, "memory", "save_process", {"markdown": docs.plants}),
+        "changed expiry": stale,
+    }
+    answers: dict[str, tuple[bool, dict[str, Any]]] = {}
+    async with Client(mcp_transport(url, OPERATOR), read_timeout_seconds=30) as operator:
+        for name, meta in refusals.items():
+            answers[f"operator, {name}"] = await save(operator, doc, meta)
+    async with Client(mcp_transport(url, TOKEN), read_timeout_seconds=30) as brain:
+        for name, meta in refusals.items():
+            answers[f"brain, {name}"] = await save(brain, doc, meta)
+        _, empty = await call(brain, "list_processes")
+        stored = await save(brain, doc, genuine)
+        replayed = await save(brain, doc.replace("slowly", "quickly"), genuine)
+        again = await save(brain, doc, genuine)
+        _, listed = await call(brain, "list_processes")
+    for name, (error, body) in answers.items():
+        assert error, name
+        wanted = "approval_required" if name.endswith("none") else "approval_invalid"
+        assert body["error"] == wanted, (name, body)
+    assert empty["total"] == 0  # nothing was stored
+    assert stored[0] is False, stored
+    assert stored[1]["version"] == 1
+    assert replayed[1]["error"] == "approval_invalid"  # other text, and used already
+    assert again[1]["error"] == "approval_invalid"
+    assert "(replayed)" in again[1]["detail"]
+    assert listed["total"] == 1
+    events = [json.loads(line) for line in process.log().splitlines() if line.startswith("{")]
+    refused = [e for e in events if e.get("event") == "approval_refused"]
+    assert len(refused) == len(answers) + 2
+    assert {e["check"] for e in refused} >= {"none", "bad_signature", "other_arguments"}
+    for secret in (APPROVALS, TOKEN, OPERATOR, entry["sig"]):
+        assert secret not in process.log()
+
+
 async def test_versions_and_outcomes_survive_a_restart_over_sse(
     launcher: ProcessLauncher, tcp_port: int, tmp_path: Path, docs: Any
 ) -> None:
@@ -141,7 +218,12 @@ async def test_the_stdio_transport_serves_the_same_tools_scoped_by_robot(
     def stdio(robot_id: str) -> StdioServerParameters:
         return StdioServerParameters(
             command=SERVER,
-            env={"MCP_TRANSPORT": "stdio", "MEMORY_DB": str(db), "ROBOT_ID": robot_id},
+            env={
+                "MCP_TRANSPORT": "stdio",
+                "MCP_APPROVAL_SECRET": APPROVALS,
+                "MEMORY_DB": str(db),
+                "ROBOT_ID": robot_id,
+            },
         )
 
     async with Client(stdio("robot-a"), read_timeout_seconds=30) as client:

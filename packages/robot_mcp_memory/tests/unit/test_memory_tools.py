@@ -1,21 +1,36 @@
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from mcp import Client
+from mcp.server.mcpserver import MCPServer
+from mcp.types import RequestParamsMeta
 
+from robot_mcp_kit.approvals import ApprovalVerifier
+from robot_mcp_kit.testing_mcp import approved
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
 from robot_mcp_memory.documents import FORMAT_SPEC
 from robot_mcp_memory.service import ProcessMemory
 from robot_mcp_memory.store.base import StoreError
 from robot_mcp_memory.store.fake import FakeProcessStore
-from robot_mcp_memory.tools import build_server
+from robot_mcp_memory.tools import build_server as build_bare_server
+
+APPROVALS = "memory-approval-secret-of-the-unit-tests"
+
+
+def build_server(memory: ProcessMemory) -> MCPServer:
+    """The server as ``serve_mcp`` runs it with ``MCP_APPROVAL_SECRET`` set."""
+    return build_bare_server(memory, ApprovalVerifier("memory", APPROVALS))
 
 
 async def call(client: Client, tool: str, **arguments: Any) -> tuple[bool, dict[str, Any]]:
-    result = await client.call_tool(tool, arguments)
+    """A tool call; ``save_process`` as the brain sends it after an operator's yes."""
+    meta = approved(APPROVALS, "memory", tool, arguments) if tool == "save_process" else None
+    result = await client.call_tool(
+        tool, arguments, meta=cast(RequestParamsMeta, meta) if meta is not None else None
+    )
     (block,) = result.content
     assert block.type == "text"
     return bool(result.is_error), json.loads(block.text)
@@ -104,3 +119,34 @@ async def test_an_unexpected_failure_is_an_internal_error_not_a_crash() -> None:
         "detail": "list_processes failed unexpectedly; the server logged the cause",
     }
     assert unavailable[1]["error"] == "store_unavailable"
+
+
+async def test_save_process_without_a_valid_approval_stores_nothing(
+    memory: ProcessMemory, docs: Any
+) -> None:
+    args = {"markdown": docs.escort}
+    genuine = approved(APPROVALS, "memory", "save_process", args)
+    key = next(iter(genuine))
+    forged = {key: {**genuine[key], "by": "mallory"}}
+    other = approved(APPROVALS, "memory", "save_process", {"markdown": docs.plants})
+    async with Client(build_server(memory)) as client:
+        answers = [
+            await client.call_tool("save_process", args, meta=cast(RequestParamsMeta, meta))
+            for meta in (None, forged, other)
+        ]
+        listed = await call(client, "list_processes")
+    codes = [json.loads(a.content[0].text)["error"] for a in answers]  # type: ignore[union-attr]
+    assert codes == ["approval_required", "approval_invalid", "approval_invalid"]
+    assert listed[1]["total"] == 0
+
+
+async def test_a_memory_server_without_an_approval_secret_stores_nothing(
+    memory: ProcessMemory, docs: Any
+) -> None:
+    args = {"markdown": docs.escort}
+    async with Client(build_bare_server(memory)) as client:
+        signed = approved(APPROVALS, "memory", "save_process", args)
+        answer = await client.call_tool("save_process", args, meta=cast(RequestParamsMeta, signed))
+        _, listed = await call(client, "list_processes")
+    assert json.loads(answer.content[0].text)["error"] == "approval_invalid"  # type: ignore[union-attr]
+    assert listed["total"] == 0

@@ -2,6 +2,7 @@
 process fixtures and deadline-bound waits."""
 
 from robot_stack_testing.mcp_auth import (
+    approval_meta,
     assert_refuses_strangers,
     bearer,
     fresh_token,
@@ -24,6 +25,7 @@ __all__ = [
     "PostgresServer",
     "ProcessLauncher",
     "StdioTranscript",
+    "approval_meta",
     "assert_refuses_strangers",
     "async_wait_until",
     "bearer",

@@ -3,12 +3,21 @@
 Every MCP server over sse / streamable-http demands ``Authorization: Bearer <token>`` on each
 request (``robot_mcp_kit.service_auth``); tests start servers with :func:`fresh_token` in
 ``MCP_AUTH_TOKEN`` and reach them through :func:`mcp_transport`.
+
+:func:`approval_meta` signs an operator's approval as the brain does, written from the recipe
+in ``robot_mcp_kit``'s README ("Approvals"), not from the kit's code: a test seeding a stack's
+memory (``mission_driver.seed_memory``) uses it, and the kit's tests check it against the
+servers' verifier.
 """
 
 from __future__ import annotations
 
+import hashlib
+import hmac
+import json
 import secrets
-from collections.abc import AsyncIterator
+import time
+from collections.abc import AsyncIterator, Mapping
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -21,6 +30,37 @@ from mcp.shared._httpx_utils import create_mcp_http_client  # the SDK's own clie
 def fresh_token() -> str:
     """A credential as install.sh makes one (32 random bytes, URL-safe)."""
     return secrets.token_urlsafe(32)
+
+
+def approval_meta(
+    secret: str,
+    *,
+    server: str,
+    tool: str,
+    arguments: Mapping[str, Any],
+    approval_id: str,
+    by: str,
+    expires: int | None = None,
+) -> dict[str, Any]:
+    """The ``_meta`` of a tool call that ``by`` approved, signed with the server's approval
+    secret (its ``MCP_APPROVAL_SECRET``); ``expires`` defaults to 60 s from now."""
+    canonical = json.dumps(dict(arguments), sort_keys=True, separators=(",", ":"))
+    call = hashlib.sha256(f"{tool}\n{canonical}".encode()).hexdigest()
+    until = int(time.time()) + 60 if expires is None else expires
+    key = hmac.new(secret.encode(), b"robot-stack approval key v1", hashlib.sha256).digest()
+    fields = ["robot-stack/approval/v1", server, tool, call, approval_id, by, until]
+    message = json.dumps(fields, separators=(",", ":")).encode("ascii")
+    entry = {
+        "v": 1,
+        "server": server,
+        "tool": tool,
+        "call": call,
+        "approval_id": approval_id,
+        "by": by,
+        "expires": until,
+        "sig": hmac.new(key, message, hashlib.sha256).hexdigest(),
+    }
+    return {"robot-stack/approval": entry}
 
 
 def bearer(token: str | None) -> dict[str, str]:

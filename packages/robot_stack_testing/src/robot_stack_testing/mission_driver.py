@@ -25,7 +25,7 @@ import httpx
 import socketio
 from mcp import Client
 
-from robot_stack_testing.mcp_auth import mcp_transport
+from robot_stack_testing.mcp_auth import approval_meta, mcp_transport
 from robot_stack_testing.stack import LocalStack, local_stack, stack_defaults
 from robot_stack_testing.waiting import async_wait_until
 
@@ -91,11 +91,13 @@ async def call_mcp(
     timeout_s: float = 20.0,
     *,
     token: str | None = None,
+    meta: dict[str, Any] | None = None,
 ) -> Any:
     """One MCP tool call (``…/sse``: SSE, else streamable-http) presenting ``token``, the
-    server's credential; the decoded JSON answer (``{"_error": ...}`` if it failed)."""
+    server's credential, with ``meta`` as its ``_meta``; the decoded JSON answer
+    (``{"_error": ...}`` if it failed)."""
     async with asyncio.timeout(timeout_s), Client(mcp_transport(url, token)) as client:
-        result = await client.call_tool(tool, dict(arguments))
+        result = await client.call_tool(tool, dict(arguments), meta=meta)  # type: ignore[arg-type]
     text = "".join(getattr(block, "text", "") for block in result.content)
     try:
         payload = json.loads(text)
@@ -141,10 +143,28 @@ class RunningStack:
         path.chmod(0o600)
         return path
 
-    async def call(self, service: str, tool: str, arguments: Mapping[str, Any]) -> Any:
+    async def call(
+        self,
+        service: str,
+        tool: str,
+        arguments: Mapping[str, Any],
+        meta: dict[str, Any] | None = None,
+    ) -> Any:
         """One tool call to an MCP server of the stack over SSE, with its credential."""
         return await call_mcp(
-            self.url(service, "/sse"), tool, arguments, token=self.credentials[service]
+            self.url(service, "/sse"), tool, arguments, token=self.credentials[service], meta=meta
+        )
+
+    def approval(self, service: str, tool: str, arguments: Mapping[str, Any]) -> dict[str, Any]:
+        """The ``_meta`` of an operator's approval of exactly this call, signed with this
+        run's approval secret of ``service`` (``approval_<service>`` in the stack file)."""
+        return approval_meta(
+            self.services.secrets[f"approval_{service}"],
+            server=service,
+            tool=tool,
+            arguments=arguments,
+            approval_id=f"test-{secrets.token_hex(6)}",
+            by="test operator",
         )
 
     @property
@@ -171,8 +191,11 @@ def mailroom_stack(
 
 
 async def seed_memory(stack: RunningStack, markdown: str = MAILROOM_PROCESS) -> Any:
-    """Store a process document, as a past teaching would have (spec 002 §8)."""
-    return await stack.call("memory", "save_process", {"markdown": markdown})
+    """Store a process document, as a past teaching would have (spec 002 §8): with an
+    operator's approval, as the brain sends it (the server stores nothing without one)."""
+    arguments = {"markdown": markdown}
+    approval = stack.approval("memory", "save_process", arguments)
+    return await stack.call("memory", "save_process", arguments, approval)
 
 
 @dataclass

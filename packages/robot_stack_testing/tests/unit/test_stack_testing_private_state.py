@@ -88,9 +88,10 @@ def test_the_shipped_stack_gives_the_vision_node_and_the_brain_one_picture_crede
     placeholders = {
         **{f"mcp_token_{n}": "t" for n in names},
         **{f"mcp_operator_token_{n}": "o" for n in names},
+        **secret_placeholders(dict.fromkeys(stack_secrets(path), "s")),
         **secret_placeholders({"vision_artifacts": "the-picture-credential"}),
     }
-    assert stack_secrets(path) == ["vision_artifacts"]
+    assert "vision_artifacts" in stack_secrets(path)
     services = {
         s.name: s
         for s in load_stack(path, {"python": "py", "root": "r", "var": "v", **placeholders})

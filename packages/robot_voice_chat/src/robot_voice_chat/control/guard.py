@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import time
+import uuid
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -161,7 +162,9 @@ class GuardedToolBackend(ToolBackend):
             return refusal(decision.code or POLICY_DENIED, decision.detail, **extra)
         approval: ApprovedCall | None = None
         if decision.action == "confirm" and current_dispatch().approved_by is not None:
-            logger.info("tool_preapproved", tool=name, by=current_dispatch().approved_by)
+            by = (current_dispatch().approved_by or "operator")[:128]  # what an approval holds
+            approval = ApprovedCall(name, dict(arguments), f"pre-{uuid.uuid4().hex[:12]}", by)
+            logger.info("tool_preapproved", tool=name, by=by, approval_id=approval.approval_id)
         elif decision.action == "confirm":
             answer = await self._ask(name, arguments, decision)
             if not answer.approved:

@@ -118,16 +118,32 @@ async def test_an_approved_call_reaches_the_backend_with_its_approval_and_no_oth
 
 
 def test_the_mcp_call_carries_the_approval_only_for_the_exact_call() -> None:
+    from pydantic import SecretStr
+
+    from robot_mcp_kit.approvals import ApprovalVerifier
     from robot_voice_chat.services.tools.base import ApprovedCall
 
+    secret = SecretStr("episodic-approval-secret-of-32-bytes-or-more")
     token = approved_call.set(ApprovedCall("episodic.forget", {"start": "-1h"}, "ap-7", "bob"))
     try:
-        meta = call_meta("episodic", "forget", {"start": "-1h"})
+        meta = call_meta("episodic", "forget", {"start": "-1h"}, approval_secret=secret)
         assert meta is not None
         approval = dict(meta)["robot-stack/approval"]
         assert (approval["approval_id"], approval["by"]) == ("ap-7", "bob")
-        assert call_meta("episodic", "forget", {"start": "-36500d"}) is None
-        assert call_meta("memory", "forget", {"start": "-1h"}) is None
+        # signed: the server's verifier (same secret) accepts it for exactly this call, once
+        verifier = ApprovalVerifier("episodic", secret.get_secret_value())
+        assert verifier.verify(approval, "forget", {"start": "-1h"}).by == "bob"
+        args = {"start": "-36500d"}
+        assert call_meta("episodic", "forget", args, approval_secret=secret) is None
+        assert call_meta("memory", "forget", {"start": "-1h"}, approval_secret=secret) is None
+        # no secret for that server: nothing to prove, so nothing is sent
+        assert call_meta("episodic", "forget", {"start": "-1h"}) is None
+        # the audience is the name the server announced
+        named = call_meta(
+            "episodic", "forget", {"start": "-1h"}, approval_secret=secret, audience="episodic-2"
+        )
+        assert named is not None
+        assert dict(named)["robot-stack/approval"]["server"] == "episodic-2"
     finally:
         approved_call.reset(token)
 

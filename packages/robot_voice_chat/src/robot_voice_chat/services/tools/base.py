@@ -8,7 +8,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from pydantic import BaseModel, Field, SecretStr, field_validator
+from pydantic import BaseModel, Field, SecretStr, ValidationInfo, field_validator
 
 from robot_voice_chat.services.llm.base import ToolDefinition
 
@@ -49,6 +49,10 @@ class McpServerConfig(BaseModel):
     auth_token: SecretStr | None = None
     """This server's credential (its ``MCP_AUTH_TOKEN``), sent as ``Authorization: Bearer``
     on every HTTP request; empty = none (stdio needs none)."""
+    approval_secret: SecretStr | None = None
+    """The secret this server checks approvals with (its ``MCP_APPROVAL_SECRET``): the brain
+    signs the approval of every call an operator approved with it (``robot_mcp_kit.approvals``);
+    empty = the brain sends none and a server that demands one refuses the call."""
     motion: bool = False
     safety_stop_tool: str | None = None
     read_tools: list[str] = Field(default_factory=list)
@@ -60,17 +64,20 @@ class McpServerConfig(BaseModel):
     """A server the stack may run without (e.g. ``episodic``): readiness does not wait for it;
     its tools are offered while it is connected."""
 
-    @field_validator("auth_token")
+    @field_validator("auth_token", "approval_secret")
     @classmethod
-    def _usable_credential(cls, token: SecretStr | None) -> SecretStr | None:
-        """Empty = no credential; anything else must be >= 32 bytes (the servers refuse less)."""
+    def _usable_credential(cls, token: SecretStr | None, info: ValidationInfo) -> SecretStr | None:
+        """Empty = none; anything else must be >= 32 bytes (the servers refuse less)."""
         value = token.get_secret_value().strip() if token is not None else ""
         if not value:
             return None
         if len(value.encode()) < MIN_CREDENTIAL_BYTES:
+            variable = (
+                "MCP_AUTH_TOKEN" if info.field_name == "auth_token" else "MCP_APPROVAL_SECRET"
+            )
             raise ValueError(
-                f"auth_token is {len(value.encode())} bytes; the server's MCP_AUTH_TOKEN has "
-                f"at least {MIN_CREDENTIAL_BYTES}"
+                f"{info.field_name} is {len(value.encode())} bytes; the server's {variable} "
+                f"has at least {MIN_CREDENTIAL_BYTES}"
             )
         return SecretStr(value)
 

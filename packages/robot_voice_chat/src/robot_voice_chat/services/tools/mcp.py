@@ -8,8 +8,11 @@ loss of a connected server the disconnect listeners (a mission told its server i
 
 Over sse / streamable-http every request carries the server's credential
 (``Authorization: Bearer <auth_token>``); a refusal is logged ``mcp_server_unauthorized``
-naming the setting to fix. A call an operator approved carries that approval in its ``_meta``
-(``robot_mcp_kit.caller``), next to the mission id.
+naming the setting to fix. A call an operator approved carries that approval in its ``_meta``,
+next to the mission id: signed with the server's ``approval_secret`` for the name the server
+announced at initialize, valid 120 s, single use (``robot_mcp_kit.approvals``). Without an
+``approval_secret`` no approval is sent (logged ``approval_unsigned``): a server that demands
+one refuses the call.
 """
 
 from __future__ import annotations
@@ -31,8 +34,9 @@ from mcp.client.stdio import StdioServerParameters, stdio_client
 from mcp.client.streamable_http import streamable_http_client
 from mcp.shared._httpx_utils import create_mcp_http_client  # the SDK's own client defaults
 from mcp.types import RequestParamsMeta
+from pydantic import SecretStr
 
-from robot_mcp_kit.caller import approval_meta
+from robot_mcp_kit.approvals import ENV_APPROVAL_SECRET, signed_approval
 from robot_mcp_kit.correlation import mission_meta
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools import mcp_logs
@@ -58,11 +62,20 @@ class _Connection:
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     task: asyncio.Task[None] | None = None
     refused: bool = False  # the last attempt met a 401/403: a credential problem
+    announced: str | None = None  # the server's own name (initialize): an approval's audience
 
 
-def call_meta(server: str, tool: str, arguments: dict[str, object]) -> RequestParamsMeta | None:
+def call_meta(
+    server: str,
+    tool: str,
+    arguments: dict[str, object],
+    *,
+    approval_secret: SecretStr | None = None,
+    audience: str | None = None,
+) -> RequestParamsMeta | None:
     """The ``_meta`` of one ``tools/call``: the mission id (bound by the executor for its run)
-    and, when an operator approved exactly this call, the approval."""
+    and, when an operator approved exactly this call, the approval signed with
+    ``approval_secret`` for ``audience`` (the server's announced name; default ``server``)."""
     meta: dict[str, Any] = dict(
         mission_meta(structlog.contextvars.get_contextvars().get("mission_id")) or {}
     )
@@ -72,7 +85,26 @@ def call_meta(server: str, tool: str, arguments: dict[str, object]) -> RequestPa
         and approved.tool == f"{server}.{tool}"
         and approved.arguments == arguments
     ):
-        meta.update(approval_meta(tool, arguments, approved.approval_id, approved.by))
+        if approval_secret is None:
+            logger.warning(
+                "approval_unsigned",
+                server=server,
+                tool=tool,
+                approval_id=approved.approval_id,
+                detail=f"no approval_secret for {server} in config/tools/mcp.yaml (its "
+                "MCP_APPROVAL_SECRET): the approval is not sent and the server may refuse",
+            )
+        else:
+            meta.update(
+                signed_approval(
+                    approval_secret.get_secret_value(),
+                    server=audience or server,
+                    tool=tool,
+                    arguments=arguments,
+                    approval_id=approved.approval_id,
+                    by=approved.by,
+                )
+            )
     return cast(RequestParamsMeta, meta) if meta else None
 
 
@@ -202,7 +234,13 @@ class McpToolBackend(ToolBackend):
                     tool,
                     dict(arguments),
                     read_timeout_seconds=timeout,
-                    meta=call_meta(server, tool, arguments),
+                    meta=call_meta(
+                        server,
+                        tool,
+                        arguments,
+                        approval_secret=conn.config.approval_secret,
+                        audience=conn.announced,
+                    ),
                 )
         except TimeoutError:
             outcome = ToolOutcome(
@@ -251,7 +289,10 @@ class McpToolBackend(ToolBackend):
         cfg = conn.config
         if cfg.transport == "stdio":
             assert cfg.command is not None
-            params = StdioServerParameters(command=cfg.command, args=cfg.args, env=cfg.env or None)
+            env = dict(cfg.env)
+            if cfg.approval_secret is not None:  # the child checks what the brain signs
+                env.setdefault(ENV_APPROVAL_SECRET, cfg.approval_secret.get_secret_value())
+            params = StdioServerParameters(command=cfg.command, args=cfg.args, env=env or None)
             return stdio_client(params)
         assert cfg.url is not None
         if cfg.transport == "sse":
@@ -279,7 +320,8 @@ class McpToolBackend(ToolBackend):
                                 read, write, elicitation_callback=self._elicitation_callback(name)
                             )
                         )
-                        await session.initialize()
+                        initialized = await session.initialize()
+                        conn.announced = initialized.server_info.name or None
                         listed = await session.list_tools()
                     conn.tools = [
                         ToolDefinition(

@@ -10,11 +10,20 @@ Two things made every stop of a server with a connected client print tracebacks 
   of the signal — a KeyboardInterrupt traceback for SIGINT, and for SIGTERM no cleanup after
   the server (a ROS bridge left open). :class:`GracefulServer` stops on the signal and returns;
   the caller logs one ``mcp_server_stopped`` line and runs its cleanup.
+
+Session ids are not logged (issue 35 item 5): the SSE transport's messages are POSTed to
+``/messages/?session_id=<id>`` and uvicorn's access log writes the query string, and the SDK's
+transports name a refused session in their warnings. :class:`RedactSessionIds` (installed on
+those loggers by :func:`serve_http`) writes ``session_id=<redacted>`` / ``<session>`` instead:
+a session id with the credential that opened it is enough to talk in that session.
 """
 
 from __future__ import annotations
 
+import logging
+import re
 import signal
+import uuid
 from collections.abc import Generator
 from contextlib import contextmanager
 from typing import Any
@@ -24,6 +33,53 @@ import uvicorn
 
 logger = structlog.get_logger(__name__)
 GRACEFUL_SHUTDOWN_S = 5  # then open streams are cut (systemd waits 15 s before SIGKILL)
+
+
+_QUERY_SESSION = re.compile(r"(session_id=)[^&\s\"']+", re.IGNORECASE)
+_SESSION_HEX = re.compile(
+    r"\b[0-9a-fA-F]{32}\b|\b[0-9a-fA-F]{8}(?:-[0-9a-fA-F]{4}){3}-[0-9a-fA-F]{12}\b"
+)
+REDACTED_LOGGERS = (
+    "uvicorn.access",
+    "mcp.server.sse",
+    "mcp.server.streamable_http",
+    "mcp.server.streamable_http_manager",
+)
+
+
+def redact_session_ids(text: str) -> str:
+    """``text`` with every ``session_id=<value>`` and every bare session id (32 hex digits or a
+    UUID) replaced."""
+    return _SESSION_HEX.sub("<session>", _QUERY_SESSION.sub(r"\1<redacted>", text))
+
+
+class RedactSessionIds(logging.Filter):
+    """A logging filter that rewrites a record without session ids (never drops one). The
+    arguments keep their shape (uvicorn's access formatter unpacks them)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if isinstance(record.msg, str):
+            record.msg = redact_session_ids(record.msg)
+        if isinstance(record.args, tuple):
+            record.args = tuple(_redacted_arg(arg) for arg in record.args)
+        return True
+
+
+def _redacted_arg(arg: object) -> object:
+    if not isinstance(arg, str | uuid.UUID):
+        return arg
+    text = str(arg)
+    redacted = redact_session_ids(text)
+    return arg if redacted == text else redacted
+
+
+def install_session_redaction() -> None:
+    """Put :class:`RedactSessionIds` on uvicorn's access logger and the SDK's transport
+    loggers (once each)."""
+    for name in REDACTED_LOGGERS:
+        target = logging.getLogger(name)
+        if not any(isinstance(f, RedactSessionIds) for f in target.filters):
+            target.addFilter(RedactSessionIds())
 
 
 class OneResponse:
@@ -80,6 +136,7 @@ async def serve_http(app: Any, host: str, port: int, log_level: str = "info") ->
         log_level=log_level,
         timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S,
     )
+    install_session_redaction()  # after the Config, which (re)configures uvicorn's loggers
     server = GracefulServer(config)
     await server.serve()
     return server.stopped_by

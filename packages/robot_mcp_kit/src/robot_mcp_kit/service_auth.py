@@ -20,6 +20,9 @@ Environment (read by :func:`service_auth`, for sse and streamable-http only):
 - ``MCP_AUTH=off``: a throwaway dev server without credentials (logged ``mcp_auth_disabled``
   at start; refused together with a token). Nothing in ``deploy/`` sets it.
 
+A transport session belongs to the principal that opened it: a request for it with another
+credential is answered as if it did not exist (404).
+
 The tokens are ``SecretStr`` and never logged; a refusal logs ``mcp_auth_rejected`` with why
 (``missing`` / ``invalid``), method, path and client address — never what was presented.
 """
@@ -33,6 +36,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import structlog
+from mcp.server.auth.middleware.bearer_auth import AuthenticatedUser
+from mcp.server.auth.provider import AccessToken
 from pydantic import SecretStr
 
 from robot_mcp_kit.caller import BRAIN, OPERATOR, PRINCIPAL_SCOPE_KEY
@@ -134,7 +139,11 @@ class BearerAuthMiddleware:
     every POSTed message, streamable-http's POST/GET/DELETE) must carry a credential of
     ``auth``; else 401 with ``WWW-Authenticate: Bearer realm="<server>"`` (plus
     ``error="invalid_token"`` for a wrong one). The caller's principal rides on in the ASGI
-    scope (``PRINCIPAL_SCOPE_KEY``) for :mod:`robot_mcp_kit.caller`."""
+    scope (``PRINCIPAL_SCOPE_KEY``) for :mod:`robot_mcp_kit.caller`, and as the scope's
+    ``user``: the SDK's transports remember which principal opened a session (the SSE stream,
+    streamable-http's initialize) and answer a message, GET or DELETE for that session sent
+    with another credential 404 "session not found", exactly as for a session that does not
+    exist (issue 35 item 5)."""
 
     def __init__(self, app: ASGIApp, auth: ServiceAuth, server: str) -> None:
         if not auth.enabled:
@@ -150,7 +159,11 @@ class BearerAuthMiddleware:
         token = bearer_token(_header(scope, b"authorization"))
         principal = self.auth.identify(token) if token is not None else None
         if principal is not None:
-            await self.app({**scope, PRINCIPAL_SCOPE_KEY: principal}, receive, send)
+            await self.app(
+                {**scope, PRINCIPAL_SCOPE_KEY: principal, "user": _session_owner(principal)},
+                receive,
+                send,
+            )
             return
         reason = "missing" if token is None else "invalid"
         client = scope.get("client")
@@ -195,6 +208,11 @@ class BearerAuthMiddleware:
             }
         )
         await send({"type": "http.response.body", "body": payload})
+
+
+def _session_owner(principal: str) -> AuthenticatedUser:
+    """The SDK's notion of who owns a transport session: the principal, never the token."""
+    return AuthenticatedUser(AccessToken(token=principal, client_id=principal, scopes=[]))
 
 
 def _header(scope: Scope, name: bytes) -> str | None:

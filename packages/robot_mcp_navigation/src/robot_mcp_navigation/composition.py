@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -12,7 +12,13 @@ import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
-from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision import (
+    FOREIGN_GOAL_CLIENT,
+    LOCK_TOPIC_SHARED,
+    MAP_TOPIC_SHARED,
+    POSE_TOPIC_SHARED,
+    Supervision,
+)
 from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
@@ -41,6 +47,7 @@ class NavigationApp:
     closers: list[Callable[[], None]] = field(default_factory=list)
     supervision: Supervision | None = None
     publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
+    cancel_all: Callable[[], Awaitable[bool]] | None = None  # every goal below (issue 35)
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[NavigationApp]:
@@ -55,6 +62,7 @@ class NavigationApp:
                 self.navigator.stop,
                 lambda: self.navigator.moving,
                 self.publish_lock,
+                self.cancel_all,
             ):
                 logger.info(
                     "navigation_ready",
@@ -121,8 +129,8 @@ def build_nav2_action(
     settings: NavigationSettings, supervision: Supervision | None = None
 ) -> tuple[Nav2Action, MapView, RosSide]:
     """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions — and,
-    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` — and the ROS side that
-    closes them.
+    with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` and the graph watcher that
+    raises its alarms (issue 35) — and the ROS side that closes them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or nav2_msgs cannot be imported.
     """
@@ -130,6 +138,7 @@ def build_nav2_action(
         from robot_mcp_navigation.mapview.rclpy_view import RclpyMapView
         from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
         from robot_ros_bridge import RosBridge
+        from robot_ros_bridge.graph_watch import GraphWatcher
         from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
     except ImportError as exc:
         raise ConfigError(
@@ -140,15 +149,44 @@ def build_nav2_action(
     try:
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
         view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
-        lock = None
+        lock = watcher = None
         if supervision is not None:
             lock = SupervisorLockPublisher(
                 bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
             )
+            watcher = GraphWatcher(bridge, supervision.raise_alarm)
+            watch_navigation_graph(watcher, settings, supervision, action)
     except BaseException:
         bridge.close()
         raise
-    return action, view, RosSide(bridge, lock)
+    return action, view, RosSide(bridge, lock, watcher)
+
+
+def watch_navigation_graph(
+    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any
+) -> None:
+    """What navigation watches on the ROS graph (issue 35): its lock topic (only this server
+    publishes it), ``/amcl_pose`` and ``/map`` (one publisher each: the base's localisation and
+    map server), and the NavigateToPose action while motion is refused (a goal not ours, or
+    another client of it, is cancelled and alarmed)."""
+    watcher.watch_publishers(
+        settings.lock_topic, LOCK_TOPIC_SHARED, own=1, what="the robot's dead-man lock"
+    )
+    watcher.watch_publishers(
+        settings.pose_topic, POSE_TOPIC_SHARED, others_allowed=1, what="the robot's position"
+    )
+    watcher.watch_publishers(
+        settings.map_topic, MAP_TOPIC_SHARED, others_allowed=1, what="the robot's map"
+    )
+    watcher.watch_goals(
+        settings.nav2_action,
+        FOREIGN_GOAL_CLIENT,
+        ours=action.sent,
+        stopped=lambda: supervision.refusal() is not None,
+        cancel_all_now=action.cancel_all_now,
+        allowed_clients=settings.allowed_goal_clients,
+        what="drive (NavigateToPose)",
+    )
 
 
 @dataclass
@@ -157,6 +195,7 @@ class RosSide:
 
     bridge: Any
     lock: Any = None
+    watcher: Any = None
 
     def publish_lock(self) -> None:
         if self.lock is not None:
@@ -165,6 +204,8 @@ class RosSide:
     def close(self) -> None:
         if self.lock is not None:
             self.lock.close()  # the lock falls silent first: twist_mux locks
+        if self.watcher is not None:
+            self.watcher.close()
         self.bridge.close()
 
 
@@ -179,11 +220,17 @@ def build_app(
     if not settings.failures_enabled:
         nav_map = nav_map.without_failures()
     closers: list[Callable[[], None]] = []
+    required = settings.supervision == "required"
+    # with Nav2 below a supervised server, every stop cancels all its goals, and the lock opens
+    # again only after that sweep (issue 35)
     supervision = Supervision(
-        required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
+        required=required,
+        max_ttl_s=settings.lease_max_ttl_s,
+        sweeps=required and base is None and settings.motion == "nav2",
     )
     view: MapView = map_view or NoMapView()
     publish_lock = None
+    cancel_all = None
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
@@ -192,6 +239,8 @@ def build_app(
             nav2_action, view, ros = build_nav2_action(settings, locking)
             closers.append(ros.close)
             publish_lock = ros.publish_lock
+            if locking is not None:
+                cancel_all = sweeper(nav2_action, settings.nav2_cancel_timeout_s)
         base = build_motion_base(settings, nav_map, nav2_action)
     events = events or build_event_sink(settings)
     navigator = Navigator(
@@ -217,4 +266,14 @@ def build_app(
         closers,
         supervision,
         publish_lock,
+        cancel_all,
     )
+
+
+def sweeper(action: Nav2Action, timeout_s: float) -> Callable[[], Awaitable[bool]]:
+    """The watchdog's cancel-all: True once Nav2 answered (it cancels all its goals)."""
+
+    async def cancel_all() -> bool:
+        return await action.cancel_all(timeout_s) is not None
+
+    return cancel_all

@@ -93,6 +93,13 @@ class NavigationSettings(BaseModel):
         default=3.0, ge=0.0, le=60.0, alias="NAV2_FEEDBACK_TIMEOUT_S"
     )
     pose_max_age_s: float = Field(default=0.0, ge=0.0, le=3600.0, alias="NAV_POSE_MAX_AGE_S")
+    # issue 35: NavigateToPose clients besides this server that may be on the graph while the
+    # stop holds (node names, comma-separated; e.g. Nav2's waypoint_follower on a robot)
+    goal_clients: str = Field(default="", max_length=1000, alias="NAV_GOAL_CLIENTS")
+
+    @property
+    def allowed_goal_clients(self) -> tuple[str, ...]:
+        return tuple(name.strip() for name in self.goal_clients.split(",") if name.strip())
 
 
 def load_settings(environ: Mapping[str, str]) -> NavigationSettings:

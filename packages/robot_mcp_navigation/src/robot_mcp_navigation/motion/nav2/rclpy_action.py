@@ -8,14 +8,16 @@ and only with ``NAV_MOTION=nav2``.
 from __future__ import annotations
 
 import asyncio
+import collections
 import math
+import threading
 import time
+import uuid
 from collections.abc import Callable
 from typing import Any
 
 import structlog
-from action_msgs.msg import GoalStatus
-from action_msgs.srv import CancelGoal
+from action_msgs.msg import GoalInfo, GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav2_msgs.action import NavigateToPose
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -34,6 +36,7 @@ from robot_mcp_navigation.motion.nav2.port import (
 )
 from robot_mcp_navigation.motion.nav2.pose_watch import PoseContinuity, Relocation
 from robot_ros_bridge import RosBridge, ServiceTimeoutError, ServiceUnavailableError
+from robot_ros_bridge.action_cancel import ActionCanceller
 
 logger = structlog.get_logger(__name__)
 
@@ -81,6 +84,13 @@ def goal_message(pose: Pose, frame: str) -> Any:
     return goal
 
 
+def goal_uuid_msg(goal_id: bytes) -> Any:
+    """A unique_identifier_msgs/UUID carrying ``goal_id`` (16 bytes)."""
+    msg = GoalInfo().goal_id
+    msg.uuid = list(goal_id)
+    return msg
+
+
 def feedback_of(msg: Any) -> Nav2Feedback:
     return Nav2Feedback(
         pose=pose_of(msg.current_pose.pose),
@@ -118,7 +128,9 @@ class RclpyNav2Action(Nav2Action):
         self._bridge = bridge
         self._action_name = action_name
         self._client = bridge.create_action_client(NavigateToPose, action_name)
-        self._cancel_goals = bridge.create_client(CancelGoal, f"{action_name}/_action/cancel_goal")
+        self._canceller = ActionCanceller(bridge, action_name)
+        self._sent: collections.deque[bytes] = collections.deque(maxlen=64)
+        self._sent_mutex = threading.Lock()
         self._pose: PoseSample | None = None
         self._continuity = PoseContinuity()
         for qos in POSE_QOS:
@@ -140,13 +152,16 @@ class RclpyNav2Action(Nav2Action):
         return self._pose
 
     async def cancel_all(self, timeout_s: float) -> int | None:
-        try:
-            response = await self._bridge.call_service(
-                self._cancel_goals, CancelGoal.Request(), timeout_s, wait_for_service_s=timeout_s
-            )
-        except (ServiceUnavailableError, ServiceTimeoutError):
-            return None
-        return len(response.goals_canceling)
+        return await self._canceller.cancel_all(timeout_s)
+
+    def cancel_all_now(self) -> bool:
+        """The cancel-all sent at once from any thread (the graph watcher's)."""
+        return self._canceller.cancel_all_now()
+
+    def sent(self, goal_id: bytes) -> bool:
+        """Whether this client sent the goal ``goal_id`` (one of its last 64 goals)."""
+        with self._sent_mutex:
+            return goal_id in self._sent
 
     def last_relocation(self) -> Relocation | None:
         return self._continuity.relocation
@@ -172,7 +187,14 @@ class RclpyNav2Action(Nav2Action):
             if not loop.is_closed():
                 loop.call_soon_threadsafe(on_feedback, feedback_of(msg.feedback))
 
-        sent = self._client.send_goal_async(goal_message(pose, frame), feedback_callback=feedback)
+        goal_id = uuid.uuid4().bytes  # known before the server answers: the watcher's "ours"
+        with self._sent_mutex:
+            self._sent.append(goal_id)
+        sent = self._client.send_goal_async(
+            goal_message(pose, frame),
+            feedback_callback=feedback,
+            goal_uuid=goal_uuid_msg(goal_id),
+        )
         remaining = max(timeout_s - (time.monotonic() - started), timeout_s / 2)
         try:
             handle = await self._bridge.await_future(sent, remaining)

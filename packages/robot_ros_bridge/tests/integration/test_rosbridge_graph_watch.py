@@ -1,0 +1,194 @@
+"""GraphWatcher and ActionCanceller over real rclpy (issue 35): a second publisher on a lock
+topic or on a pose topic, a goal not ours while stopped, and the action protocol's cancel-all,
+which ends every goal of an rclpy ActionServer, whoever sent it."""
+
+import threading
+import time
+import uuid
+from collections.abc import Iterator
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+from nav2_msgs.action import NavigateToPose
+from rclpy.action.server import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from std_msgs.msg import Bool
+
+from robot_ros_bridge import RosBridge
+from robot_ros_bridge.action_cancel import ActionCanceller
+from robot_ros_bridge.graph_watch import GraphWatcher, foreign_nodes
+from robot_ros_bridge.lock_publisher import LOCK_QOS, SupervisorLockPublisher
+from robot_stack_testing import async_wait_until, wait_until
+
+pytestmark = pytest.mark.ros
+
+
+def _name(prefix: str) -> str:
+    return f"/{prefix}_{uuid.uuid4().hex[:8]}"
+
+
+class Alarms:
+    def __init__(self) -> None:
+        self.raised: dict[str, str] = {}
+        self._mutex = threading.Lock()
+
+    def __call__(self, code: str, detail: str) -> None:
+        with self._mutex:
+            self.raised[code] = detail
+
+    def codes(self) -> set[str]:
+        with self._mutex:
+            return set(self.raised)
+
+
+@pytest.fixture
+def bridges() -> Iterator[tuple[RosBridge, RosBridge]]:
+    with RosBridge("motion_server") as server, RosBridge("intruder") as intruder:
+        yield server, intruder
+
+
+def test_foreign_nodes_leaves_out_our_own_endpoints_and_the_allowed_ones() -> None:
+    def info(ns: str, name: str) -> Any:
+        return SimpleNamespace(node_namespace=ns, node_name=name)
+
+    infos = [info("/", "nav"), info("/", "nav"), info("/", "wf"), info("/robot", "x")]
+
+    assert foreign_nodes(infos, "/nav", 1) == ["/nav", "/wf", "/robot/x"]  # a namesake counts
+    assert foreign_nodes(infos, "/nav", 2, allowed=["wf"]) == ["/robot/x"]
+
+
+def test_a_second_publisher_on_our_lock_topic_is_alarmed_naming_its_node(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, intruder = bridges
+    topic = _name("lock")
+    alarms = Alarms()
+    SupervisorLockPublisher(server, lambda: True, topic=topic)
+    watcher = GraphWatcher(server, alarms, period_s=0.05)
+    watcher.watch_publishers(topic, "LOCK_TOPIC_SHARED", own=1, what="the lock")
+    wait_until(lambda: watcher.looks >= 5, 10, "five looks")
+    assert alarms.codes() == set()  # our own publisher alone is no alarm
+
+    spoof = intruder.create_publisher(Bool, topic, LOCK_QOS)
+    spoof.publish(Bool(data=False))
+
+    wait_until(lambda: "LOCK_TOPIC_SHARED" in alarms.codes(), 10, "the alarm")
+    assert "/intruder" in alarms.raised["LOCK_TOPIC_SHARED"]
+    assert topic in alarms.raised["LOCK_TOPIC_SHARED"]
+    watcher.close()
+
+
+def test_a_second_publisher_of_a_pose_is_alarmed_one_is_expected(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, intruder = bridges
+    topic = _name("amcl_pose")
+    alarms = Alarms()
+    watcher = GraphWatcher(server, alarms, period_s=0.05)
+    watcher.watch_publishers(topic, "POSE_TOPIC_SHARED", others_allowed=1)
+    with RosBridge("base") as base:
+        base.create_publisher(Bool, topic)
+        wait_until(lambda: watcher.looks >= 5, 10, "five looks")
+        assert alarms.codes() == set()
+        intruder.create_publisher(Bool, topic)
+        wait_until(lambda: "POSE_TOPIC_SHARED" in alarms.codes(), 10, "the alarm")
+    watcher.close()
+
+
+def serve_until_canceled(bridge: RosBridge, name: str) -> ActionServer:
+    """A NavigateToPose server whose goals run until canceled (Nav2's bt_navigator's shape)."""
+
+    def execute(handle: Any) -> Any:
+        while not handle.is_cancel_requested:
+            time.sleep(0.01)
+        handle.canceled()
+        return NavigateToPose.Result()
+
+    return ActionServer(
+        bridge.node,
+        NavigateToPose,
+        name,
+        execute,
+        goal_callback=lambda _goal: GoalResponse.ACCEPT,
+        cancel_callback=lambda _handle: CancelResponse.ACCEPT,
+        callback_group=ReentrantCallbackGroup(),
+    )
+
+
+async def test_cancel_all_ends_every_goal_whoever_sent_it(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, intruder = bridges
+    name = _name("navigate")
+    with RosBridge("base", num_threads=6) as base:  # running goals hold threads
+        serve_until_canceled(base, name)
+        client = intruder.create_action_client(NavigateToPose, name)
+        await intruder.wait_for_server(client, 10.0)
+        handles = [
+            await intruder.await_future(client.send_goal_async(NavigateToPose.Goal()), 10.0)
+            for _ in range(2)
+        ]
+        assert all(h.accepted for h in handles)
+
+        canceling = await ActionCanceller(server, name).cancel_all(10.0)
+
+        results = [await intruder.await_future(h.get_result_async(), 10.0) for h in handles]
+    assert canceling == 2
+    assert [r.status for r in results] == [5, 5]  # CANCELED
+
+
+async def test_a_goal_not_ours_while_stopped_is_canceled_at_once_and_alarmed(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, intruder = bridges
+    name = _name("navigate")
+    alarms = Alarms()
+    stopped = {"now": True}
+    with RosBridge("base", num_threads=6) as base:  # running goals hold threads
+        serve_until_canceled(base, name)
+        canceller = ActionCanceller(server, name)
+        watcher = GraphWatcher(server, alarms, period_s=0.05)
+        watcher.watch_goals(
+            name,
+            "FOREIGN_GOAL_CLIENT",
+            ours=lambda goal_id: False,
+            stopped=lambda: stopped["now"],
+            cancel_all_now=canceller.cancel_all_now,
+        )
+        client = intruder.create_action_client(NavigateToPose, name)
+        await intruder.wait_for_server(client, 10.0)
+        await async_wait_until(canceller.ready, 10, "the cancel service ready")
+        handle = await intruder.await_future(client.send_goal_async(NavigateToPose.Goal()), 10.0)
+        result = await intruder.await_future(handle.get_result_async(), 10.0)
+        watcher.close()
+
+    assert result.status == 5  # CANCELED by the watcher's cancel-all
+    assert "FOREIGN_GOAL_CLIENT" in alarms.codes()
+
+
+async def test_while_not_stopped_a_goal_not_ours_is_left_alone(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, intruder = bridges
+    name = _name("navigate")
+    alarms = Alarms()
+    with RosBridge("base", num_threads=6) as base:  # running goals hold threads
+        serve_until_canceled(base, name)
+        canceller = ActionCanceller(server, name)
+        watcher = GraphWatcher(server, alarms, period_s=0.05)
+        watcher.watch_goals(
+            name,
+            "FOREIGN_GOAL_CLIENT",
+            ours=lambda goal_id: False,
+            stopped=lambda: False,
+            cancel_all_now=canceller.cancel_all_now,
+        )
+        client = intruder.create_action_client(NavigateToPose, name)
+        await intruder.wait_for_server(client, 10.0)
+        handle = await intruder.await_future(client.send_goal_async(NavigateToPose.Goal()), 10.0)
+        looks = watcher.looks
+        await async_wait_until(lambda: watcher.looks >= looks + 5, 10, "five more looks")
+        assert alarms.codes() == set()
+        await intruder.await_future(handle.cancel_goal_async(), 10.0)
+        watcher.close()

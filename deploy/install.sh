@@ -45,6 +45,13 @@ MCP_SERVERS=(
   "navigation:NAVIGATION"
   "manipulation:MANIPULATION"
 )
+# MCP servers that demand an operator's signed approval for some tools (memory.save_process,
+# episodic forget): one approval secret each, generated once, shared with the brain only
+# (MCP_APPROVAL_SECRET there, <NAME>_APPROVAL_SECRET in brain.env; robot_mcp_kit.approvals).
+APPROVAL_SERVERS=(
+  "memory:MEMORY"
+  "episodic:EPISODIC"
+)
 LEGACY_USER=robot  # every unit ran as this one user before 0.x; removed by --purge
 SOURCE="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DESTDIR="${DESTDIR:-}"
@@ -242,6 +249,15 @@ write_mcp_credentials() {
     env_file "$file" "MCP_AUTH_TOKEN=$brain" "MCP_OPERATOR_TOKEN=$operator"
     brain_pairs+=("${name}_MCP_TOKEN=$brain")
     operator_pairs+=("${name}_MCP_OPERATOR_TOKEN=$operator")
+  done
+  local approval
+  for entry in "${APPROVAL_SERVERS[@]}"; do
+    file="${entry%%:*}" name="${entry#*:}"
+    approval="$(env_value "${name}_APPROVAL_SECRET" "$ETC/brain.env")"
+    approval="${approval:-$(env_value MCP_APPROVAL_SECRET "$ETC/$file.env")}"
+    approval="${approval:-$(new_secret)}"
+    env_file "$file" "MCP_APPROVAL_SECRET=$approval"
+    brain_pairs+=("${name}_APPROVAL_SECRET=$approval")
   done
   env_file brain "${brain_pairs[@]}"
   [[ -f "$ETC/operator.env" ]] || printf '%s\n' "# operator.env — the MCP servers' credentials for \

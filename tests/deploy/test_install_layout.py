@@ -47,10 +47,16 @@ MCP_SERVERS = {
 }
 
 
+# MCP servers that check operators' approvals with a secret shared with the brain (issue 35).
+APPROVAL_SERVERS = ("robot-mcp-memory", "robot-mcp-episodic")
+
+
 def credentials_of(unit: str) -> set[str]:
-    """An MCP server's two credentials: the brain's and the operators' tools'."""
+    """An MCP server's two credentials: the brain's and the operators' tools' (and the
+    approval secret of a server that checks approvals)."""
     file, _ = MCP_SERVERS[unit]
-    return {f"MCP_AUTH_TOKEN@{file}", f"MCP_OPERATOR_TOKEN@{file}"}
+    approval = {f"MCP_APPROVAL_SECRET@{file}"} if unit in APPROVAL_SERVERS else set()
+    return {f"MCP_AUTH_TOKEN@{file}", f"MCP_OPERATOR_TOKEN@{file}", *approval}
 
 
 # The secrets each service needs (keys of its env files); nobody else may read them.
@@ -62,6 +68,7 @@ SECRETS_OF = {
         "ADMIN_SECRET_KEY",
         "VISION_ARTIFACTS_TOKEN",
         *(f"{name}_MCP_TOKEN" for _, name in MCP_SERVERS.values()),
+        *(f"{MCP_SERVERS[unit][1]}_APPROVAL_SECRET" for unit in APPROVAL_SERVERS),
     },
     "robot-mcp-navigation": {
         "RVC_EVENT_SECRET@navigation",
@@ -184,6 +191,8 @@ def test_each_unit_runs_as_its_own_user_and_gets_only_its_own_secrets(installed:
         server = env_file(etc / f"{file}.env")
         value_of[f"MCP_AUTH_TOKEN@{file}"] = server["MCP_AUTH_TOKEN"]
         value_of[f"MCP_OPERATOR_TOKEN@{file}"] = server["MCP_OPERATOR_TOKEN"]
+        if "MCP_APPROVAL_SECRET" in server:
+            value_of[f"MCP_APPROVAL_SECRET@{file}"] = server["MCP_APPROVAL_SECRET"]
     users = {}
     for name in UNITS:
         service = unit(installed / "etc/systemd/system" / f"{name}.service")["Service"]
@@ -234,6 +243,11 @@ def test_every_mcp_server_gets_its_own_credentials_shared_with_the_brain_and_the
         assert "MCP_TRANSPORT=sse" in unit_values(service, "Environment"), unit_name
         assert not [e for e in unit_values(service, "Environment") if e.startswith("MCP_AUTH=")]
         tokens += [server["MCP_AUTH_TOKEN"], server["MCP_OPERATOR_TOKEN"]]
+    for unit_name in APPROVAL_SERVERS:  # the brain signs approvals with the server's secret
+        file, name = MCP_SERVERS[unit_name]
+        approval = env_file(etc / f"{file}.env")["MCP_APPROVAL_SECRET"]
+        assert brain[f"{name}_APPROVAL_SECRET"] == approval, unit_name
+        tokens.append(approval)
     assert len(set(tokens)) == len(tokens)  # each token opens one server, for one principal
     assert all(len(t) >= 32 for t in tokens)
     for unit_name in UNITS:  # operator.env is no unit's

@@ -110,16 +110,6 @@ async def test_what_do_you_see_with_the_camera_down_is_honest(tmp_path: Path, er
     assert not check_robot_words([summary, *o.speech.spoken])
 
 
-async def test_what_do_you_see_with_the_camera_up_still_describes_the_scene(
-    tmp_path: Path,
-) -> None:
-    o = office(tmp_path)
-    o.tools.add(WHAT_HAPPENED, lambda a: SIGHTING, start="string", kinds="array")
-    mission = await o.run("what do you see?")
-    assert mission.state == "succeeded", mission.summary
-    assert mission.summary.startswith("I see an office room")
-
-
 @pytest.mark.parametrize(
     ("content", "part"),
     [
@@ -153,3 +143,31 @@ def test_the_reasons_for_an_outage_name_the_part() -> None:
     assert reason_of(VISION_TIMEOUT) == "my camera system did not answer in time"
     assert reason_of(VISION_GONE) == "my camera system is not answering"
     assert reason_of('{"error": "ARM_UNAVAILABLE", "detail": "x_y"}') == "my arm is not answering"
+
+
+async def test_a_buffered_view_is_not_said_as_now_when_the_vision_node_is_gone(
+    tmp_path: Path,
+) -> None:
+    """The e2e run: the vision node killed, "what do you see" answered "I see the charging
+    dock's floor plate." from the buffer (warm for its stale window after the node died)."""
+    o = office(tmp_path)
+    warm = {
+        "mode": "warm",
+        "age_s": 8.2,
+        "stale": False,
+        "scene_description": {"value": "The charging dock's floor plate.", "age_s": 8.2},
+        "skills": [],
+    }
+    o.tools.add("perception.what_do_you_see", lambda a: warm)
+    o.tools.add("skill_control.list_running_skills", lambda a: {"skills": []})
+    mission = await o.run("what do you see?")  # the node answers: the view is what it sees
+    assert mission.state == "succeeded", mission.summary
+    assert mission.summary == "I see the charging dock's floor plate."
+    o.tools.add("skill_control.list_running_skills", _raises(VISION_GONE))
+    mission = await o.run("what do you see?")
+    assert mission.state == "failed", mission.summary
+    assert mission.summary == (
+        "My camera system isn't answering, so I can't look right now. The last view I have, "
+        "from 8 s ago, showed the charging dock's floor plate."
+    )
+    assert not check_robot_words([mission.summary])

@@ -157,6 +157,11 @@ class Looking:
         down = part_down(view.content) if view.is_error else None
         data = as_json(view.content) if not view.is_error else None
         text = _scene_text(data) if isinstance(data, dict) and data.get("mode") == "warm" else ""
+        if text and isinstance(data, dict):  # buffered: is the camera still there to see it?
+            gone = yield from self._vision_down("")
+            if gone is not None:  # the buffer outlives the vision node by its stale window
+                memory = _last_view(text, data.get("age_s"))
+                raise Finished("failed", f"{down_sentence(gone, 'look')} {memory}")
         if not text and has_tool(self.tools, INSTANTIATE) and has_tool(self.tools, WAIT_RESULT):
             look, read, stop = (self.step_id(n) for n in (3, 4, 5))
             self.steps[1:1] = [
@@ -288,6 +293,15 @@ def _labels(data: Any) -> str:
     if not labels and isinstance(found, dict) and found.get("value") is True:
         labels = ["it is visible"]
     return ", ".join(labels)
+
+
+def _last_view(text: str, age_s: Any) -> str:
+    """A buffered view said as the past it is: "The last view I have, from 8 s ago, showed
+    the charging dock."."""
+    age = round(age_s) if isinstance(age_s, int | float) else None
+    when = "" if age is None else ", from just now," if age < 1 else f", from {age} s ago,"
+    said = _mid_sentence(text)
+    return f"The last view I have{when} showed {said}" + ("" if said.endswith(".") else ".")
 
 
 def _mid_sentence(text: str) -> str:

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import shlex
+import socket
 import sys
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +20,7 @@ from robot_voice_chat.api.app import create_asgi_app
 from robot_voice_chat.api.auth_cli import hash_password_command
 from robot_voice_chat.api.auth_guard import PublicBindRefusedError, ensure_bind_allowed
 from robot_voice_chat.api.forwarded import unix_listener
+from robot_voice_chat.api.socket import end_socket_sessions
 from robot_voice_chat.composition import ConfigError, bootstrap, compose_config, one_line
 from robot_voice_chat.logging import configure_logging
 from robot_voice_chat.settings import EnvSettings
@@ -59,12 +62,33 @@ def main(argv: list[str] | None = None) -> int:
             logger.error("startup_refused", deployment=env.deployment, error=one_line(str(exc)))
             return 2
         logger.info("proxy_socket_listening", path=str(args.proxy_socket))
-    server = uvicorn.Server(server_config(create_asgi_app(container), args.host, args.port))
+    server = BrainServer(
+        server_config(create_asgi_app(container), args.host, args.port),
+        before_shutdown=lambda: end_socket_sessions(container.sio),
+    )
     server.run(sockets=[server.config.bind_socket(), *sockets])
     return 0
 
 
 GRACEFUL_SHUTDOWN_S = 10  # then open requests (a long poll) are cut: systemd stops at 15 s
+
+
+class BrainServer(uvicorn.Server):
+    """uvicorn that first ends what would hold its graceful stop open (Socket.IO's long polls)
+    and then stops as usual: a stop takes as long as the open requests need, not
+    ``GRACEFUL_SHUTDOWN_S``."""
+
+    def __init__(
+        self, config: uvicorn.Config, before_shutdown: Callable[[], Awaitable[None]]
+    ) -> None:
+        super().__init__(config)
+        self._before_shutdown = before_shutdown
+
+    async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
+        for server in self.servers:  # no new connections while the sessions end
+            server.close()
+        await self._before_shutdown()
+        await super().shutdown(sockets=sockets)
 
 
 def server_config(app: Any, host: str, port: int) -> uvicorn.Config:

@@ -12,7 +12,11 @@ from fastapi.exceptions import RequestValidationError
 
 from robot_voice_chat.api import auth_routes
 from robot_voice_chat.api.auth_middleware import OperatorAuthMiddleware
-from robot_voice_chat.api.body_limit import BodyLimitMiddleware, validation_error
+from robot_voice_chat.api.body_limit import (
+    BodyLimitMiddleware,
+    SocketIOBodyLimit,
+    validation_error,
+)
 from robot_voice_chat.api.forwarded import ForwardedFromProxy
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
@@ -119,5 +123,7 @@ def create_asgi_app(container: Container) -> Any:
         # Socket.IO requests never reach FastAPI's middleware: gate them here as well.
         if container.auth is not None:
             served = OperatorAuthMiddleware(served, container.auth)
+        # ... their bodies too, before anything else (as FastAPI's BodyLimitMiddleware is)
+        served = SocketIOBodyLimit(served, limit=container.config.api.max_body_bytes)
     guarded = SecurityHeadersMiddleware(RequestGuard(served, **_guard_options(container)))
     return ForwardedFromProxy(guarded, container.config.auth.trusted_proxies)

@@ -43,6 +43,7 @@ An accepted approval is remembered until it expires (bounded memory), so it work
 from __future__ import annotations
 
 import hashlib
+import heapq
 import hmac
 import json
 import re
@@ -227,6 +228,7 @@ class ApprovalVerifier:
         self.max_remembered = max_remembered
         self.clock = clock
         self._used: dict[str, float] = {}  # approval_id -> expires (unix s)
+        self._by_expiry: list[tuple[float, str]] = []  # a heap: the oldest expiry first
         self._lock = threading.Lock()
 
     @property
@@ -291,12 +293,15 @@ class ApprovalVerifier:
                     "too_many", "too many approvals are in flight; try again in a minute"
                 )
             self._used[claim.approval_id] = claim.expires
+            heapq.heappush(self._by_expiry, (claim.expires, claim.approval_id))
         return Approval(claim.approval_id, claim.by)
 
     def _forget_expired(self, now: float) -> None:
+        """Drop what expired (oldest first, O(log n) each): a replay of it is stale anyway."""
         horizon = now - self.skew_s
-        for approval_id in [a for a, expires in self._used.items() if expires < horizon]:
-            del self._used[approval_id]
+        while self._by_expiry and self._by_expiry[0][0] < horizon:
+            _, approval_id = heapq.heappop(self._by_expiry)
+            self._used.pop(approval_id, None)
 
     @staticmethod
     def _invalid(check: str, sentence: str) -> ApprovalError:

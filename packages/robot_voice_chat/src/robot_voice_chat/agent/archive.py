@@ -7,6 +7,8 @@ import abc
 import asyncio
 import json
 import sqlite3
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, fields
 from datetime import datetime
 from pathlib import Path
@@ -53,59 +55,111 @@ class MissionArchive(abc.ABC):
 
 
 class SqliteMissionArchive(MissionArchive):
-    """One file; every statement runs in a worker thread (never on the event loop)."""
+    """One file, never touched on the event loop (issue 39: a burst of chat turns queued one
+    connection, commit and close per mission log line, and a mission's page waited behind them).
+
+    One long-lived connection per worker thread: writes go to one writer thread, and the
+    writes waiting meanwhile are committed together (one transaction, one fsync; each caller
+    returns once its own write is committed); reads run on a reader thread of their own, so
+    a page never waits behind the writes (WAL: readers see every committed write)."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self._lock = asyncio.Lock()
         self._ready = False
+        self._init = threading.Lock()
+        self._local = threading.local()
+        self._writer = ThreadPoolExecutor(1, thread_name_prefix="archive-write")
+        self._reader = ThreadPoolExecutor(1, thread_name_prefix="archive-read")
+        self._pending: list[tuple[str, tuple[Any, ...], asyncio.Future[None]]] = []
+        self._flushing: asyncio.Task[None] | None = None
 
-    def _connect(self) -> sqlite3.Connection:
-        if not self._ready:
-            private_file(self.path)  # 0600 (SQLite gives its -wal/-shm files the same mode)
-        db = sqlite3.connect(self.path, timeout=10)
-        if not self._ready:
-            db.execute("PRAGMA journal_mode=WAL")
-            db.executescript(_SCHEMA)
-            self._ready = True
+    def _db(self) -> sqlite3.Connection:
+        db: sqlite3.Connection | None = getattr(self._local, "db", None)
+        if db is None:
+            with self._init:
+                if not self._ready:
+                    private_file(self.path)  # 0600 (SQLite gives its -wal/-shm the same mode)
+                db = sqlite3.connect(self.path, timeout=10)
+                if not self._ready:
+                    db.execute("PRAGMA journal_mode=WAL")
+                    db.executescript(_SCHEMA)
+                    self._ready = True
+            self._local.db = db
         return db
 
-    async def _run(self, sql: str, args: tuple[Any, ...]) -> list[tuple[Any, ...]]:
+    async def _read(self, sql: str, args: tuple[Any, ...]) -> list[tuple[Any, ...]]:
         def work() -> list[tuple[Any, ...]]:
-            db = self._connect()
+            return self._db().execute(sql, args).fetchall()
+
+        return await asyncio.get_running_loop().run_in_executor(self._reader, work)
+
+    async def _write(self, sql: str, args: tuple[Any, ...]) -> None:
+        """Returns once committed (with the writes that waited beside it)."""
+        done: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._pending.append((sql, args, done))
+        if self._flushing is None or self._flushing.done():
+            self._flushing = asyncio.create_task(self._flush())
+        await done
+
+    async def _flush(self) -> None:
+        loop = asyncio.get_running_loop()
+        while self._pending:
+            batch, self._pending = self._pending, []
+            statements = [(sql, args) for sql, args, _ in batch]
+            errors = await loop.run_in_executor(self._writer, self._commit, statements)
+            for (_, _, done), error in zip(batch, errors, strict=True):
+                if done.done():
+                    continue
+                if error is None:
+                    done.set_result(None)
+                else:
+                    done.set_exception(error)
+
+    def _commit(self, statements: list[tuple[str, tuple[Any, ...]]]) -> list[Exception | None]:
+        """All in one transaction; if that fails, each alone (one bad write fails only itself)."""
+        db = self._db()
+        try:
+            with db:
+                for sql, args in statements:
+                    db.execute(sql, args)
+            return [None] * len(statements)
+        except sqlite3.Error:
+            if len(statements) == 1:
+                raise
+        errors: list[Exception | None] = []
+        for sql, args in statements:
             try:
                 with db:
-                    return db.execute(sql, args).fetchall()
-            finally:
-                db.close()
-
-        async with self._lock:
-            return await asyncio.to_thread(work)
+                    db.execute(sql, args)
+                errors.append(None)
+            except sqlite3.Error as exc:
+                errors.append(exc)
+        return errors
 
     async def save(self, mission: Mission) -> None:
-        await self._run(
+        await self._write(
             "INSERT OR REPLACE INTO mission (id, created_at, body) VALUES (?, ?, ?)",
             (mission.id, mission.created_at.isoformat(), json.dumps(to_record(mission))),
         )
 
     async def append_event(self, line: MissionEventLine) -> None:
-        await self._run(
+        await self._write(
             "INSERT INTO mission_event (mission_id, body) VALUES (?, ?)",
             (line.mission_id, line.model_dump_json()),
         )
 
     async def load(self, mission_id: str) -> Mission | None:
-        rows = await self._run("SELECT body FROM mission WHERE id = ?", (mission_id,))
+        rows = await self._read("SELECT body FROM mission WHERE id = ?", (mission_id,))
         return from_record(json.loads(rows[0][0])) if rows else None
 
     async def events(self, mission_id: str) -> list[MissionEventLine]:
-        rows = await self._run(
+        rows = await self._read(
             "SELECT body FROM mission_event WHERE mission_id = ? ORDER BY seq", (mission_id,)
         )
         return [MissionEventLine.model_validate_json(r[0]) for r in rows]
 
     async def recent(self, limit: int) -> list[Mission]:
-        rows = await self._run(
+        rows = await self._read(
             "SELECT body FROM mission ORDER BY created_at DESC LIMIT ?", (limit,)
         )
         return [from_record(json.loads(r[0])) for r in rows]
@@ -113,7 +167,7 @@ class SqliteMissionArchive(MissionArchive):
     async def live(self) -> list[Mission]:
         states = sorted(ACTIVE_STATES)
         marks = ", ".join("?" * len(states))
-        rows = await self._run(
+        rows = await self._read(
             f"SELECT body FROM mission WHERE json_extract(body, '$.state') IN ({marks}) "  # noqa: S608 (placeholders only)
             "ORDER BY created_at",
             tuple(states),

@@ -44,11 +44,16 @@ class TraceRecorder:
                 f.write("\n".join(lines) + "\n")
 
     async def read(self, mission_id: str) -> list[dict[str, Any]]:
+        """The mission's records, read and parsed off the event loop (a long mission's trace
+        is megabytes of JSON)."""
         await self.flush()
-        path = self.directory / f"{mission_id}.jsonl"
+        return await asyncio.to_thread(self._read, self.directory / f"{mission_id}.jsonl")
+
+    @staticmethod
+    def _read(path: Path) -> list[dict[str, Any]]:
         if not path.is_file():
             return []
-        text = await asyncio.to_thread(path.read_text, encoding="utf-8")
+        text = path.read_text(encoding="utf-8")
         return [json.loads(line) for line in text.splitlines() if line.strip()]
 
     def prune(self, retention_days: int) -> int:
@@ -65,8 +70,12 @@ class TraceRecorder:
             logger.info("trace_pruned", removed=removed, retention_days=retention_days)
         return removed
 
-    def history(self, limit: int) -> list[dict[str, Any]]:
-        """Summaries of finished missions from the trace files (for the missions list)."""
+    async def history(self, limit: int) -> list[dict[str, Any]]:
+        """Summaries of finished missions from the trace files (for the missions list), read
+        off the event loop."""
+        return await asyncio.to_thread(self._history, limit)
+
+    def _history(self, limit: int) -> list[dict[str, Any]]:
         if not self.directory.is_dir():
             return []
         rows = []

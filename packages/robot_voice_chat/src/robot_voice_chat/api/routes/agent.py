@@ -137,7 +137,7 @@ def build_router(api: ApiConfig, stored: SeenEvents | None = None) -> APIRouter:
     async def list_missions(container: ContainerDep, limit: int = 20) -> dict[str, Any]:
         live = [m.summary_row() for m in await container.executor.recent_missions(limit)]
         ids = {row["id"] for row in live}
-        history = [r for r in container.trace.history(limit) if r["id"] not in ids]
+        history = [r for r in await container.trace.history(limit) if r["id"] not in ids]
         active = container.executor.active
         return {
             "active": active.id if active else None,

@@ -459,6 +459,9 @@ class MotionSupervisor:
         view = self._views.get(server) or LeaseView(server)
         tool = f"{server}.{SUPERVISE_TOOL}"
         if tools.server_states().get(server) != "connected":
+            if view.state == "pending" and tools is not self.tools:
+                # the lease's own connections are still coming up (the brain's are up)
+                return self._set(view, "pending", f"connecting to {server}")
             return self._set(view, "unreachable", f"{server} is not connected")
         if not tools.has_tool(tool):
             return self._set(view, "unsupported", f"{server} offers no {SUPERVISE_TOOL} tool")

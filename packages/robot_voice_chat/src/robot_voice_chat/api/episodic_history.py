@@ -71,6 +71,8 @@ def check_since(text: str, now: float) -> str:
         raise HistoryError(422, "invalid_query", f"since {text!r} is not a time: use {SINCE_FORMS}")
     if stamp > now:
         raise HistoryError(422, "invalid_query", f"since {text!r} is in the future")
+    if stamp < 0:  # as the relative form above: the README's "further back than 1970"
+        raise HistoryError(422, "invalid_query", f"since {text!r} is before 1970: {SINCE_FORMS}")
     return value
 
 

@@ -318,6 +318,32 @@ async def test_a_bad_since_is_a_422_that_says_which_forms_work(
     assert tools.calls == []  # refused before the memory server is asked
 
 
+@pytest.mark.parametrize(
+    "since",
+    ["1969-12-31T23:59:59Z", "1900-01-01T00:00:00+02:00", "0001-01-01T00:00:00", "-99999d"],
+)
+async def test_a_since_before_1970_is_a_422_as_the_readme_says(
+    client: httpx.AsyncClient, tools: FakeToolBackend, since: str
+) -> None:
+    """README: "/api/history?since= further back than 1970 is a 422 (invalid_query)" — for
+    every form, not only the relative one (issue 35: an ISO time before 1970 was sent on)."""
+    FakeEpisodic(tools, SIGHTINGS)
+    response = await client.get("/api/history", params={"since": since})
+    assert response.status_code == 422
+    assert response.json()["error"] == "invalid_query"
+    assert "before 1970" in response.json()["detail"]
+    assert tools.calls == []  # refused before the memory server is asked
+
+
+async def test_the_first_second_of_1970_is_a_time_the_server_is_asked_for(
+    client: httpx.AsyncClient, tools: FakeToolBackend
+) -> None:
+    FakeEpisodic(tools, SIGHTINGS)
+    response = await client.get("/api/history", params={"since": "1970-01-01T00:00:00Z"})
+    assert response.status_code == 200, response.text
+    assert tools.calls[0][1]["start"] == "1970-01-01T00:00:00Z"
+
+
 @pytest.mark.parametrize("limit", [0, -3, 101])
 async def test_a_limit_outside_its_bounds_is_a_422(
     client: httpx.AsyncClient, tools: FakeToolBackend, limit: int

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
-from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision import FOREIGN_GOAL_CLIENT, LOCK_TOPIC_SHARED, Supervision
 from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
@@ -33,6 +34,7 @@ class ManipulationApp:
     closers: list[Callable[[], None]] = field(default_factory=list)
     supervision: Supervision | None = None
     publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
+    cancel_all: Callable[[], Awaitable[bool]] | None = None  # every Pick/Place goal (issue 35)
 
     @asynccontextmanager
     async def running(self) -> AsyncIterator[ManipulationApp]:
@@ -46,6 +48,7 @@ class ManipulationApp:
                 self.manipulator.stop,
                 lambda: self.manipulator.moving,
                 self.publish_lock,
+                self.cancel_all,
             ):
                 logger.info(
                     "manipulation_ready",
@@ -76,17 +79,28 @@ def build_event_sink(settings: ManipulationSettings) -> EventSink:
     )
 
 
-def build_arm(
-    settings: ManipulationSettings, supervision: Supervision | None = None
-) -> tuple[ArmActions, Callable[[], None], Callable[[], object] | None]:
-    """The rclpy Pick/Place clients and the held subscription, with ``supervision`` the
-    dead-man lock on ``MANIP_LOCK_TOPIC``; how to close them, and how to publish the lock now.
+@dataclass
+class ArmSide:
+    """The rclpy arm and, with supervision, its lock, graph watcher and cancel-all."""
+
+    arm: ArmActions
+    close: Callable[[], None]
+    publish_lock: Callable[[], object] | None = None
+    cancel_all: Callable[[], Awaitable[bool]] | None = None
+
+
+def build_arm(settings: ManipulationSettings, supervision: Supervision | None = None) -> ArmSide:
+    """The rclpy Pick/Place clients and the held subscription — with ``supervision`` the
+    dead-man lock on ``MANIP_LOCK_TOPIC``, the graph watcher raising its alarms (a second
+    publisher on the lock topic; a Pick/Place goal not ours, or another client, while motion is
+    refused) and the cancel-all of every Pick/Place goal (issue 35) — and how to close them.
 
     Raises ConfigError (exit 2 at start-up) when rclpy or the interfaces cannot be imported.
     """
     try:
         from robot_mcp_manipulation.arm.rclpy_arm import RclpyArm
         from robot_ros_bridge import RosBridge
+        from robot_ros_bridge.graph_watch import GraphWatcher
         from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
     except ImportError as exc:
         raise ConfigError(
@@ -97,11 +111,13 @@ def build_arm(
     bridge = RosBridge("robot_mcp_manipulation").start()
     try:
         arm = RclpyArm(bridge, settings.pick_action, settings.place_action, settings.held_topic)
-        lock = None
+        lock = watcher = None
         if supervision is not None:
             lock = SupervisorLockPublisher(
                 bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
             )
+            watcher = GraphWatcher(bridge, supervision.raise_alarm)
+            watch_arm_graph(watcher, settings, supervision, arm, lock)
     except BaseException:
         bridge.close()
         raise
@@ -109,9 +125,44 @@ def build_arm(
     def close() -> None:
         if lock is not None:
             lock.close()  # the lock falls silent first: twist_mux locks
+        if watcher is not None:
+            watcher.close()
         bridge.close()
 
-    return arm, close, (lock.publish if lock is not None else None)
+    if lock is None:
+        return ArmSide(arm, close)
+
+    async def cancel_all() -> bool:
+        return await arm.cancel_all(settings.cancel_timeout_s)
+
+    return ArmSide(arm, close, lock.publish, cancel_all)
+
+
+def watch_arm_graph(
+    watcher: Any, settings: ManipulationSettings, supervision: Supervision, arm: Any, lock: Any
+) -> None:
+    """What manipulation watches (issue 35): its own lock topic (only this server publishes
+    it) and the Pick and Place actions while motion is refused."""
+    watcher.watch_publishers(
+        settings.lock_topic, LOCK_TOPIC_SHARED, own=True, what="the arm's dead-man lock"
+    )
+    watcher.watch_lock(
+        settings.lock_topic,
+        LOCK_TOPIC_SHARED,
+        locked=supervision.locked,
+        last_open_at=lock.last_open_at,
+        what="the arm's dead-man lock",
+    )
+    for action, what in zip(arm.action_names, ("pick", "place"), strict=True):
+        watcher.watch_goals(
+            action,
+            FOREIGN_GOAL_CLIENT,
+            ours=arm.sent,
+            stopped=lambda: supervision.refusal() is not None,
+            cancel_all_now=arm.cancel_all_now,
+            allowed_clients=settings.allowed_goal_clients,
+            what=f"arm ({what})",
+        )
 
 
 def build_app(
@@ -121,16 +172,19 @@ def build_app(
     events: EventSink | None = None,
 ) -> ManipulationApp:
     closers: list[Callable[[], None]] = []
+    required = settings.supervision == "required"
+    # with the robot's arm below a supervised server, every stop cancels all its goals, and the
+    # lock opens again only after that sweep (issue 35)
     supervision = Supervision(
-        required=settings.supervision == "required", max_ttl_s=settings.lease_max_ttl_s
+        required=required, max_ttl_s=settings.lease_max_ttl_s, sweeps=required and arm is None
     )
     publish_lock = None
+    cancel_all = None
     if arm is None:
         # the lock only where it means something: a robot's twist_mux (or robot-sim)
-        arm, close, publish_lock = build_arm(
-            settings, supervision if supervision.required else None
-        )
-        closers.append(close)
+        side = build_arm(settings, supervision if supervision.required else None)
+        arm, publish_lock, cancel_all = side.arm, side.publish_lock, side.cancel_all
+        closers.append(side.close)
     events = events or build_event_sink(settings)
     manipulator = Manipulator(
         arm,
@@ -145,5 +199,5 @@ def build_app(
     )
     server = build_mcp_server(manipulator, settings.log_level, settings.max_age_s, supervision)
     return ManipulationApp(
-        settings, arm, events, manipulator, server, closers, supervision, publish_lock
+        settings, arm, events, manipulator, server, closers, supervision, publish_lock, cancel_all
     )

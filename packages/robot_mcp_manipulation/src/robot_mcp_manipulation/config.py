@@ -53,6 +53,9 @@ class ManipulationSettings(BaseModel):
     )
     lock_hz: float = Field(default=20.0, ge=10.0, le=100.0, alias="MANIP_LOCK_HZ")
     lease_max_ttl_s: float = Field(default=2.0, gt=0.0, le=10.0, alias="MANIP_LEASE_MAX_TTL_S")
+    # issue 35: Pick/Place clients besides this server that may be on the graph while the stop
+    # holds (node names, comma-separated)
+    goal_clients: str = Field(default="", max_length=1000, alias="MANIP_GOAL_CLIENTS")
     events_url: EventsUrl = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
     event_secret: Annotated[SecretStr | None, BeforeValidator(empty_is_none)] = Field(
         default=None, alias="RVC_EVENT_SECRET"
@@ -64,6 +67,10 @@ class ManipulationSettings(BaseModel):
     host: str = Field(default="127.0.0.1", alias="MCP_HOST")
     port: int = Field(default=DEFAULT_PORT, ge=1, le=65535, alias="MCP_PORT")
     log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
+
+    @property
+    def allowed_goal_clients(self) -> tuple[str, ...]:
+        return tuple(name.strip() for name in self.goal_clients.split(",") if name.strip())
 
 
 def load_settings(environ: Mapping[str, str]) -> ManipulationSettings:

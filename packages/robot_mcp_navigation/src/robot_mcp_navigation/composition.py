@@ -155,7 +155,7 @@ def build_nav2_action(
                 bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
             )
             watcher = GraphWatcher(bridge, supervision.raise_alarm)
-            watch_navigation_graph(watcher, settings, supervision, action)
+            watch_navigation_graph(watcher, settings, supervision, action, lock)
     except BaseException:
         bridge.close()
         raise
@@ -163,14 +163,21 @@ def build_nav2_action(
 
 
 def watch_navigation_graph(
-    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any
+    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any, lock: Any
 ) -> None:
     """What navigation watches on the ROS graph (issue 35): its lock topic (only this server
     publishes it), ``/amcl_pose`` and ``/map`` (one publisher each: the base's localisation and
     map server), and the NavigateToPose action while motion is refused (a goal not ours, or
     another client of it, is cancelled and alarmed)."""
     watcher.watch_publishers(
-        settings.lock_topic, LOCK_TOPIC_SHARED, own=1, what="the robot's dead-man lock"
+        settings.lock_topic, LOCK_TOPIC_SHARED, own=True, what="the robot's dead-man lock"
+    )
+    watcher.watch_lock(
+        settings.lock_topic,
+        LOCK_TOPIC_SHARED,
+        locked=supervision.locked,
+        last_open_at=lock.last_open_at,
+        what="the robot's dead-man lock",
     )
     watcher.watch_publishers(
         settings.pose_topic, POSE_TOPIC_SHARED, others_allowed=1, what="the robot's position"

@@ -10,6 +10,7 @@ Reliable + volatile like twist_mux's own subscription (``SystemDefaultsQoS``).
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -46,6 +47,7 @@ class SupervisorLockPublisher:
         self._locked = locked
         self._mutex = threading.Lock()
         self._last: bool | None = None
+        self._last_open_at: float | None = None
         self._shared_warned = False
         self._ticks = 0
         self._check_every = max(1, round(rate_hz))  # the graph is looked at once a second
@@ -63,6 +65,8 @@ class SupervisorLockPublisher:
             if self._publisher is None:
                 return value
             self._publisher.publish(Bool(data=value))
+            if not value:
+                self._last_open_at = time.monotonic()
             changed, self._last = value != self._last, value
             self._ticks += 1
             check = self._ticks % self._check_every == 1
@@ -72,6 +76,11 @@ class SupervisorLockPublisher:
         if check:
             self._check_shared()
         return value
+
+    def last_open_at(self) -> float | None:
+        """When this publisher last published ``false`` (open), ``time.monotonic()``."""
+        with self._mutex:
+            return self._last_open_at
 
     def _check_shared(self) -> None:
         """Another publisher on this topic would hide our silence from twist_mux: say so."""

@@ -54,8 +54,8 @@ def test_foreign_nodes_leaves_out_our_own_endpoints_and_the_allowed_ones() -> No
 
     infos = [info("/", "nav"), info("/", "nav"), info("/", "wf"), info("/robot", "x")]
 
-    assert foreign_nodes(infos, "/nav", 1) == ["/nav", "/wf", "/robot/x"]  # a namesake counts
-    assert foreign_nodes(infos, "/nav", 2, allowed=["wf"]) == ["/robot/x"]
+    assert foreign_nodes(infos, "/nav") == ["/robot/x", "/wf"]  # a namesake (ghost) is ours
+    assert foreign_nodes(infos, "/nav", allowed=["wf"]) == ["/robot/x"]
 
 
 def test_a_second_publisher_on_our_lock_topic_is_alarmed_naming_its_node(
@@ -66,7 +66,7 @@ def test_a_second_publisher_on_our_lock_topic_is_alarmed_naming_its_node(
     alarms = Alarms()
     SupervisorLockPublisher(server, lambda: True, topic=topic)
     watcher = GraphWatcher(server, alarms, period_s=0.05)
-    watcher.watch_publishers(topic, "LOCK_TOPIC_SHARED", own=1, what="the lock")
+    watcher.watch_publishers(topic, "LOCK_TOPIC_SHARED", own=True, what="the lock")
     wait_until(lambda: watcher.looks >= 5, 10, "five looks")
     assert alarms.codes() == set()  # our own publisher alone is no alarm
 
@@ -93,6 +93,28 @@ def test_a_second_publisher_of_a_pose_is_alarmed_one_is_expected(
         assert alarms.codes() == set()
         intruder.create_publisher(Bool, topic)
         wait_until(lambda: "POSE_TOPIC_SHARED" in alarms.codes(), 10, "the alarm")
+    watcher.close()
+
+
+def test_an_open_lock_message_while_we_hold_it_locked_is_alarmed_whatever_its_node_is_named(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    server, _ = bridges
+    topic = _name("lock")
+    alarms = Alarms()
+    lock = SupervisorLockPublisher(server, lambda: True, topic=topic)
+    watcher = GraphWatcher(server, alarms, period_s=0.05)
+    watcher.watch_publishers(topic, "LOCK_TOPIC_SHARED", own=True)
+    watcher.watch_lock(
+        topic, "LOCK_TOPIC_SHARED", locked=lambda: True, last_open_at=lock.last_open_at
+    )
+    with RosBridge("motion_server") as namesake:  # the graph cannot tell it from us
+        spoof = namesake.create_publisher(Bool, topic, LOCK_QOS)
+        wait_until(lambda: watcher.looks >= 5, 10, "five looks")
+        assert alarms.codes() == set(), alarms.raised
+        spoof.publish(Bool(data=False))
+        wait_until(lambda: "LOCK_TOPIC_SHARED" in alarms.codes(), 10, "the alarm")
+    assert "'open'" in alarms.raised["LOCK_TOPIC_SHARED"]
     watcher.close()
 
 

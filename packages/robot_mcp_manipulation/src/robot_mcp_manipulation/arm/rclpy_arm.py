@@ -7,13 +7,16 @@ Imports rclpy and robot_manipulation_interfaces: only the composition root impor
 from __future__ import annotations
 
 import asyncio
+import collections
 import math
+import threading
 import time
+import uuid
 from collections.abc import Callable
 from typing import Any
 
 import structlog
-from action_msgs.msg import GoalStatus
+from action_msgs.msg import GoalInfo, GoalStatus
 from builtin_interfaces.msg import Time
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from robot_manipulation_interfaces.action import Pick, Place
@@ -34,6 +37,7 @@ from robot_mcp_manipulation.arm.port import (
     GoalStatus as Status,
 )
 from robot_ros_bridge import RosBridge, ServiceTimeoutError, ServiceUnavailableError
+from robot_ros_bridge.action_cancel import ActionCanceller
 
 logger = structlog.get_logger(__name__)
 
@@ -117,8 +121,31 @@ class RclpyArm(ArmActions):
             "pick": bridge.create_action_client(Pick, pick_action),
             "place": bridge.create_action_client(Place, place_action),
         }
+        self._cancellers = [ActionCanceller(bridge, name) for name in (pick_action, place_action)]
+        self._sent: collections.deque[bytes] = collections.deque(maxlen=64)
+        self._sent_mutex = threading.Lock()
         self._held: Held | None = None
         bridge.create_subscription(HeldObject, held_topic, self._on_held, HELD_QOS)
+
+    @property
+    def action_names(self) -> tuple[str, str]:
+        return self._names["pick"], self._names["place"]
+
+    def sent(self, goal_id: bytes) -> bool:
+        """Whether this client sent the goal ``goal_id`` (one of its last 64 goals)."""
+        with self._sent_mutex:
+            return goal_id in self._sent
+
+    async def cancel_all(self, timeout_s: float) -> bool:
+        """The action protocol's cancel-all on Pick and Place (every goal, whoever sent it);
+        True when both servers answered."""
+        answers = await asyncio.gather(*(c.cancel_all(timeout_s) for c in self._cancellers))
+        return all(answer is not None for answer in answers)
+
+    def cancel_all_now(self) -> None:
+        """Both cancel-alls sent at once from any thread (the graph watcher's)."""
+        for canceller in self._cancellers:
+            canceller.cancel_all_now()
 
     def _on_held(self, msg: Any) -> None:  # executor thread; one reference assignment
         self._held = held_of(msg)
@@ -162,7 +189,12 @@ class RclpyArm(ArmActions):
                 fb = ArmFeedback(str(msg.feedback.phase), float(msg.feedback.progress))
                 loop.call_soon_threadsafe(on_feedback, fb)
 
-        sent = client.send_goal_async(goal, feedback_callback=feedback)
+        goal_id = uuid.uuid4().bytes  # known before the server answers: the watcher's "ours"
+        with self._sent_mutex:
+            self._sent.append(goal_id)
+        goal_uuid = GoalInfo().goal_id
+        goal_uuid.uuid = list(goal_id)
+        sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_uuid)
         remaining = max(timeout_s - (time.monotonic() - started), timeout_s / 2)
         try:
             handle = await self._bridge.await_future(sent, remaining)

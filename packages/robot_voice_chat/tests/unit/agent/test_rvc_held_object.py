@@ -120,6 +120,23 @@ async def test_a_pick_lost_to_a_server_restart_after_the_grasp_goes_on_with_what
     assert len(o.tools.called("manipulation.pick")) == 1
 
 
+async def test_a_failed_put_says_what_the_gripper_says_not_that_it_still_holds_it(
+    tmp_path: Path,
+) -> None:
+    o = arm_office(tmp_path)
+    o.world.arm.lost_on_place = True  # the gripper opened; the package fell out of reach
+
+    mission = await o.run(FETCH)
+
+    assert mission.state == "failed"
+    assert o.world.arm.held is None
+    assert "yellow package" not in o.world.objects["reception"]
+    assert mission.summary.endswith(
+        "My gripper is empty now, but I can't confirm where it went."
+    ), mission.summary
+    assert "I still hold it" not in mission.summary
+
+
 # --- a search for what the gripper holds is answered from the gripper --------------------------
 async def test_a_search_for_the_held_package_is_answered_from_the_gripper(tmp_path: Path) -> None:
     o = arm_office(tmp_path)

@@ -46,6 +46,7 @@ class OfficeArm:
         # a pick whose server was killed after the grasp: the gripper holds it, and the
         # restarted server reports the pick lost (SERVER_RESTARTED), as robot-sim's world shows
         self.lost_after_grasp = False
+        self.lost_on_place = False  # a place that fails after the gripper opened: it fell
         self.running: asyncio.Task[None] | None = None
         self._ids = itertools.count(1)
         tools = world.tools
@@ -100,6 +101,9 @@ class OfficeArm:
                     failure = ("SERVER_RESTARTED", "the server restarted and lost the task", True)
         elif self.held is None:
             failure = ("NOTHING_HELD", "the gripper holds nothing", False)
+        elif self.lost_on_place:
+            self.lost_on_place, self.held = False, None
+            failure = ("PLACE_FAILED", "the gripper opened before it rested", False)
         else:
             if not self.drops:
                 here.append(self.held)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from robot_voice_chat.held_words import names_it
+from robot_voice_chat.held_words import Held, held_from, names_it
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition
 from robot_voice_chat.services.llm.rules.steps import Call, Finished, Outcome, PlanStep, Steps
 from robot_voice_chat.services.llm.rules.surface import Failure, as_json, has_tool, task_id_of
@@ -230,10 +230,13 @@ class Carrying:
 
     def _held_now(self) -> Steps:
         """What the gripper holds now (the arm's server's word), or None."""
+        held: Held = yield from self._gripper()
+        return held.label
+
+    def _gripper(self) -> Steps:
+        """The arm's server's word on the gripper: ``known`` False when it did not answer."""
         [answer] = yield from self.act(Call(GET_HELD))
-        data = as_json(answer.content) if not answer.is_error else None
-        label = data.get("label") if isinstance(data, dict) and data.get("holding") else None
-        return label if isinstance(label, str) and label else None
+        return held_from(answer.content, answer.is_error)
 
     def _put(self, thing: str, mode: str, step: str, where: str) -> Steps:
         """Place (or release) what is held; ends the mission truthfully on a failure."""
@@ -247,9 +250,17 @@ class Carrying:
         if outcome.kind != "error":
             failure: Failure = yield from self._failure(task_id, outcome.line, MANIP_GET_TASK)
             code = failure.code
-        raise Finished(
-            "failed", f"I couldn't put the {thing} down{where}: {said(code)}. I still hold it."
-        )
+        # words = world (issue 39): the gripper's word on what it still holds, not the plan's
+        held: Held = yield from self._gripper()
+        if not held.known:
+            still = "My arm isn't answering, so I can't tell whether I still hold it."
+        elif held.label is None:
+            still = "My gripper is empty now, but I can't confirm where it went."
+        elif names_it(thing, held.label):
+            still = "I still hold it."
+        else:
+            still = f"I'm holding the {held.label}."
+        raise Finished("failed", f"I couldn't put the {thing} down{where}: {said(code)}. {still}")
 
     def _confirm(self, thing: str, look: str) -> Steps:
         """Look where it was put: True when the camera sees it there."""

@@ -245,6 +245,7 @@ def assemble(
         period_s=config.control.lease_period_s,
         ttl_s=config.control.lease_ttl_s,
         lease_tools=_lease_tools(config, adapters.tools),
+        hung_after_s=config.control.lease_hung_s,
     )
     latch.add_listener(_announce_latch(emitter, supervisor))
     # the one choke point: everything below holds the guarded backend, never the raw one

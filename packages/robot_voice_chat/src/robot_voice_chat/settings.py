@@ -230,9 +230,19 @@ class ControlConfig(BaseModel):
     approval_timeout_s: float = Field(60.0, gt=0)  # no answer within this → denied
     audit_log: str = ""  # "" = <data_dir>/approvals.jsonl (append-only)
     # issue 27: the lease on every motion server (renewed every period, lapses after the TTL;
-    # a brain killed mid-drive halts the robot within about one TTL)
+    # a brain killed mid-drive halts the robot within about one TTL). Issue 39: renewed from a
+    # thread of its own; measured (benchmarks/supervision_jitter.py, shared 2-core machine)
+    # the gap between answered renewals is p50 252 / p99 400 / max 576 ms with the stack idle
+    # at load 12, p99 354 / max 547 ms under two busy loops + missions + bursts of 20 chat
+    # turns (load 7-9): a 0.8 s TTL leaves >= 224 ms over the worst gap, and a longer one would
+    # break the 1 s bound on brain kill -9 -> halted (p99 0.96 s with 0.8). The servers' own
+    # starvation grace stays 0.25 s (robot_mcp_kit.supervision_tools.STARVED_GRACE_S).
     lease_period_s: float = Field(0.25, gt=0, le=1.0)
     lease_ttl_s: float = Field(0.8, gt=0, le=2.0)
+    # a brain whose loop has not run for this long is hung, not busy: the renewal thread stops
+    # renewing and the robot halts as for a dead brain (the loop's worst stall measured under
+    # two busy loops: see readyz data.supervision.renewals.loop_lag_max_ms)
+    lease_hung_s: float = Field(5.0, gt=0, le=60.0)
 
     @model_validator(mode="after")
     def _period_within_ttl(self) -> ControlConfig:

@@ -62,6 +62,7 @@ logger = structlog.get_logger(__name__)
 
 LeaseState = Literal["pending", "supervised", "unreachable", "unsupported", "refused"]
 START_TIMEOUT_S = 10.0  # the renewal thread's loop and backend come up within this
+HEARTBEAT_S = 0.1  # the brain's loop shows it runs this often (the renewal thread reads it)
 STATS_SIZE = 4096  # renewal timings kept for readiness and the jitter benchmark
 
 
@@ -106,11 +107,14 @@ class MotionSupervisor:
         wall: Callable[[], float] = time.time,
         lease_tools: Callable[[], ToolBackend] | None = None,
         on_notice: NoticeHandler | None = None,
+        hung_after_s: float = 5.0,
     ) -> None:
         """``lease_tools``: builds the renewals' own backend (called inside the renewal
         thread, whose loop then owns its connections); None: renew through ``tools`` on the
         brain's loop. ``on_notice``: the brain's answer to an alarm or a refused lease (by
-        default an alarm latches the stop, a refusal is logged)."""
+        default an alarm latches the stop, a refusal is logged). ``hung_after_s``: a brain
+        whose loop has not run for this long is hung, not busy: its renewal thread stops
+        renewing, so the robot halts as for a dead brain (issue 27's "killed or hung")."""
         if not 0 < period_s <= ttl_s / 2:
             raise ValueError("lease_period_s must be > 0 and at most half of lease_ttl_s")
         self.tools = tools
@@ -120,6 +124,11 @@ class MotionSupervisor:
         self.holder = holder or f"brain-{uuid.uuid4().hex[:8]}"
         self._clock = clock
         self._wall = wall
+        self.hung_after_s = hung_after_s
+        self._beat = clock()  # the brain's loop ran at this moment (its heartbeat)
+        self._hung = False
+        self._ticks = 0  # renewal rounds (all servers), for tests that wait on the thread
+        self._lag: deque[float] = deque(maxlen=STATS_SIZE)  # the brain loop's heartbeat lag
         self._lease_factory = lease_tools
         self._on_notice = on_notice
         self._lock = threading.Lock()  # guards the views, alarms and stats across the loops
@@ -164,6 +173,10 @@ class MotionSupervisor:
         self.latch.add_listener(self._on_latch)
         self.tools.add_connect_listener(self._on_connect)
         ready: asyncio.Future[None] = self._owner.create_future()
+        self._beat = self._clock()
+        heartbeat = asyncio.create_task(self._heartbeat(), name="lease-heartbeat")
+        self._owner_tasks.add(heartbeat)
+        heartbeat.add_done_callback(self._owner_tasks.discard)
         if self._lease_factory is None:
             self._runner = asyncio.create_task(self._renewals(servers, ready), name="leases")
         else:
@@ -198,6 +211,19 @@ class MotionSupervisor:
             self._thread = None
         for task in list(self._owner_tasks):
             task.cancel()
+
+    async def _heartbeat(self) -> None:
+        """The brain's loop shows it runs (and how late it runs: its lag under load)."""
+        while True:
+            before = self._clock()
+            await asyncio.sleep(HEARTBEAT_S)
+            self._beat = now = self._clock()
+            with self._lock:
+                self._lag.append(max(0.0, now - before - HEARTBEAT_S))
+
+    def brain_hung(self) -> bool:
+        """The brain's loop has not run for ``hung_after_s``: a hung brain is a dead one."""
+        return self._clock() - self._beat > self.hung_after_s
 
     def _thread_main(self, servers: list[str], ready: asyncio.Future[None]) -> None:
         try:
@@ -395,10 +421,11 @@ class MotionSupervisor:
             return [a.as_dict() for alarms in self._alarms.values() for a in alarms]
 
     def renewal_stats(self) -> dict[str, list[float]]:
-        """Seconds between answered renewals of a server (``gaps``: what a server sees) and
-        how late each periodic renewal started against its schedule (``late``)."""
+        """Seconds between answered renewals of a server (``gaps``: what a server sees), how
+        late each periodic renewal started against its schedule (``late``) and how late the
+        brain's own loop ran its heartbeat (``loop_lag``: what a busy brain looks like)."""
         with self._lock:
-            return {"gaps": list(self._gaps), "late": list(self._late)}
+            return {"gaps": list(self._gaps), "late": list(self._late), "loop_lag": list(self._lag)}
 
     def summary(self) -> dict[str, Any]:
         now = self._clock()
@@ -436,7 +463,14 @@ class MotionSupervisor:
                 with self._lock:
                     self._late.append(max(0.0, started - due))
             try:
-                await self.renew(server)
+                if self._hung_now():
+                    self._set(
+                        self._views.get(server) or LeaseView(server),
+                        "unreachable",
+                        "the brain's loop is hung: the lease is left to lapse",
+                    )
+                else:
+                    await self.renew(server)
             except Exception:  # a renewal loop must outlive any one failure
                 logger.exception("supervision_renewal_crashed", server=server)
             self._to_owner(self._renewed_once, server)
@@ -445,9 +479,26 @@ class MotionSupervisor:
                 with contextlib.suppress(TimeoutError):
                     async with asyncio.timeout(remaining):
                         await wake.wait()
+            self._ticks += 1
             # a woken renewal is not a scheduled one: it does not count as late or early
             due = None if wake.is_set() else started + self.period_s
             wake.clear()
+
+    def _hung_now(self) -> bool:
+        """Renewals run on a thread of their own: they stop while the brain's loop is hung
+        (logged once per stretch), so a hung brain halts the robot as a dead one does."""
+        hung = self.threaded and self.brain_hung()
+        if hung != self._hung:
+            self._hung = hung
+            if hung:
+                logger.error(
+                    "supervision_brain_hung",
+                    silent_s=round(self._clock() - self._beat, 1),
+                    hung_after_s=self.hung_after_s,
+                )
+            else:
+                logger.warning("supervision_brain_responsive")
+        return hung
 
     def _renewed_once(self, server: str) -> None:
         event = self._renewed.get(server)

@@ -319,3 +319,34 @@ async def test_a_lost_server_is_checked_at_once_by_the_brains_own_connection(
 
     assert brain.checked[0] == ("navigation", threading.current_thread().name)
     assert supervisor.summary()["servers"]["navigation"]["state"] == "unreachable"
+
+
+async def test_a_hung_brain_loop_stops_the_renewals(server: Server, latch: SafetyLatch) -> None:
+    """Busy is not hung: renewals go on while the loop is busy (above), but once it has not run
+    for ``hung_after_s`` the thread stops renewing and the lease lapses as for a dead brain."""
+    supervisor = MotionSupervisor(
+        backend(server),
+        latch,
+        period_s=0.05,
+        ttl_s=0.5,
+        lease_tools=lambda: backend(server),
+        hung_after_s=1.0,
+    )
+    await supervisor.start()
+    try:
+        await async_wait_until(lambda: supervisor.fresh("navigation"), 5, "a first lease")
+
+        # the brain's loop is blocked from here on (a deadlock, as far as the thread can tell)
+        wait_until(supervisor.brain_hung, 10, "the brain's loop seen hung")
+        wait_until(
+            lambda: supervisor.summary()["servers"]["navigation"]["state"] == "unreachable",
+            10,
+            "the lease let go",
+        )
+        seen, ticks = server.count(), supervisor._ticks
+        wait_until(lambda: supervisor._ticks >= ticks + 3, 10, "three more renewal rounds")
+        assert server.count() == seen  # none of them renewed
+
+        await async_wait_until(lambda: supervisor.fresh("navigation"), 5, "renewed once it runs")
+    finally:
+        await supervisor.aclose()

@@ -453,6 +453,35 @@ def test_systemd_analyze_verify_is_clean_on_every_unit(installed: Path, tmp_path
     assert (result.returncode, result.stdout + result.stderr) == (0, "")
 
 
+def verify(root: Path, *units: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        ["systemd-analyze", "verify", f"--root={root}", *units],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+
+
+def test_the_units_with_the_sros2_drop_ins_still_verify_clean(
+    installed: Path, tmp_path: Path
+) -> None:
+    """RUNBOOK 5b installs deploy/sros2/systemd/<unit>.service.d/sros2.conf (issue 35)."""
+    root = verify_root(installed, tmp_path)
+    drop_ins = sorted((ROOT / "deploy/sros2/systemd").iterdir())
+    for folder in drop_ins:
+        (root / "etc/systemd/system" / folder.name).mkdir()
+        shutil.copy(folder / "sros2.conf", root / "etc/systemd/system" / folder.name)
+    units = [f"/etc/systemd/system/{f.name.removesuffix('.d')}" for f in drop_ins]
+    clean = verify(root, *units)
+    assert (clean.returncode, clean.stdout + clean.stderr) == (0, "")
+    # verify reads the drop-ins: a typo in one is reported
+    first = root / "etc/systemd/system" / drop_ins[0].name / "sros2.conf"
+    first.write_text("[Service]\nEnviroment=ROS_SECURITY_ENABLE=true\n")
+    typo = verify(root, units[0])
+    assert "Enviroment" in typo.stdout + typo.stderr
+
+
 def test_verify_catches_a_broken_unit(installed: Path, tmp_path: Path) -> None:
     """The check above can fail: a typo in a key is reported."""
     root = verify_root(installed, tmp_path)

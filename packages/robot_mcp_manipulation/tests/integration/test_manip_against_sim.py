@@ -9,7 +9,7 @@ import asyncio
 import contextlib
 import sys
 from collections.abc import AsyncIterator, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -62,15 +62,18 @@ class Rig:
     nav: Any
     lease: asyncio.Task[None] | None = None
 
+    latched: bool = False
+    answers: list[dict[str, Any]] = field(default_factory=list)
+
     def hold_lease(self) -> None:
-        """Renew the brain's lease every 0.1 s (TTL 1 s) over the ``supervise`` tool."""
+        """Renew the brain's lease every 0.1 s (TTL 1 s) over the ``supervise`` tool, with the
+        stop as ``latched`` says; the answers are kept."""
 
         async def renew() -> None:
             async with Client(self.app.server) as brain:
                 while True:
-                    await tool_answer(
-                        brain, "supervise", {"holder": "test-brain", "latched": False, "ttl_s": 1.0}
-                    )
+                    arguments = {"holder": "test-brain", "latched": self.latched, "ttl_s": 1.0}
+                    self.answers.append(await tool_answer(brain, "supervise", arguments))
                     await asyncio.sleep(0.1)
 
         self.lease = asyncio.create_task(renew())
@@ -274,3 +277,38 @@ async def test_a_lapsed_lease_stops_the_pick_locks_the_arm_and_refuses_the_next(
         assert "NOT_SUPERVISED" in str(refused.content)
         assert "yellow package" in await rig.objects("mailroom")
         assert (await rig.world("gripper.held"))[0] == ""
+
+
+async def test_a_pick_sent_straight_to_the_arm_while_latched_is_cancelled_and_alarmed(
+    rig: Rig,
+) -> None:
+    """Issue 35: a latch reaches everything below it. A Pick goal sent to robot-sim's action by
+    another ROS client (not this server) while the stop is latched is cancelled at once, the
+    supervise answer names FOREIGN_GOAL_CLIENT, and robot-sim's world is unchanged."""
+    from robot_manipulation_interfaces.action import Pick
+
+    from robot_mcp_manipulation.arm.port import DetectionTarget
+    from robot_mcp_manipulation.arm.rclpy_arm import pick_goal
+
+    rig.latched = True
+    await async_wait_until(
+        lambda: rig.answers and rig.answers[-1]["latched"], 10.0, "the latched lease"
+    )
+    await until_subscribed(rig)
+    ref = await rig.seen("yellow package")
+    arm = rig.bridge.create_action_client(Pick, "/manipulation/pick")
+    await rig.bridge.wait_for_server(arm, 10.0)
+    target = DetectionTarget(ref["topic"], ref["stamp"], -1, "yellow package")
+    handle = await rig.bridge.await_future(arm.send_goal_async(pick_goal(target, 0.0)), 10.0)
+    assert handle.accepted
+    result = await rig.bridge.await_future(handle.get_result_async(), 30.0)
+    await async_wait_until(
+        lambda: any(a["code"] == "FOREIGN_GOAL_CLIENT" for a in rig.answers[-1]["alarms"]),
+        10.0,
+        "the alarm",
+    )
+
+    assert result.status == 5  # CANCELED: the arm never finished the pick
+    assert rig.answers[-1]["lock"] == "locked"
+    assert (await rig.world("gripper.held"))[0] == ""
+    assert "yellow package" in await rig.objects("mailroom")

@@ -107,6 +107,15 @@ def test_smoke_script_passes_on_the_local_stack(stack: RunningStack, tmp_path: P
     events = [e for e in snapshot.json()["events"] if e["kind"] == "task_event"]
     assert events
     assert {e["payload"].get("mission_id") for e in events} == {mission_id[1]}
+    # the stack's state after a whole mission is its user's alone (issue 35: outboxes,
+    # memory.sqlite3 and logs were 0644, the episodic directory 0755)
+    state = [tmp_path / "var", *(tmp_path / "var").rglob("*")]
+    assert any(p.name == "memory.sqlite3" for p in state)
+    assert any(p.name == "episodic" for p in state)
+    open_to_others = [
+        f"{oct(p.stat().st_mode & 0o777)} {p}" for p in state if p.stat().st_mode & 0o077
+    ]
+    assert not open_to_others, open_to_others[:10]
 
     # the repeat runs against the brain with operator login on, as on a robot
     brain = stack.services.specs["brain"]

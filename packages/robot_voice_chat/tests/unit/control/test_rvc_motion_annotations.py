@@ -167,3 +167,25 @@ async def test_a_background_read_of_the_ui_never_raises_an_approval_card() -> No
         await call_json(tools, "rogue.where_am_i", {}, 5.0)
     assert gate.asked == []
     assert fake.calls == []
+
+
+def test_a_stdio_server_is_given_the_approval_secret_the_brain_signs_with() -> None:
+    from pydantic import SecretStr
+
+    from robot_voice_chat.services.tools.mcp import stdio_parameters
+
+    secret = "memory-approval-secret-of-32-bytes-or-more"
+    config = McpServerConfig(
+        name="memory",
+        transport="stdio",
+        command="robot-mcp-memory",
+        env={"MEMORY_DB": "/tmp/m.sqlite3"},
+        approval_secret=SecretStr(secret),
+    )
+    assert stdio_parameters(config).env == {
+        "MEMORY_DB": "/tmp/m.sqlite3",
+        "MCP_APPROVAL_SECRET": secret,
+    }
+    bare = McpServerConfig(name="memory", transport="stdio", command="robot-mcp-memory")
+    assert stdio_parameters(bare).env is None  # the SDK's default environment
+    assert secret not in repr(config)

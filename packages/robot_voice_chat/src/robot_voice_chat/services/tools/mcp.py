@@ -108,6 +108,16 @@ def call_meta(
     return cast(RequestParamsMeta, meta) if meta else None
 
 
+def stdio_parameters(cfg: McpServerConfig) -> StdioServerParameters:
+    """How a stdio server is spawned: its command, args and env, plus ``MCP_APPROVAL_SECRET``
+    when the brain holds its ``approval_secret`` (the child checks what the brain signs)."""
+    assert cfg.command is not None
+    env = dict(cfg.env)
+    if cfg.approval_secret is not None:
+        env.setdefault(ENV_APPROVAL_SECRET, cfg.approval_secret.get_secret_value())
+    return StdioServerParameters(command=cfg.command, args=cfg.args, env=env or None)
+
+
 def _headers(cfg: McpServerConfig) -> dict[str, str] | None:
     token = cfg.auth_token
     return {"Authorization": f"Bearer {token.get_secret_value()}"} if token is not None else None
@@ -288,12 +298,7 @@ class McpToolBackend(ToolBackend):
     def _transport(self, conn: _Connection) -> Any:
         cfg = conn.config
         if cfg.transport == "stdio":
-            assert cfg.command is not None
-            env = dict(cfg.env)
-            if cfg.approval_secret is not None:  # the child checks what the brain signs
-                env.setdefault(ENV_APPROVAL_SECRET, cfg.approval_secret.get_secret_value())
-            params = StdioServerParameters(command=cfg.command, args=cfg.args, env=env or None)
-            return stdio_client(params)
+            return stdio_client(stdio_parameters(cfg))
         assert cfg.url is not None
         if cfg.transport == "sse":
             return sse_client(

@@ -162,7 +162,13 @@ def test_the_mcp_inspector_passes_the_operators_credential_as_a_header(
 
 
 # the real process's refusal (the other unusable settings: test_kit_service_auth.py)
-REFUSALS = [({"MCP_AUTH_TOKEN": "short-" + BRAIN_TOKEN[:8]}, "MCP_AUTH_TOKEN is 14 bytes")]
+REFUSALS = [
+    ({"MCP_AUTH_TOKEN": "short-" + BRAIN_TOKEN[:8]}, "MCP_AUTH_TOKEN is 14 bytes"),
+    (
+        {"MCP_AUTH_TOKEN": BRAIN_TOKEN, "MCP_APPROVAL_SECRET": "short-" + OPERATOR_TOKEN[:8]},
+        "MCP_APPROVAL_SECRET is 14 bytes",
+    ),
+]
 
 
 def test_an_http_server_without_a_usable_credential_refuses_to_start(
@@ -182,6 +188,7 @@ def test_an_http_server_without_a_usable_credential_refuses_to_start(
         assert output.splitlines() == [output]  # one line, no traceback
         assert message in output
         assert BRAIN_TOKEN[:8] not in output
+        assert OPERATOR_TOKEN[:8] not in output
 
 
 @pytest.mark.parametrize("transport", ["sse", "streamable-http"])

@@ -46,6 +46,17 @@ STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 RESULTS = Path(__file__).with_name("results")
 PLACES = ["kitchen", "mailroom"]
 BURST = 20
+# A control beside the brain: another process sleeping the lease's period, so a renewal's
+# lateness can be told apart from the whole machine's (load from outside the stack)
+PROBE = """
+import json, sys, time
+late, end = [], time.monotonic() + float(sys.argv[1])
+while time.monotonic() < end:
+    before = time.monotonic()
+    time.sleep(0.25)
+    late.append(max(0.0, time.monotonic() - before - 0.25))
+print(json.dumps(late))
+"""
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -68,6 +79,12 @@ def summary_ms(values: list[float]) -> dict[str, Any]:
 
 def busy_loops(count: int) -> list[subprocess.Popen[bytes]]:
     return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+
+
+def control_probe(seconds: float) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-c", PROBE, str(seconds)], stdout=subprocess.PIPE, text=True
+    )
 
 
 def end(processes: list[subprocess.Popen[bytes]]) -> None:
@@ -156,17 +173,27 @@ async def phase(
     services.restart("brain")
     bench = Phase(services, brain)
     await async_wait_until(bench.supervised, 90, "every motion server supervised", 0.2)
+    latched = (await bench.http.get("/api/safety")).json()
+    if latched.get("latched"):  # e.g. an alarm in the phase before: noted, then cleared
+        await bench.http.post("/api/safety/clear", json={"reason": "benchmark: next phase"})
     logs = {n: log_size(services, n) for n in ("navigation", "manipulation", "brain")}
     loops = busy_loops(busy)
     load_before = os.getloadavg()
+    probe = control_probe(seconds)
     try:
         if busy:
             await bench.missions_under_bursts(seconds, burst_every)
         else:
             await asyncio.sleep(seconds)
         renewals = await bench.renewals()
+        safety = (await bench.http.get("/api/safety")).json()
+        out, _ = await asyncio.to_thread(probe.communicate, timeout=seconds + 60)
+        control = [float(v) for v in json.loads(out or "[]")]
     finally:
         end(loops)
+        if probe.poll() is None:
+            probe.kill()
+            probe.wait(timeout=10)
         await bench.http.aclose()
     lapses = {
         n: log_count(services, n, logs[n], "supervision_lapsed")
@@ -179,7 +206,11 @@ async def phase(
         "load_average_before": [round(v, 2) for v in load_before],
         "load_average_after": [round(v, 2) for v in os.getloadavg()],
         "renewals": renewals,
+        "control_process_sleep_late": summary_ms(control),
         "lapses_with_brain_alive": lapses,
+        "latched_at_start": latched.get("reason") if latched.get("latched") else None,
+        "latched_at_end": safety.get("reason") if safety.get("latched") else None,
+        "alarms": log_count(services, "brain", logs["brain"], '"supervision_alarm"'),
         "lapses_recovered": log_count(
             services, "brain", logs["brain"], "supervision_lapse_recovered"
         ),

@@ -14,7 +14,6 @@ logged and told once, not latched (the server refuses motion without a lease any
 
 from __future__ import annotations
 
-import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -151,20 +150,15 @@ def not_permitted_told(server: str) -> str:
 @dataclass
 class AlarmAnnouncer:
     """The brain's side of a notice: stop everything (the software stop, the mission paused,
-    motion tasks cancelled) and tell the operator once per alarm; a refused lease once per
-    server until it is accepted again (``lease_accepted``)."""
+    motion tasks cancelled) and tell the operator once per alarm; a refused lease is told
+    as it comes (the supervisor sends it once per stretch of refusals)."""
 
     stop: Callable[[str], Awaitable[object]]  # latch + halt, with the latch's reason
     tell: Callable[[str], Awaitable[None]]  # said and shown as the robot's words
     told: set[tuple[str, str, float]] = field(default_factory=set)
-    refused: set[str] = field(default_factory=set)
-    clock: Callable[[], float] = time.time
 
     async def __call__(self, notice: SupervisionNotice) -> None:
         if notice.kind == NOT_PERMITTED:
-            if notice.server in self.refused:
-                return
-            self.refused.add(notice.server)
             await self.tell(not_permitted_told(notice.server))
             return
         await self.stop(notice.reason)
@@ -178,6 +172,3 @@ class AlarmAnnouncer:
             codes=[a.code for a in new],
         )
         await self.tell(alarm_told(new))
-
-    def lease_accepted(self, server: str) -> None:
-        self.refused.discard(server)

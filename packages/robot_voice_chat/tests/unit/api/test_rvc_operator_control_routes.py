@@ -10,8 +10,10 @@ from robot_stack_testing import async_wait_until
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.api.fake_brain import brain_life, fake_servers
 from robot_voice_chat.composition import Container
+from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.socket_events import ChatMessage, SafetyState
 
 PLAN = reply(
     "",
@@ -97,7 +99,11 @@ async def test_safety_routes_report_stop_and_clear(tmp_path: Path) -> None:
 async def test_safety_names_the_alarm_that_latched_the_stop(tmp_path: Path) -> None:
     """Issue 35: a motion server's alarm latches the stop; /api/safety and readyz say why in
     words (the reason) and which alarm (its code and the server's own sentence)."""
-    container, tools = brain(tmp_path, FakeLLM([]))
+    ui = FakeEventEmitter()
+    container = brain_life(
+        FakeLLM([]), ui, agent={"memory_server": "", "data_dir": str(tmp_path / "data")}
+    )
+    tools = fake_servers(container)
     alarm = {"code": "LOCK_TOPIC_SHARED", "detail": "Another node publishes the lock.", "at": 5.0}
     tools.add(
         "navigation.supervise",
@@ -118,6 +124,8 @@ async def test_safety_names_the_alarm_that_latched_the_stop(tmp_path: Path) -> N
             transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
         ) as c:
             await async_wait_until(lambda: container.executor.latch.latched, 5, "the latch")
+            await async_wait_until(lambda: told(ui), 5, "the operator told")
+            await async_wait_until(lambda: safety_events(ui), 5, "the latch shown")
             safety = (await c.get("/api/safety")).json()
             ready = (await c.get("/api/readyz")).json()["data"]
     finally:
@@ -129,3 +137,24 @@ async def test_safety_names_the_alarm_that_latched_the_stop(tmp_path: Path) -> N
     assert safety["alarms"] == [{"server": "navigation", **alarm}]
     assert ready["safety"]["alarms"] == safety["alarms"]
     assert ready["supervision"]["alarms"] == safety["alarms"]
+    said = told(ui)
+    assert said == [
+        "Someone else tried to move me, so I stopped. Another program is publishing on the "
+        "motion lock of my navigation. Check the robot's computer, then clear the stop."
+    ]  # once, though every renewal since carried the alarm
+    assert tools.called("navigation.stop_navigation") == [{}]  # the stop reached the base
+    latest = safety_events(ui)[-1]
+    assert latest.latched
+    assert [a.code for a in latest.alarms] == ["LOCK_TOPIC_SHARED"]
+
+
+def told(ui: FakeEventEmitter) -> list[str]:
+    return [
+        e.text
+        for e in ui.events
+        if isinstance(e, ChatMessage) and e.role == "assistant" and "Someone else" in e.text
+    ]
+
+
+def safety_events(ui: FakeEventEmitter) -> list[SafetyState]:
+    return [e for e in ui.events if isinstance(e, SafetyState)]

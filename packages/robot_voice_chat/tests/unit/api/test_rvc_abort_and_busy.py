@@ -15,18 +15,27 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_voice_chat.agent.abort import is_abort
-from robot_voice_chat.agent.harness import nav_servers
+from robot_voice_chat.agent.harness import make_harness, nav_servers
+from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.app import create_app
 from robot_voice_chat.api.fake_brain import brain_life
 from robot_voice_chat.composition import Container
+from robot_voice_chat.control.approvals import ApprovalBroker
+from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.robot_words import check_robot_words
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
+from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.services.tools.fake_office import OfficeWorld
-from robot_voice_chat.socket_events import ChatMessage, MissionFinished
+from robot_voice_chat.socket_events import (
+    ApprovalRequested,
+    ApprovalResolved,
+    ChatMessage,
+    MissionFinished,
+)
 
 PLACES = ["kitchen", "reception", "mailroom", "corridor_b", "dock"]
 
@@ -127,10 +136,10 @@ async def test_a_burst_while_a_mission_starts_is_said_aloud_once(brain: Brain) -
     spoken = [s for s in brain.speech.spoken if "busy" in s]
     assert len(spoken) == 1, spoken
     assert "Say stop if you want me to halt" not in " ".join(brain.speech.spoken)
-    for reply in busy:
-        assert reply.count(". ") == 0, reply  # one sentence
-        assert reply.endswith("."), reply
-        assert "abort" in reply, reply
+    for said in busy:
+        assert said.count(". ") == 0, said  # one sentence
+        assert said.endswith("."), said
+        assert "abort" in said, said
     assert not check_robot_words(busy + brain.speech.spoken)
 
 
@@ -152,3 +161,42 @@ async def test_a_burst_while_a_mission_starts_is_said_aloud_once(brain: Brain) -
 )
 def test_what_counts_as_an_abort(text: str, aborts: bool) -> None:
     assert is_abort(text) is aborts
+
+
+async def test_cancel_is_heard_over_a_pending_approval(tmp_path: Path) -> None:
+    """Was: "cancel" answered "I'm waiting for your yes or no …" and the mission waited on."""
+    (tmp_path / "policy.yaml").write_text(
+        "version: 1\ntools:\n  navigation.navigate_to: {decision: confirm, reason: drive}\n"
+    )
+    emitter = FakeEventEmitter()
+    trace = TraceRecorder(tmp_path / "missions")
+    broker = ApprovalBroker(emitter=emitter, trace=trace, audit_path=tmp_path / "a.jsonl")
+    plan = reply(
+        "",
+        (
+            "set_plan",
+            {"steps": [{"id": "s1", "title": "Drive", "tool": "navigation.navigate_to"}]},
+        ),
+        ("navigation.navigate_to", {"step_id": "s1", "location": "kitchen"}),
+    )
+    h = make_harness(
+        tmp_path,
+        FakeLLM([plan, reply("", ("wait_for_events", {"reason": "driving"}))]),
+        policy=ToolPolicy.load(tmp_path / "policy.yaml"),
+        approvals=broker,
+        emitter=emitter,
+        trace=trace,
+    )
+    mission = await h.executor.start("go to the kitchen")
+    await async_wait_until(
+        lambda: [e for e in emitter.events if isinstance(e, ApprovalRequested)], 5, "asked"
+    )
+
+    told = await h.executor.on_user_turn("cancel")
+
+    await h.executor.wait_idle(5)
+    assert told is not None
+    assert told.startswith("Aborting the mission")
+    assert mission.state == "cancelled"
+    assert [e.decision for e in emitter.events if isinstance(e, ApprovalResolved)] == ["deny"]
+    assert h.tools.called("navigation.navigate_to") == []

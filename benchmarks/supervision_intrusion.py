@@ -36,6 +36,7 @@ import json
 import math
 import os
 import random
+import signal
 import sys
 import tempfile
 import time
@@ -45,7 +46,8 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).with_name("results")
-PLACES = ["kitchen", "mailroom", "meeting_room", "dock", "reception", "corridor_b"]
+FAR = {(9.0, -3.0): "kitchen", (17.0, 3.0): "mailroom", (0.0, 0.0): "dock"}
+"""Far-apart places: each drive goes to the one furthest from where the robot stands."""
 SCENARIOS = ("spoof_drive", "goal_latched", "fake_pose")
 
 
@@ -109,15 +111,32 @@ def intruder_events(process: Any, name: str) -> list[dict[str, Any]]:
 
 
 class Bench:
-    def __init__(self, launcher: Any, brain: Brain, watch: Any) -> None:
+    def __init__(self, launcher: Any, brain: Brain, watch: Any, work: Path) -> None:
         self.launcher = launcher
         self.brain = brain
         self.watch = watch
+        self.work = work
+        self.count = 0
 
-    def intruder(self, *args: str) -> Any:
-        return self.launcher.start(
-            "intruder", [sys.executable, "-m", "robot_mcp_navigation.testing.intruder", *args]
+    def intruder(self, *args: str) -> tuple[Any, Path]:
+        """An intruder process, started and warmed up; it intrudes once the file exists."""
+        self.count += 1
+        go = self.work / f"go-{self.count}"
+        process = self.launcher.start(
+            "intruder",
+            [
+                sys.executable,
+                "-m",
+                "robot_mcp_navigation.testing.intruder",
+                "--wait-for",
+                str(go),
+                *args,
+            ],
         )
+        return process, go
+
+    async def warm(self, process: Any) -> None:
+        await wait(lambda: intruder_events(process, "intruder_waiting"), 60, "the intruder")
 
     async def reset(self, intruder: Any) -> None:
         """The intruder gone, the alarms acknowledged (latched renewals), the stop clear."""
@@ -132,21 +151,27 @@ class Bench:
         await wait(lambda: self.brain.state(False, "open"), 30, "the lock open")
 
     async def spoof_drive(self) -> dict[str, float]:
-        await self.clear()
-        place = random.choice(PLACES)
-        started = await self.brain.client.call_tool("navigate_to", {"location": place})
-        if started.is_error:  # already there: another place
-            place = "kitchen" if place != "kitchen" else "dock"
-            await self.brain.client.call_tool("navigate_to", {"location": place})
-        await wait(self.watch.moving, 30, "the robot driving")
-        intruder = self.intruder("--lock-topic", "/robot/supervisor_lock", "--lock-hz", "200")
+        intruder, go = self.intruder("--lock-topic", "/robot/supervisor_lock", "--lock-hz", "200")
         try:
+            await self.warm(intruder)
+            await self.clear()
+            latest = self.watch.latest()
+            here = (latest.x, latest.y) if latest is not None else (0.0, 0.0)
+            far = max(FAR, key=lambda xy: math.dist(xy, here))  # a drive outlasting the run
+            place = FAR[far]
+            started = await self.brain.client.call_tool("navigate_to", {"location": place})
+            if started.is_error:
+                raise AssertionError(f"navigate_to {place}: {started.content[0].text}")
+            await wait(self.watch.moving, 30, "the robot driving")
+            go.touch()
             ready = await wait(lambda: intruder_events(intruder, "intruder_ready"), 30, "ready")
             t0 = float(ready[0]["wall"])
             alarm = await wait(
                 lambda: self.brain.first_seen.get("LOCK_TOPIC_SHARED"), 30, "the alarm"
             )
             halted = await wait(self.watch.halted_at, 30, "the halt")
+            if halted < t0:
+                raise AssertionError("the robot had stopped before the intrusion began")
         finally:
             await self.reset(intruder)
         return {"alarm": alarm - t0, "halted": halted - t0}
@@ -159,10 +184,12 @@ class Bench:
         goal = random.choice([(9.0, -3.0), (17.0, 3.0), (0.0, 0.0), (4.0, 1.5)])
         if math.dist(goal, origin) < 2:
             goal = (9.0, -3.0) if math.dist((9.0, -3.0), origin) > 2 else (0.0, 0.0)
-        intruder = self.intruder(
+        intruder, go = self.intruder(
             "--lock-topic", "/robot/supervisor_lock", "--goal", f"{goal[0]},{goal[1]}"
         )
         try:
+            await self.warm(intruder)
+            go.touch()
             accepted = await wait(lambda: intruder_events(intruder, "goal_accepted"), 60, "goal")
             ended = await wait(lambda: intruder_events(intruder, "goal_ended"), 60, "its end")
             if ended[0]["status"] != "canceled":
@@ -181,8 +208,10 @@ class Bench:
         }
 
     async def fake_pose(self) -> dict[str, float]:
-        intruder = self.intruder("--pose", "20,20")
+        intruder, go = self.intruder("--pose", "20,20")
         try:
+            await self.warm(intruder)
+            go.touch()
             ready = await wait(lambda: intruder_events(intruder, "intruder_ready"), 30, "ready")
             alarm = await wait(
                 lambda: self.brain.first_seen.get("POSE_TOPIC_SHARED"), 30, "the alarm"
@@ -242,7 +271,7 @@ async def rig(work: Path) -> AsyncIterator[Bench]:
             renewing = asyncio.create_task(brain.renew_forever())
             try:
                 await wait(lambda: brain.state(True, "locked"), 60, "the first lease")
-                yield Bench(launcher, brain, watch)
+                yield Bench(launcher, brain, watch, work)
             finally:
                 renewing.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
@@ -279,6 +308,10 @@ async def run(runs: int, only: list[str]) -> dict[str, Any]:
     return report
 
 
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--runs", type=int, default=20)
@@ -290,6 +323,7 @@ def main() -> None:
         parser.error(f"unknown scenario(s): {', '.join(sorted(unknown))}")
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(100, 200)))
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    signal.signal(signal.SIGTERM, _interrupt)  # stop the processes it started, also then
     report = asyncio.run(run(args.runs, only))
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / "supervision_intrusion.json"

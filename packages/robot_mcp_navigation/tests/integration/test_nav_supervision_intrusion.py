@@ -51,9 +51,10 @@ BRAIN = fresh_token()
 OPERATOR = fresh_token()
 KITCHEN = (9.0, -3.0)
 RECEPTION = (4.0, 1.5)
-STILL_M = 0.25
-"""How far the robot may roll while a goal sent straight to the base is being cancelled (about
-0.1 s at 0.8 m/s; the review's run drove 9.5 m)."""
+STILL_M = 0.5
+"""How far the robot may roll while a goal sent straight to the base is being cancelled: the
+cancel lands p50 0.3 s / p99 0.8 s after the goal on a loaded 2-core host, 0.05 m / 0.4 m rolled
+(benchmarks/supervision_intrusion.py); the review's run drove 9.5 m."""
 
 
 @dataclass

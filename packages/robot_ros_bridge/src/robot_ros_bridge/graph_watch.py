@@ -11,12 +11,15 @@ What the ROS graph does tell (Fast DDS lists every endpoint with its node) is wa
   second one can open the wheels); on ``/amcl_pose`` or ``/map`` more than one node (a fake
   pose, a fake map). Endpoints are told apart by node name (rclpy offers no gid of our own
   publisher), so a restarted server's dead predecessor is not an intruder (``foreign_nodes``);
-- **open messages on our lock** while we hold it locked (``watch_lock``): a publisher whatever
-  its node is called (one named like ours included).
+- **messages on our lock** (``watch_lock``): one from a publisher whose gid is not one of this
+  node's (rclpy's MessageInfo, Iron and later: at the first message, before discovery has named
+  the sender), or an open (``false``) one while we hold the lock locked (Humble too): a
+  publisher whatever its node is called (one named like ours included).
 - **goals** (``watch_goals``): while ``stopped()`` (the server refuses motion: latched, alarmed,
   unsupervised), any goal on the action's status topic that is ACCEPTED or EXECUTING and was not
-  sent by this server is cancelled at once (the action's cancel-all) and reported; so is a second
-  client of the action (a subscriber of its feedback topic other than this node and the
+  sent by this server is cancelled at once (the action's cancel-all) and reported — goals
+  already running in the first ``stale_s`` (a killed predecessor's) are cancelled silently; so
+  is a second client of the action (a subscriber of its feedback topic other than this node and the
   ``allowed_clients`` node names, e.g. Nav2's own ``waypoint_follower``).
 
 Each finding calls ``raise_alarm(code, detail)`` (``Supervision.raise_alarm``) again on every
@@ -29,19 +32,25 @@ from __future__ import annotations
 
 import threading
 import time
+import uuid
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import structlog
 from action_msgs.msg import GoalStatus, GoalStatusArray
+from rclpy import subscription as rclpy_subscription
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Bool
 
 from robot_ros_bridge.bridge import RosBridge
 
 logger = structlog.get_logger(__name__)
 
 WATCH_PERIOD_S = 0.2
+STALE_GOALS_S = 3.0
+"""Goals already running when the watcher starts (within this long: the action's latched
+status arrives on discovery) are a killed predecessor's: cancelled while stopped, no alarm."""
 OWN_OPEN_GRACE_S = 0.5
 """After our own last ``false`` on the lock topic, how long an open message may still be ours."""
 ACTIVE = (GoalStatus.STATUS_ACCEPTED, GoalStatus.STATUS_EXECUTING)
@@ -54,6 +63,8 @@ STATUS_QOS = QoSProfile(
 """An action server's status topic (rcl's ``rcl_action_qos_profile_status_default``)."""
 
 RaiseAlarm = Callable[[str, str], object]
+MESSAGE_INFO = hasattr(rclpy_subscription, "MessageInfo")
+"""This rclpy hands a two-argument callback the MessageInfo with the publisher's gid."""
 
 
 @dataclass(frozen=True)
@@ -95,8 +106,8 @@ def _node_of(info: Any) -> str:
 UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 """The name rmw gives an endpoint whose participant's node list has not arrived yet (for a few
 ms after discovery), or whose writer belongs to no ROS node at all (plain DDS)."""
-UNKNOWN_LOOKS = 5
-"""Looks in a row (1 s) an unnamed endpoint must persist before it counts as foreign."""
+UNKNOWN_GRACE_S = 1.0
+"""How long an unnamed endpoint must persist (looks in a row) before it counts as foreign."""
 
 
 def foreign_nodes(infos: Iterable[Any], own_node: str, allowed: Iterable[str] = ()) -> list[str]:
@@ -120,10 +131,18 @@ def foreign_nodes(infos: Iterable[Any], own_node: str, allowed: Iterable[str] = 
 
 class GraphWatcher:
     def __init__(
-        self, bridge: RosBridge, raise_alarm: RaiseAlarm, *, period_s: float = WATCH_PERIOD_S
+        self,
+        bridge: RosBridge,
+        raise_alarm: RaiseAlarm,
+        *,
+        period_s: float = WATCH_PERIOD_S,
+        stale_s: float = STALE_GOALS_S,
     ) -> None:
-        if period_s <= 0:
-            raise ValueError("period_s must be positive")
+        if period_s <= 0 or stale_s < 0:
+            raise ValueError("period_s must be positive, stale_s >= 0")
+        self._started = time.monotonic()
+        self._stale_s = stale_s
+        self._stale: set[bytes] = set()  # goals running before we looked: a predecessor's
         self._bridge = bridge
         self._raise = raise_alarm
         self._publishers: list[PublisherRule] = []
@@ -133,7 +152,13 @@ class GraphWatcher:
         self.own_node = f"{node.get_namespace().rstrip('/')}/{node.get_name()}"
         self._timer: Any = node.create_timer(period_s, self._look)
         self._subscriptions: list[Any] = []
-        self._unnamed: dict[str, int] = {}  # looks in a row a topic had unnamed endpoints
+        self._unnamed: dict[str, float] = {}  # since when a topic has had unnamed endpoints
+        self._last_status: dict[str, tuple[GoalRule, Any]] = {}
+        self._prefix: bytes | None = None
+        # a publisher on a topic of our own: its gid names our DDS participant (its prefix)
+        self._marker_topic = f"/_robot_stack/graph_watch_{uuid.uuid4().hex[:12]}"
+        self._marker: Any = bridge.create_publisher(Bool, self._marker_topic, 1)
+        self._callbacks: dict[str, Callable[[Any], None]] = {}
         self.looks = 0
         logger.info("ros_graph_watch_started", node=self.own_node, period_s=period_s)
 
@@ -156,11 +181,10 @@ class GraphWatcher:
         last_open_at: Callable[[], float | None],
         what: str = "",
     ) -> None:
-        """Alarm ``code`` when an *open* (``false``) message arrives on our lock topic while we
-        hold it locked and published no open for ``OWN_OPEN_GRACE_S`` (``last_open_at``, the
-        lock publisher's monotonic time): another publisher, whatever its node is called."""
-        from std_msgs.msg import Bool
-
+        """Alarm ``code`` when a message on our lock topic comes from a publisher outside this
+        process (its gid, where rclpy gives it), or an *open* (``false``) one arrives while we
+        hold the lock locked and published no open for ``OWN_OPEN_GRACE_S`` (``last_open_at``,
+        the lock publisher's monotonic time): another publisher, whatever its node is called."""
         from robot_ros_bridge.lock_publisher import LOCK_QOS
 
         rule = LockRule(topic, code, locked, last_open_at, what or topic)
@@ -187,16 +211,27 @@ class GraphWatcher:
         rule = GoalRule(
             name, code, ours, stopped, cancel_all_now, frozenset(allowed_clients), what or name
         )
+        callback = self._status_callback(rule)
         subscription = self._bridge.create_subscription(
-            GoalStatusArray, f"{name}/_action/status", self._status_callback(rule), STATUS_QOS
+            GoalStatusArray, f"{name}/_action/status", callback, STATUS_QOS
         )
         with self._mutex:
+            self._callbacks[name] = callback
             self._goals.append(rule)
             self._subscriptions.append(subscription)
 
     # -- looking -----------------------------------------------------------------------------
-    def _lock_callback(self, rule: LockRule) -> Callable[[Any], None]:
-        def on_lock(msg: Any) -> None:  # executor thread
+    def _lock_callback(self, rule: LockRule) -> Callable[..., None]:
+        def on_lock(msg: Any, info: Any = None) -> None:  # executor thread
+            gid = _publisher_gid(info)
+            if gid is not None and not self._own_gid(rule.topic, gid):
+                self._raise(
+                    rule.code,
+                    f"another program publishes on {rule.what} ({rule.topic}): a message came "
+                    "from a publisher that is not this server's; this server locked the robot "
+                    "and refuses motion",
+                )
+                return
             if msg.data or not rule.locked():
                 return
             opened = rule.last_open_at()
@@ -208,20 +243,60 @@ class GraphWatcher:
                 "server holds it locked; this server keeps the robot locked and refuses motion",
             )
 
-        return on_lock
+        if not MESSAGE_INFO:  # Humble: no publisher gid with the message, the value check only
+
+            def on_lock_humble(msg: Any) -> None:
+                on_lock(msg)
+
+            return on_lock_humble
+
+        def on_lock_with_info(msg: Any, info: Any) -> None:
+            on_lock(msg, info)
+
+        return on_lock_with_info
+
+    def _own_gid(self, topic: str, gid: bytes) -> bool:
+        """``gid`` is one of this process's publishers: its DDS participant's GUID prefix (the
+        gid's first 12 bytes) is ours — a dead predecessor's or a namesake's differs."""
+        prefix = self._own_prefix()
+        if prefix is not None:
+            return gid[:12] == prefix
+        infos = self._bridge.node.get_publishers_info_by_topic(topic)  # no prefix: by name
+        return any(bytes(i.endpoint_gid)[:16] == gid for i in infos if _node_of(i) == self.own_node)
+
+    def _own_prefix(self) -> bytes | None:
+        with self._mutex:
+            if self._prefix is not None:
+                return self._prefix
+        infos = self._bridge.node.get_publishers_info_by_topic(self._marker_topic)
+        gids = [bytes(i.endpoint_gid) for i in infos if _node_of(i) == self.own_node]
+        if len(gids) != 1 or len(gids[0]) < 12:
+            return None
+        with self._mutex:
+            self._prefix = gids[0][:12]
+        return gids[0][:12]
 
     def _status_callback(self, rule: GoalRule) -> Callable[[Any], None]:
         def on_status(msg: Any) -> None:  # executor thread: at once, not at the next look
+            with self._mutex:
+                self._last_status[rule.action] = (rule, msg)  # looked at again each look
             if not rule.stopped():
                 return
-            foreign = [
-                s
+            foreign = {
+                bytes(s.goal_info.goal_id.uuid)
                 for s in msg.status_list
                 if s.status in ACTIVE and not rule.ours(bytes(s.goal_info.goal_id.uuid))
-            ]
+            }
             if not foreign:
                 return
             rule.cancel_all_now()
+            with self._mutex:
+                if time.monotonic() - self._started < self._stale_s:
+                    self._stale |= foreign
+                fresh = foreign - self._stale
+            if not fresh:  # left by a killed predecessor: cancelled, no intrusion
+                logger.warning("stale_goals_canceled", action=rule.action, goals=len(foreign))
+                return
             self._raise(
                 rule.code,
                 f"a {rule.what} goal this server did not send reached the robot while it is "
@@ -246,6 +321,10 @@ class GraphWatcher:
             foreign = self._settled(rule.topic, foreign_nodes(infos, self.own_node))
             if len(foreign) > rule.others_allowed:
                 self._raise(rule.code, _publisher_detail(rule, foreign))
+        with self._mutex:
+            statuses = [(self._callbacks[a], m) for a, (_, m) in self._last_status.items()]
+        for callback, msg in statuses:  # a goal still running (a cancel lost or refused)
+            callback(msg)
         for goal in goals:
             if not goal.stopped():
                 continue
@@ -263,13 +342,13 @@ class GraphWatcher:
         self.looks += 1
 
     def _settled(self, topic: str, foreign: list[str]) -> list[str]:
-        """``foreign`` without endpoints still unnamed, unless they stayed so UNKNOWN_LOOKS."""
+        """``foreign`` without endpoints still unnamed, unless they stayed so UNKNOWN_GRACE_S."""
         unnamed = [n for n in foreign if n.endswith(UNKNOWN_NODE)]
         if not unnamed:
             self._unnamed.pop(topic, None)
             return foreign
-        looks = self._unnamed[topic] = self._unnamed.get(topic, 0) + 1
-        if looks >= UNKNOWN_LOOKS:
+        since = self._unnamed.setdefault(topic, time.monotonic())
+        if time.monotonic() - since >= UNKNOWN_GRACE_S:
             return [n for n in foreign if n not in unnamed] + ["an unnamed DDS participant"]
         return [n for n in foreign if n not in unnamed]
 
@@ -281,8 +360,18 @@ class GraphWatcher:
         if timer is None or self._bridge.closed:
             return
         self._bridge.node.destroy_timer(timer)
+        self._bridge.node.destroy_publisher(self._marker)
         for subscription in subscriptions:
             self._bridge.destroy_subscription(subscription)
+
+
+def _publisher_gid(info: Any) -> bytes | None:
+    """The sending publisher's gid from an rclpy MessageInfo (Iron and later), else None."""
+    if not isinstance(info, dict):
+        return None
+    gid = info.get("publisher_gid")
+    data = gid.get("data") if isinstance(gid, dict) else None
+    return bytes(data)[:16] if data is not None else None
 
 
 def _names(nodes: list[str]) -> str:

@@ -5,7 +5,9 @@ rclpy process in the robot's ROS domain, with no credential of any kind.
 - ``--goal X,Y``: sends a NavigateToPose goal straight to the base (``--action``), and reports
   its acceptance and its end;
 - ``--pose X,Y``: publishes a fake pose on ``/amcl_pose`` (``--pose-topic``) at 10 Hz;
-- ``--map``: publishes a fake map on ``/map`` (``--map-topic``), latched.
+- ``--map``: publishes a fake map on ``/map`` (``--map-topic``), latched;
+- ``--wait-for FILE``: starts (creates its publishers, sends its goal) only once FILE exists, so
+  a benchmark can time the intrusion itself, not the interpreter's start.
 
 It runs ``--seconds`` (or until SIGTERM) and prints one JSON object per line on stdout, flushed:
 ``{"event": "intruder_ready"}``, ``goal_accepted`` / ``goal_rejected``, ``goal_ended`` with
@@ -24,6 +26,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 STATUS = {4: "succeeded", 5: "canceled", 6: "aborted"}
@@ -51,6 +54,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--map-topic", default="/map")
     parser.add_argument("--node-name", default="intruder")
     parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument(
+        "--wait-for", default="", help="a file: start intruding once it exists (warmed up)"
+    )
     args = parser.parse_args(argv)
 
     import rclpy
@@ -66,6 +72,10 @@ def main(argv: list[str] | None = None) -> None:
     node = rclpy.create_node(args.node_name)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    if args.wait_for:
+        say("intruder_waiting")
+        while not Path(args.wait_for).exists() and not stop.is_set():
+            time.sleep(0.005)
     latched = QoSProfile(
         depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
     )

@@ -10,6 +10,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
 import structlog
 from hypothesis import HealthCheck, given, settings
@@ -25,6 +26,7 @@ from robot_voice_chat.composition import Adapters, Container, assemble
 from robot_voice_chat.main import main
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.speech.audio import wav_bytes
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
 from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.settings import AppConfig, McpToolsConfig
@@ -281,8 +283,9 @@ async def test_chat_routes_answer_text_and_transcribed_audio(tmp_path: Path) -> 
         text = (await c.post("/api/chat", json={"text": "hi"})).json()
         assert text["reply"] == "Hi."
         assert text["route"] == "fast"
+        tone = (np.sin(np.arange(8000) / 4) * 8000).astype(np.int16)  # a decodable WAV
         audio = await c.post(
-            "/api/chat/audio", content=b"RIFF", headers={"content-type": "audio/wav"}
+            "/api/chat/audio", content=wav_bytes(tone), headers={"content-type": "audio/wav"}
         )
         assert audio.json()["transcript"] == "hello"
         assert audio.json()["reply"] == "The lab."

@@ -32,6 +32,7 @@ async def ui_config(request: Request, container: ContainerDep) -> dict[str, Any]
         "planner_understanding": adapters.planner.understanding_label if adapters.planner else None,
         "llm_understanding": adapters.llm.understanding_label,
         "speech_input": speech_input,
+        "speech_input_name": adapters.speech_input.name if speech_input else None,
         "speech_input_reason": None
         if speech_input
         else "No speech input is configured on the robot (speech_input: none).",

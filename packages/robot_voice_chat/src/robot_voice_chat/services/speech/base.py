@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import abc
 import re
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+if TYPE_CHECKING:
+    from robot_voice_chat.services.speech.audio import Utterance
 
 _SENTENCE_END = re.compile(r"(?<=[.!?…])\s+")
 
@@ -64,15 +69,68 @@ class SpeechOutput(abc.ABC):
         """Stop workers."""
 
 
+Outage = Literal["network", "timeout", "server", "rate_limit", "auth"]
+
+
 class TranscriptionError(RuntimeError):
-    """Audio could not be transcribed (bad input or provider failure)."""
+    """Audio could not be transcribed (bad input or provider failure). ``outage`` names a
+    provider outage another engine can answer for (None: the audio itself was refused)."""
+
+    def __init__(self, message: str, outage: Outage | None = None) -> None:
+        super().__init__(message)
+        self.outage = outage
+
+
+HeardKind = Literal["stop", "motion", "answer", "other"]
+Rejection = Literal["out_of_vocabulary", "low_confidence", "nothing_heard"]
+
+
+@dataclass(frozen=True)
+class Heard:
+    """What a recognizer made of one utterance.
+
+    ``confidence`` is 0..1 (None: the engine gives none, e.g. a cloud transcriber);
+    ``kind`` is what the words ask for (on-board: read from its grammar; a free-form engine
+    says ``other``); ``rejected`` says why the words must not be acted on; ``confirm`` asks
+    the spoken layer to read a motion command back before it moves; ``notice`` is one plain
+    sentence to say once (a cloud outage and what answers instead)."""
+
+    text: str
+    confidence: float | None = None
+    engine: str = ""
+    kind: HeardKind = "other"
+    rejected: Rejection | None = None
+    confirm: bool = False
+    notice: str | None = None
+
+    @property
+    def usable(self) -> bool:
+        return self.rejected is None and bool(self.text.strip())
 
 
 class SpeechInput(abc.ABC):
-    """Port: audio bytes of one user utterance → text."""
+    """Port: audio of one user utterance → text (``transcribe``) or a scored hearing
+    (``hear``)."""
 
     #: False for the placeholder adapter: the UI disables its microphone and says why.
     configured: bool = True
+    #: what the status bar names ("on-board recognizer (pocketsphinx)")
+    name: str = "speech input"
 
     @abc.abstractmethod
     async def transcribe(self, audio: bytes, mime_type: str) -> str: ...
+
+    async def hear(self, utterance: Utterance) -> Heard:
+        """Default: a free-form transcription, no confidence, acted on as it is."""
+        text = (await self.transcribe(utterance.audio, utterance.mime_type)).strip()
+        return Heard(text, None, self.name, rejected=None if text else "nothing_heard")
+
+    def update_vocabulary(
+        self, places: Iterable[Iterable[str]], objects: Iterable[str] = ()
+    ) -> bool:
+        """The live places (spoken names per place) and object labels; True when the
+        recognizer rebuilt what it listens for (free-form engines need none)."""
+        return False
+
+    async def aclose(self) -> None:  # noqa: B027 - optional hook
+        """Release clients and models."""

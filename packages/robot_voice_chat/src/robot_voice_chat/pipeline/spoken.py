@@ -1,0 +1,132 @@
+"""Spoken turns: one utterance → the recognizer (with the live vocabulary) → what is done.
+
+Never a wrong action from speech:
+
+* words the recognizer rejected (outside what the robot understands, too unsure, nothing
+  said) are not a turn: the robot says it did not catch that;
+* a motion command heard with middling confidence is read back first ("Did you say: go to
+  the kitchen? (yes or no)"); "yes" (spoken or typed through the audio route) carries it out,
+  "no" or anything else drops it;
+* "stop" is always acted on at once (a stop is never wrong).
+
+The vocabulary is the live one: before each utterance the places are read from
+``navigation.list_locations`` (when the navigation server answers) and the recognizer rebuilds
+its grammar when they changed, so a place added to the map is understood without a restart.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+import uuid
+from dataclasses import dataclass
+
+import structlog
+
+from robot_voice_chat.pipeline.chat import ChatPipeline, TurnResult
+from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.speech.audio import Utterance
+from robot_voice_chat.services.speech.base import Heard, SpeechInput, SpeechOutput
+from robot_voice_chat.services.speech.vocabulary import NO, YES, places_from_listing, words_of
+from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.socket_events import ChatMessage
+
+logger = structlog.get_logger(__name__)
+
+LIST_LOCATIONS = "navigation.list_locations"
+NOT_CAUGHT = "Sorry, I didn't catch that. Please say it again."
+DROPPED = "OK, I won't do that."
+READ_BACK_TTL_S = 60.0  # a read-back not answered within this is forgotten
+
+
+@dataclass
+class SpokenResult:
+    heard: Heard
+    turn: TurnResult | None  # None: no turn was made (rejected, or read back)
+    reply: str
+    read_back: bool = False
+
+
+@dataclass
+class _Pending:
+    text: str
+    asked_at: float
+
+
+class SpokenTurns:
+    """The brain's spoken-turn service (the audio route and the microphone node use it)."""
+
+    def __init__(
+        self,
+        *,
+        speech_input: SpeechInput,
+        pipeline: ChatPipeline,
+        tools: ToolBackend,
+        emitter: EventEmitter,
+        speech_output: SpeechOutput,
+        places_timeout_s: float = 2.0,
+    ) -> None:
+        self._input = speech_input
+        self._pipeline = pipeline
+        self._tools = tools
+        self._emitter = emitter
+        self._speech = speech_output
+        self._places_timeout_s = places_timeout_s
+        self._pending: _Pending | None = None
+        self._lock = asyncio.Lock()
+
+    @property
+    def recognizer(self) -> str:
+        return self._input.name
+
+    async def refresh_vocabulary(self) -> bool:
+        """Read the live places and hand them to the recognizer (True: it rebuilt)."""
+        if LIST_LOCATIONS not in {t.name for t in self._tools.list_tools()}:
+            return False
+        result = await self._tools.call_tool(LIST_LOCATIONS, {}, self._places_timeout_s)
+        if result.is_error:  # the last vocabulary stays in use
+            logger.warning("speech_places_unread", error=result.text[:200])
+            return False
+        places = places_from_listing(result.text)
+        if not places:
+            return False
+        return self._input.update_vocabulary(places)
+
+    async def hear(self, utterance: Utterance) -> SpokenResult:
+        async with self._lock:  # one utterance at a time: a read-back belongs to its answer
+            await self.refresh_vocabulary()
+            heard = await self._input.hear(utterance)
+            return await self._act(heard)
+
+    async def _act(self, heard: Heard) -> SpokenResult:
+        if heard.notice:
+            await self._tell(heard.notice)
+        if not heard.usable:
+            logger.info("speech_not_caught", reason=heard.rejected, text=heard.text)
+            await self._tell(NOT_CAUGHT)
+            return SpokenResult(heard, None, NOT_CAUGHT)
+        pending, self._pending = self._pending, None
+        if pending is not None and time.monotonic() - pending.asked_at <= READ_BACK_TTL_S:
+            said = " ".join(words_of(heard.text))
+            if said in YES:
+                logger.info("speech_read_back_confirmed", text=pending.text)
+                return SpokenResult(heard, await self._pipeline.handle_turn(pending.text), "")
+            if said in NO:
+                await self._tell(DROPPED)
+                return SpokenResult(heard, None, DROPPED)
+        if heard.kind == "stop":
+            return SpokenResult(heard, await self._pipeline.handle_turn(heard.text), "")
+        if heard.confirm and heard.kind == "motion":
+            self._pending = _Pending(heard.text, time.monotonic())
+            question = f"Did you say: {heard.text}? (yes or no)"
+            logger.info("speech_read_back", text=heard.text, confidence=heard.confidence)
+            await self._tell(question)
+            return SpokenResult(heard, None, question, read_back=True)
+        result = await self._pipeline.handle_turn(heard.text)
+        return SpokenResult(heard, result, result.reply)
+
+    async def _tell(self, text: str) -> None:
+        await self._emitter.emit(
+            ChatMessage(turn_id=uuid.uuid4().hex[:8], role="assistant", text=text)
+        )
+        await self._speech.say(text)

@@ -1,0 +1,285 @@
+"""What the robot can be told, as a JSGF grammar for the on-board recognizer.
+
+Built from the live state: places (names, aliases and the description's own name, from
+``navigation.list_locations``), object labels (site configuration plus what the brain has
+heard of), and the understanding layer's intents (``intents.yaml``: each intent's verbs
+before a place or an object, its example sentences as they are). The grammar covers what the
+typed path understands: sequences ("X and then Y"), fetch / bring / put, find / look / what do
+you see, where questions, stop / continue / abort / never mind, negation and correction ("don't
+go to X", "X no wait Y"), and yes/no answers.
+
+A sentence outside the grammar cannot come out of the recognizer; it is squeezed into the
+nearest sentence inside it, which is why the recognizer scores each hypothesis
+(``onboard.py``) and :func:`kind_of` tells which hypotheses would move the robot.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from robot_voice_chat.services.llm.understanding.intents import IntentFile, load_intents
+from robot_voice_chat.services.speech.base import HeardKind
+
+_WORD = re.compile(r"[a-z][a-z']*")
+# where a description's own name ends ("Alice's desk in the open-plan office")
+_HEAD_END = re.compile(
+    r"[,;.:()\"]| - | (?:in|with|next|near|by|on|at|for|where|which|that|leads|usually|of)\b"
+)
+_ARTICLES = ("the", "a", "an", "my", "your", "our", "some")
+
+#: object labels any site has (a site adds its own, and the brain adds what it heard of)
+DEFAULT_OBJECTS = (
+    "package", "parcel", "box", "mug", "cup", "bottle", "scissors", "keys", "stapler", "laptop",
+    "person", "letter", "book", "phone", "bag", "chair",
+)  # fmt: skip
+COLOURS = ("red", "green", "blue", "yellow", "black", "white", "orange", "brown")
+
+# the intents' verbs the grammar listens for (intents.yaml has many more ways to say each;
+# the typed path reads them all)
+SPOKEN_VERBS = frozenset({
+    "go to", "go back to", "drive to", "head to", "navigate to", "return to", "move to",
+    "find", "look for", "search for", "locate",
+    "fetch", "bring me", "get", "pick up", "grab", "collect", "get me",
+    "bring", "take", "deliver", "carry",
+    "watch for", "tell me when you see", "let me know when you see", "keep an eye out for",
+})  # fmt: skip
+# the parts of the typed path that are not intents (rules/commands.py, negation.py, follow_up)
+OPENERS = ("please", "hey robot", "robot", "okay", "ok", "so", "can you", "could you", "hey")
+CLOSERS = ("please", "thanks", "thank you", "now")
+JOINERS = ("and", "then", "and then", "after that")
+NEGATIONS = ("don't", "do not", "never")
+CORRECTIONS = ("no wait", "no", "actually", "sorry i meant", "i mean", "make that", "wait")
+YES = ("yes", "yeah", "yep", "sure", "correct", "right", "yes please", "that's right")
+NO = ("no", "nope", "no thanks", "never mind", "cancel", "forget it")
+CONTROL = (
+    "stop", "halt", "freeze", "stop right now", "abort", "abort the mission", "cancel the mission",
+    "continue", "carry on", "keep going", "go on", "resume", "resume the mission",
+)  # fmt: skip
+ORDINALS = ("the first one", "the second one", "the third one", "the first", "the second")
+ARM = {
+    # the arm's own verbs (understanding/README.md §4): pick here, put at a place, release
+    "pick": ("pick up", "grab"),
+    "put": ("put it", "place it", "set it", "leave it", "put it down", "set it down"),
+    "release": ("hand it over", "drop it", "give it to me", "let go"),
+}
+# find verbs that ask a question (answered from memory first, understanding/README.md)
+QUESTION_VERBS = frozenset({"where's", "where is", "where are", "is there", "are there", "is",
+                            "do you see", "can you see"})  # fmt: skip
+
+
+def words_of(text: str) -> list[str]:
+    return _WORD.findall(text.lower().replace("’", "'"))
+
+
+def spoken_names(place: dict[str, object]) -> list[str]:
+    """How people name one ``list_locations`` entry: its id with spaces, each alias, and the
+    description's own name ("Alice's desk", "East corridor", the quoted "Harbour")."""
+    names: list[str] = []
+    for raw in [place.get("name"), *(place.get("aliases") or [])]:  # type: ignore[misc]
+        if isinstance(raw, str):
+            names.append(raw.replace("_", " ").replace("-", " "))
+    description = place.get("description")
+    if isinstance(description, str) and description:
+        names += re.findall(r'"([^"]+)"', description)
+        head = _HEAD_END.split(description, maxsplit=1)[0]
+        if 0 < len(head.split()) <= 4:
+            names.append(head)
+    spoken = [" ".join(words_of(n)) for n in names]
+    return list(dict.fromkeys(s for s in spoken if s))
+
+
+def places_from_listing(text: str) -> list[list[str]]:
+    """``list_locations``' JSON answer → the spoken names of each place (unreadable → [])."""
+    try:
+        data = json.loads(text)
+    except ValueError:
+        return []
+    items = data.get("locations") if isinstance(data, dict) else None
+    return [spoken_names(item) for item in items or [] if isinstance(item, dict)]
+
+
+@dataclass(frozen=True)
+class Vocabulary:
+    """The live words: places (each a list of spoken names), objects, and intents."""
+
+    places: tuple[tuple[str, ...], ...] = ()
+    objects: tuple[str, ...] = DEFAULT_OBJECTS
+    intents: IntentFile = field(default_factory=load_intents, compare=False, hash=False)
+
+    @classmethod
+    def build(
+        cls,
+        places: Iterable[Iterable[str]],
+        objects: Iterable[str] = DEFAULT_OBJECTS,
+        intents: IntentFile | None = None,
+    ) -> Vocabulary:
+        return cls(
+            tuple(tuple(p) for p in places if p),
+            tuple(dict.fromkeys(" ".join(words_of(o)) for o in objects if words_of(o))),
+            intents if intents is not None else load_intents(),
+        )
+
+    def digest(self) -> str:
+        """Changes when anything the grammar is made of changes (the grammar is rebuilt)."""
+        intents = self.intents.model_dump_json()
+        blob = json.dumps([self.places, self.objects, intents], sort_keys=True)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+    def place_phrases(self) -> list[str]:
+        return sorted({name for place in self.places for name in place})
+
+    def intent_verbs(self, name: str, spoken: bool = False) -> list[str]:
+        """The intent's verbs; ``spoken``: only those people say to a robot most (each extra
+        verb is one more way for a grammar recognizer to mishear "go to" as "walk to")."""
+        intent = self.intents.intents.get(name)
+        verbs = [" ".join(words_of(v)) for v in intent.verbs] if intent else []
+        return [v for v in verbs if v in SPOKEN_VERBS] if spoken else verbs
+
+    def examples(self) -> list[str]:
+        """Every example sentence of every intent (out-of-scope ones too: "what's the weather
+        like" is heard as it is and refused by the understanding layer, not squeezed into a
+        command)."""
+        said = [
+            " ".join(words_of(e))
+            for i in self.intents.intents.values()
+            if i.kind != "action"  # the commands are built from the verbs, places and objects
+            for e in i.examples
+        ]
+        return sorted({s for s in said if s})
+
+
+def _alt(items: Iterable[str]) -> str:
+    unique = sorted({i for i in items if i})
+    return "(" + " | ".join(unique) + ")" if unique else VOID
+
+
+def rules(vocabulary: Vocabulary, known: Callable[[str], bool] = lambda _w: True) -> dict[str, str]:
+    """The grammar's rules (name → JSGF expansion); ``utterance`` is the public one. Phrases
+    with a word the dictionary does not know (``known``) are left out: the recognizer cannot
+    hear a word it cannot pronounce."""
+
+    def ok(phrase: str) -> bool:
+        return all(known(w) for w in phrase.split())
+
+    def alt(items: Iterable[str]) -> str:
+        return _alt(i for i in items if ok(i))
+
+    places = [p for p in vocabulary.place_phrases() if ok(p)]
+    objects = [o for o in vocabulary.objects if ok(o)]
+    goto = vocabulary.intent_verbs("goto", spoken=True)
+    find = vocabulary.intent_verbs("find", spoken=True)
+    fetch = vocabulary.intent_verbs("fetch", spoken=True)
+    deliver = vocabulary.intent_verbs("deliver", spoken=True)
+    watch = vocabulary.intent_verbs("watch", spoken=True)
+    return {
+        "utterance": "[<opener>] <request> [<closer>]",
+        "opener": alt(OPENERS),
+        "closer": alt(CLOSERS),
+        "request": "<commands> | <negated> | <corrected> | <answer> | <control> | <phrase>",
+        "commands": "<command> [<joiner> <command>]",
+        "joiner": alt(JOINERS),
+        "command": "<goto> | <find> | <fetch> | <deliver> | <watch> | <arm>",
+        "place": f"[the] {alt(places)}",
+        "object": f"[{alt(_ARTICLES)}] [{alt(COLOURS)}] {alt(objects)}",
+        "goto": f"{alt(goto)} <place> | {alt(['go', 'drive', 'head', 'come'])} "
+        f"{alt(['home', 'back home', 'back to base', 'charge yourself'])}",
+        "find": f"{alt(find)} <object> [{alt(['in', 'at', 'on', 'near'])} <place>]",
+        "fetch": f"{alt(fetch)} <object> [{alt(['from', 'at', 'in', 'on'])} <place>] "
+        "[<joiner> <deliver>]",
+        "deliver": f"{alt(deliver)} {alt(['it', 'them', 'that'])} "
+        f"{alt(['to', 'over to', 'off at'])} <place> | (bring | take) it to me",
+        "watch": f"{alt(watch)} <object>",
+        "arm": f"{alt(ARM['pick'])} <object> | {alt(ARM['put'])} "
+        f"[{alt(['on', 'at', 'in', 'down at'])} <place>] | {alt(ARM['release'])}",
+        "negated": f"{alt(NEGATIONS)} <goto> [[but] <goto>] | not <place> [<place>]",
+        "corrected": f"<goto> {alt(CORRECTIONS)} (<place> | <goto>) "
+        f"| <find> {alt(CORRECTIONS)} <object>",
+        "answer": f"{alt([*YES, *NO, *ORDINALS])} | <place>",
+        "control": alt(CONTROL),
+        "phrase": alt(vocabulary.examples()),
+    }
+
+
+def jsgf(grammar: dict[str, str]) -> str:
+    """The rules as a JSGF document (``utterance`` public)."""
+    lines = ["#JSGF V1.0;", "grammar robot;"]
+    for name, expansion in grammar.items():
+        public = "public " if name == "utterance" else ""
+        lines.append(f"{public}<{name}> = {expansion};")
+    return "\n".join(lines) + "\n"
+
+
+VOID = "<VOID>"
+_SYNTAX = {"(": "(?:", "[": "(?:", ")": ")", "]": ")?", "|": "|"}
+_TOKEN = re.compile(r"<[a-z_]+>|[()\[\]|]|[^\s()\[\]|<>]+")
+
+
+def matcher(grammar: dict[str, str]) -> re.Pattern[str]:
+    """A regular expression that matches exactly the sentences of the grammar (words joined by
+    one space, a trailing space): the recognizer returns its best *partial* path when the
+    audio never reached the end of a sentence ("find the scissors in the"), which is then not a
+    sentence it heard."""
+    done: dict[str, str] = {}
+
+    def expand(name: str) -> str:
+        if name not in done:
+            out = []
+            for token in _TOKEN.findall(grammar[name]):
+                if token.startswith("<"):
+                    out.append("(?!)" if token == VOID else f"(?:{expand(token[1:-1])})")
+                else:
+                    out.append(_SYNTAX.get(token, re.escape(token) + " "))
+            done[name] = "".join(out)
+        return done[name]
+
+    return re.compile(f"(?:{expand('utterance')})")
+
+
+def is_sentence(text: str, pattern: re.Pattern[str]) -> bool:
+    said = " ".join(words_of(text))
+    return bool(said) and pattern.fullmatch(said + " ") is not None
+
+
+def kind_of(text: str, vocabulary: Vocabulary) -> HeardKind:
+    """What a hypothesis asks for, read from the grammar's own phrases: ``stop`` (a stop
+    word), ``answer`` (yes / no / an ordinal / a place alone), ``motion`` (a clause that starts
+    with a verb that moves the robot, its arm or its camera), ``other`` (questions, small
+    talk, a negation alone: "don't go to the kitchen" moves nothing)."""
+    said = " ".join(words_of(text))
+    if said in {"stop", "halt", "freeze", "stop right now", "abort", "abort the mission"}:
+        return "stop"
+    if said in {*YES, *NO, *ORDINALS} or said in vocabulary.place_phrases():
+        return "answer"
+    verbs = {
+        *vocabulary.intent_verbs("goto"),
+        *vocabulary.intent_verbs("find"),
+        *vocabulary.intent_verbs("fetch"),
+        *vocabulary.intent_verbs("deliver"),
+        *vocabulary.intent_verbs("watch"),
+        *ARM["pick"],
+        *ARM["put"],
+        *ARM["release"],
+        "look around",
+        "what do you see",
+    } - QUESTION_VERBS
+    tokens = said.split()
+    before = {*JOINERS, *CORRECTIONS, *NEGATIONS, *OPENERS, "but"}
+    starts = [
+        i
+        for i in range(len(tokens))
+        if (i == 0 or tokens[i - 1] in before or " ".join(tokens[max(0, i - 2) : i]) in before)
+        and any(tokens[i : i + len(v.split())] == v.split() for v in verbs if v)
+    ]
+    if not any(said.startswith(f"{n} ") for n in NEGATIONS):
+        return "motion" if starts else "other"
+    # "don't go to X[, go to Y]": the negated command moves nothing, a second one does
+    anywhere = [
+        i
+        for i in range(len(tokens))
+        if any(tokens[i : i + len(v.split())] == v.split() for v in verbs if v)
+    ]
+    return "motion" if anywhere and anywhere[-1] > anywhere[0] + 1 else "other"

@@ -8,6 +8,7 @@ export interface UiConfig {
   llm_understanding?: string;
   speech_input: boolean;
   speech_input_reason: string | null;
+  speech_input_name?: string | null; // the recognizer in use (issue 36)
   speech_output_browser: boolean;
   camera: boolean;
 }

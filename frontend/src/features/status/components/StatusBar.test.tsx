@@ -1,5 +1,6 @@
 import { render, screen, waitFor } from '@testing-library/react';
 import { afterEach, describe, expect, it, vi } from 'vitest';
+import { useSettingsStore, type UiConfig } from '@/stores/settingsStore';
 import { StatusBar } from './StatusBar';
 
 afterEach(() => vi.unstubAllGlobals());
@@ -41,5 +42,25 @@ describe('status bar', () => {
     readyz({ llm: 'anthropic', planner: 'anthropic' });
     render(<StatusBar />);
     expect(await screen.findByTestId('understanding')).toHaveTextContent('planner anthropic · chat anthropic');
+  });
+
+  it('names the recognizer that hears the Talk button (issue 36)', async () => {
+    readyz({ llm: 'rules', planner: 'rules' });
+    const config: UiConfig = {
+      deployment: 'dev',
+      llm: 'rules',
+      planner: 'rules',
+      speech_input: true,
+      speech_input_reason: null,
+      speech_input_name: 'on-board recognizer (pocketsphinx)',
+      speech_output_browser: true,
+      camera: false,
+    };
+    useSettingsStore.getState().setConfig(config);
+    render(<StatusBar />);
+    expect(await screen.findByTestId('recognizer')).toHaveTextContent('on-board recognizer (pocketsphinx)');
+    expect(screen.getByTestId('understanding')).toHaveTextContent(
+      'chat rules · voice on-board recognizer (pocketsphinx) · deployment dev',
+    );
   });
 });

@@ -2,6 +2,7 @@ import { useCallback, useState } from 'react';
 import { usePolling } from '@/lib/usePolling';
 import { useConnectionStore } from '@/stores/connectionStore';
 import { useSafetyStore } from '@/stores/safetyStore';
+import { useSettingsStore } from '@/stores/settingsStore';
 import { HoldingChip } from '@/features/hands/components/HoldingChip';
 import { fetchReadiness, type Readiness } from '../api/status';
 
@@ -14,6 +15,7 @@ const SERVER_TONE = {
 export function StatusBar() {
   const socket = useConnectionStore();
   const latch = useSafetyStore((s) => s.latch);
+  const recognizer = useSettingsStore((s) => (s.config ? (s.config.speech_input_name ?? 'off') : null));
   const [ready, setReady] = useState<Readiness | null>(null);
   const [unreachable, setUnreachable] = useState(false);
   const tick = useCallback(async () => {
@@ -70,6 +72,14 @@ export function StatusBar() {
             <strong className="text-fg" title={ready.data.llm}>
               {ready.data.llm_understanding ?? ready.data.llm}
             </strong>{' '}
+            {recognizer && (
+              <>
+                · voice{' '}
+                <strong className="text-fg" data-testid="recognizer">
+                  {recognizer}
+                </strong>{' '}
+              </>
+            )}
             · deployment <strong className="text-fg">{ready.data.deployment}</strong>
           </span>
         )}

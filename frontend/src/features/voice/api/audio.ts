@@ -2,7 +2,14 @@ import { apiPost } from '@/lib/api-client';
 
 export interface AudioTurn {
   transcript: string;
+  confidence: number | null;
+  recognizer: string;
+  heard: 'stop' | 'motion' | 'answer' | 'other';
+  rejected: string | null;
+  read_back: boolean;
   reply: string;
+  route: string;
+  mission_id: string | null;
 }
 
 /** One push-to-talk recording → the brain's speech input → a normal turn. */

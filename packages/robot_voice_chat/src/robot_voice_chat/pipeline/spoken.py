@@ -119,6 +119,9 @@ class SpokenTurns:
         if heard.confirm and heard.kind == "motion":
             self._pending = _Pending(heard.text, time.monotonic())
             question = f"Did you say: {heard.text}? (yes or no)"
+            await self._emitter.emit(  # what was heard, shown in the conversation
+                ChatMessage(turn_id=uuid.uuid4().hex[:8], role="user", text=heard.text)
+            )
             logger.info("speech_read_back", text=heard.text, confidence=heard.confidence)
             await self._tell(question)
             return SpokenResult(heard, None, question, read_back=True)

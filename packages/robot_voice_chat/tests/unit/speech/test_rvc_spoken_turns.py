@@ -94,7 +94,7 @@ async def test_a_middling_motion_is_read_back_and_yes_carries_it_out() -> None:
     confirmed = await turns.hear(UTTERANCE)
     assert pipeline.turns == ["go to the kitchen"]
     assert confirmed.turn is not None
-    assert said(emitter) == ["Did you say: go to the kitchen? (yes or no)"]
+    assert said(emitter) == ["go to the kitchen", "Did you say: go to the kitchen? (yes or no)"]
 
 
 async def test_no_drops_a_read_back_and_a_later_yes_does_nothing() -> None:

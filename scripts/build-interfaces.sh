@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Build every ROS 2 interface package under interfaces/ (ros2_vision_interfaces, nav2_msgs)
-# from the PyPI ROS 2 wheels and install it into the uv venv, so every package imports
-# <pkg>.msg/.srv/.action with no environment set by hand.
+# Build every ROS 2 interface package under interfaces/ (ros2_vision_interfaces, nav2_msgs,
+# audio_common_msgs, ...) from the PyPI ROS 2 wheels and install it into the uv venv, so every
+# package imports <pkg>.msg/.srv/.action with no environment set by hand.
 # Idempotent: a package is skipped when its installed build matches its sources (one stamp
 # per package in the venv).
 set -euo pipefail

@@ -22,6 +22,7 @@ from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.supervision_words import lost_motion_server, stop_hint
 from robot_voice_chat.agent.task_registry import (
+    TERMINAL_EVENTS,
     TaskHandle,
     TaskRegistry,
     format_event,
@@ -323,6 +324,8 @@ class TaskDispatcher:
         for reaction in run.reactions.take(event):
             await self._react(run, reaction, event)
         self.registry.resolve(event)
+        if event.type in TERMINAL_EVENTS:
+            self.issued.pop(event.task_id, None)  # ended: nothing left to re-issue
         text = format_event(event, handle.label)
         self.trace.record(
             run.mission.id,

@@ -113,6 +113,7 @@ async def test_a_drive_cancelled_by_a_lapse_is_reissued_and_the_mission_arrives(
     planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
     assert "[task nav-1 navigation.navigate_to] done:" in planner_saw  # the task it waits on
     assert "supervision was lost" not in planner_saw
+    assert h.executor.dispatcher.issued == {}  # nothing kept once the task ended
 
 
 async def test_the_drive_waits_until_the_lock_is_open_again(drive: Any) -> None:

@@ -37,9 +37,11 @@ pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.timeout(300)]
 ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 KITCHEN = "9.0,-3.0"
-STILL_M = 0.5
-"""How far the robot may roll while a goal sent straight to the base is being cancelled (p99
-0.4 m on a loaded host in benchmarks/supervision_intrusion.py; the review's run drove 9.5 m)."""
+STILL_M = 2.0
+"""How far the robot may roll while a goal sent straight to the base is being cancelled (rolled
+p50 0.02 m / p99 1.5 m on a loaded host in benchmarks/supervision_intrusion.py; the goal is
+9.5 m away and the review's run drove there); after the cancel it must not move at all."""
+STILL = 0.01
 
 
 @dataclass
@@ -159,6 +161,9 @@ async def test_a_spoofed_lock_and_a_direct_goal_while_latched_move_nothing_and_a
     assert state["latched"] is True
     assert any(a["server"] == "navigation" for a in state["alarms"]), state
     assert state["reason"], state  # the latch says why, in words
+    await async_wait_until(stack.watch.halted_at, 30, "the robot still", 0.1)
+    rest = stack.watch.latest()
+    assert rest is not None
 
     launcher.stop(intruder)
     await clear_when_quiet(http)
@@ -169,7 +174,7 @@ async def test_a_spoofed_lock_and_a_direct_goal_while_latched_move_nothing_and_a
         return sum(1 for s in stack.watch.samples() if s.stamp > cleared.stamp) >= 40
 
     await async_wait_until(forty_more_poses, 30, "40 poses after the clear", 0.1)
-    assert furthest_since(stack.watch, origin, since) < STILL_M  # nothing ran on Clear stop
+    assert furthest_since(stack.watch, (rest.x, rest.y), rest.stamp) < STILL  # nothing ran on clear
     assert not stack.watch.moving()
 
 

@@ -51,10 +51,12 @@ BRAIN = fresh_token()
 OPERATOR = fresh_token()
 KITCHEN = (9.0, -3.0)
 RECEPTION = (4.0, 1.5)
-STILL_M = 0.5
+STILL_M = 2.0
 """How far the robot may roll while a goal sent straight to the base is being cancelled: the
-cancel lands p50 0.3 s / p99 0.8 s after the goal on a loaded 2-core host, 0.05 m / 0.4 m rolled
-(benchmarks/supervision_intrusion.py); the review's run drove 9.5 m."""
+cancel lands p50 0.2 s after the goal, rolled p50 0.02 m / p99 1.5 m (one stalled run at load
+15-20 on the shared 2-core host; benchmarks/supervision_intrusion.py). The goal here is 9.5 m
+away, and the review's run drove there; after the cancel the robot must not move at all."""
+STILL = 0.01
 
 
 @dataclass
@@ -272,6 +274,9 @@ async def test_a_spoofed_lock_and_a_goal_sent_to_the_base_while_latched_move_not
         assert ended["status"] == "canceled", intruder.log()
         assert brain.last()["lock"] == "locked"
         assert furthest_since(world, before, since) < STILL_M
+        await async_wait_until(world.watch.halted_at, 30, "the robot still", 0.1)
+        rest = world.watch.latest()
+        assert rest is not None
 
         launcher.stop(intruder)  # the intruder leaves; the brain's latched renewals acknowledge
         await async_wait_until(lambda: brain.last().get("alarms") == [], 60, "alarms cleared")
@@ -281,7 +286,7 @@ async def test_a_spoofed_lock_and_a_goal_sent_to_the_base_while_latched_move_not
         assert cleared is not None
         await async_wait_until(lambda: poses_after(world, cleared.stamp, 40), 30, "40 poses")
 
-    assert furthest_since(world, before, since) < STILL_M  # nothing ran on Clear stop
+    assert furthest_since(world, (rest.x, rest.y), rest.stamp) < STILL  # nothing ran on Clear stop
     assert not world.watch.moving()
 
 

@@ -5,8 +5,8 @@ Never a wrong action from speech:
 * words the recognizer rejected (outside what the robot understands, too unsure, nothing
   said) are not a turn: the robot says it did not catch that;
 * a motion command heard with middling confidence is read back first ("Did you say: go to
-  the kitchen? (yes or no)"); "yes" (spoken or typed through the audio route) carries it out,
-  "no" or anything else drops it;
+  the kitchen? (yes or no)"); "yes" — or the same command said again — carries it out, "no"
+  or anything else drops it;
 * "stop" is always acted on at once (a stop is never wrong).
 
 The vocabulary is the live one: before each utterance the places are read from
@@ -108,7 +108,7 @@ class SpokenTurns:
         pending, self._pending = self._pending, None
         if pending is not None and time.monotonic() - pending.asked_at <= READ_BACK_TTL_S:
             said = " ".join(words_of(heard.text))
-            if said in YES:
+            if said in YES or said == pending.text:  # "yes", or the same command said again
                 logger.info("speech_read_back_confirmed", text=pending.text)
                 return SpokenResult(heard, await self._pipeline.handle_turn(pending.text), "")
             if said in NO:

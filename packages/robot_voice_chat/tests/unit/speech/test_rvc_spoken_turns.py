@@ -127,3 +127,11 @@ async def test_the_recognizer_gets_the_live_places_before_each_utterance() -> No
     assert isinstance(recognizer, ScriptedInput)
     assert recognizer.places == [[["kitchen"], ["mailroom"]]]
     assert json.dumps(LOCATIONS)  # the listing the fake navigation server answered
+
+
+async def test_the_same_command_said_again_confirms_a_read_back() -> None:
+    motion = Heard("go to the kitchen", 0.4, "x", "motion", confirm=True)
+    turns, pipeline, _ = spoken([motion, motion])
+    assert (await turns.hear(UTTERANCE)).read_back
+    assert not (await turns.hear(UTTERANCE)).read_back
+    assert pipeline.turns == ["go to the kitchen"]

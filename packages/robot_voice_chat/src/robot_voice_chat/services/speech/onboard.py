@@ -56,8 +56,9 @@ logger = structlog.get_logger(__name__)
 
 GRAMMAR, PHONES, STOP = "grammar", "phones", "stop"
 STOP_WORDS = ("stop", "halt", "freeze", "stop right now", "stop stop")
-STOP_MAX_S = 1.6  # an utterance this short is also tried against the stop words alone
-STOP_FIT = -3.3  # ... and is a stop when they fit it this well (per frame, vs the phone loop)
+STOP_MAX_S = 1.2  # an utterance this short is also tried against the stop words alone
+STOP_FIT = -3.0  # ... and is a stop when they fit it this well (per frame, vs the phone loop)
+STOP_MARGIN = 0.5  # ... and this much better than the full grammar's hypothesis
 # log-likelihood per frame (grammar − phone loop) mapped onto 0..1: (low, high)
 FRAME_SPAN = (-4.5, -2.0)
 # the worst word's log-likelihood per frame against the phone loop, mapped onto 0..1
@@ -219,11 +220,15 @@ class PocketsphinxSpeechInput(SpeechInput):
             sentence = text is not None and is_sentence(text, self._matcher)
             vocabulary = self._vocabulary
             stop: tuple[str, float] | None = None
-            if samples.size <= STOP_MAX_S * RATE and (text or "") not in STOP_WORDS:
-                # the stop words alone: a short word the full grammar may hear as "drop it"
+            main_fit = (grammar_ll - phone_ll) / frames
+            unsure = not sentence or _span(main_fit, FRAME_SPAN) < self.reject_below
+            if unsure and samples.size <= STOP_MAX_S * RATE and (text or "") not in STOP_WORDS:
+                # the stop words alone, when the full grammar heard no sentence it is sure of:
+                # a short "stop" it may have heard as "drop it" (a false stop is safe, but it
+                # must fit clearly better than anything the grammar found)
                 said, stop_ll, _ = self._decode(STOP, prepared)
                 fit = (stop_ll - phone_ll) / frames
-                if said in STOP_WORDS and fit >= STOP_FIT:
+                if said in STOP_WORDS and fit >= STOP_FIT and fit >= main_fit + STOP_MARGIN:
                     stop = (said, _span(fit, FRAME_SPAN))
         if stop is not None:
             logger.info(

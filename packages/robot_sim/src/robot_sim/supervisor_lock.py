@@ -18,8 +18,10 @@ not move, and the NavigateToPose goal stays active — it drives on if the lock 
 ends ABORTED with the controller's FAILED_TO_MAKE_PROGRESS (105) once the progress checker's
 ``movement_time_allowance`` (10 s by default) ran out. robot-sim does the same
 (``nav2_server``, ``SIM_PROGRESS_TIMEOUT_S``); a goal sent while locked waits the same way. The
-motion servers cancel their own goals when supervision ends, so a goal resumes only after a
-brief lock its server never saw end (a starved host), never after a lapse or a latch.
+motion servers cancel every goal of the action (the protocol's cancel-all, whoever sent it) when
+supervision ends and again before their lock opens after a clear (issue 35), so a goal resumes
+only after a brief lock its server never saw end (a starved host), never after a lapse or a
+latch. rclpy's ActionServer (``nav2_server``, ``manipulation_server``) honours the cancel-all.
 
 The arm has its own locks (issue 39): a robot's arm controller (its safety controller or its
 ros2_control command gate) sits behind the manipulation server's lock

@@ -224,13 +224,15 @@ class GraphWatcher:
     def _lock_callback(self, rule: LockRule) -> Callable[..., None]:
         def on_lock(msg: Any, info: Any = None) -> None:  # executor thread
             gid = _publisher_gid(info)
-            if gid is not None and not self._own_gid(rule.topic, gid):
-                self._raise(
-                    rule.code,
-                    f"another program publishes on {rule.what} ({rule.topic}): a message came "
-                    "from a publisher that is not this server's; this server locked the robot "
-                    "and refuses motion",
-                )
+            if gid is not None:  # the sender is known: only a foreign one is an intruder
+                if not self._own_gid(rule.topic, gid):
+                    self._raise(
+                        rule.code,
+                        f"another program publishes on {rule.what} ({rule.topic}): a message "
+                        "came from a publisher that is not this server's; this server locked "
+                        "the robot and refuses motion",
+                    )
+                # our own "open", however late a loaded host delivers it, is no intruder
                 return
             if msg.data or not rule.locked():
                 return

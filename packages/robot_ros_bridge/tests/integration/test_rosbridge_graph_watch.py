@@ -146,6 +146,30 @@ def test_any_message_from_outside_this_process_on_our_lock_is_alarmed_at_once(
     watcher.close()
 
 
+@pytest.mark.skipif(not MESSAGE_INFO, reason="this rclpy gives no publisher gid (Humble)")
+def test_our_own_open_message_delivered_late_is_no_alarm(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    """On a loaded host our own last 'open' can arrive after the lock has locked again and
+    after the grace: its gid says it is ours, so it is no intruder (a false alarm latched the
+    brain's stop under load, issue 39)."""
+    server, _ = bridges
+    topic = _name("lock")
+    alarms = Alarms()
+    lock = SupervisorLockPublisher(server, lambda: False, topic=topic)
+    heard = threading.Event()
+    server.create_subscription(Bool, topic, lambda msg: heard.set(), LOCK_QOS)
+    watcher = GraphWatcher(server, alarms, period_s=60.0)
+    watcher.watch_lock(  # held locked, and our last open is long past the grace
+        topic, "LOCK_TOPIC_SHARED", locked=lambda: True, last_open_at=lambda: None
+    )
+    wait_until(lambda: lock.publish() is False and heard.is_set(), 10, "our own open heard")
+    heard.clear()
+    wait_until(lambda: lock.publish() is False and heard.is_set(), 10, "heard again")
+    assert alarms.codes() == set(), alarms.raised
+    watcher.close()
+
+
 def serve_until_canceled(bridge: RosBridge, name: str) -> ActionServer:
     """A NavigateToPose server whose goals run until canceled (Nav2's bt_navigator's shape)."""
 

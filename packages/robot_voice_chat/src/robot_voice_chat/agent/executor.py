@@ -41,6 +41,7 @@ from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import plain_instruction
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.llm.base import (
+    USER_TURN_PREFIX,
     LLMError,
     LLMProvider,
     LLMResponse,
@@ -231,7 +232,7 @@ class MissionExecutor:
             run.post(f"{run.prompt.paused_note}\nUser: {text}")
             echoed = plain_instruction(mission.instruction)
             return f"Your answer went to the paused mission ({echoed})."
-        run.post(f"[user] {text}")
+        run.post(f"{USER_TURN_PREFIX}{text}")
         return busy_note(mission, self.supervisor)
 
     def _held_by_latch(self, run: MissionRun, text: str) -> str | None:
@@ -272,8 +273,8 @@ class MissionExecutor:
             while run.finished is None:
                 if run.suspended:
                     await self._suspend(run)
-                self._drain(run)
-                response = await self._llm_step(run)
+                only_user_turns = self._drain(run)
+                response = await self._llm_step(run, counted=not only_user_turns)
                 if response is None or run.finished is not None:
                     continue
                 await self._handle_response(run, response)
@@ -345,22 +346,30 @@ class MissionExecutor:
             run.wakeup.clear()
         run.suspended = False
 
-    def _drain(self, run: MissionRun) -> None:
+    def _drain(self, run: MissionRun) -> bool:
+        """Hand the inbox to the planner; True when it held nothing but the person's turns."""
         run.wakeup.clear()
+        only_user_turns = bool(run.inbox) and all(
+            line.startswith(USER_TURN_PREFIX) for line in run.inbox
+        )
         if run.inbox:
             run.messages.append(Message(role="user", content="\n".join(run.inbox)))
             run.inbox.clear()
+        return only_user_turns
 
-    async def _llm_step(self, run: MissionRun) -> LLMResponse | None:
+    async def _llm_step(self, run: MissionRun, *, counted: bool = True) -> LLMResponse | None:
+        """One planner call. ``counted=False``: a step the person's own turns woke (a burst of
+        chat during a drive) does not use up the mission's step budget, which guards against a
+        planner looping on its own; the time and cost budgets still bound it (issue 39)."""
         assert self.planner is not None
         remaining = self._check_wall_clock(run)
-        if run.llm_steps >= self.config.max_llm_steps:
+        if counted and run.llm_steps >= self.config.max_llm_steps:
             raise MissionFailure(
                 "BUDGET_STEPS",
                 f"Stopped: the mission used its budget of "
                 f"{self.config.max_llm_steps} planner steps.",
             )
-        run.llm_steps += 1
+        run.llm_steps += 1 if counted else 0
         tools = self.planner_tools()
         started = time.monotonic()
         run.llm_call = asyncio.create_task(self.planner.chat(list(run.messages), tools))

@@ -174,6 +174,28 @@ async def test_the_step_budget_still_applies_to_the_rules_planner(tmp_path: Path
     assert o.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
 
 
+async def test_the_persons_chat_during_a_drive_does_not_use_up_the_step_budget(
+    tmp_path: Path,
+) -> None:
+    """A plain drive takes 4 planner steps; three chat turns during it wake the planner three
+    more times. Those steps are the person's, not a looping planner's: the mission arrives
+    (a burst of chat during a drive used up all 40 steps and failed fetches, issue 39)."""
+    o = office(tmp_path, drive_s=3.0, max_llm_steps=4)
+    mission = await o.executor.start("go to the kitchen")
+    await async_wait_until(lambda: o.tools.called("navigation.navigate_to"), 5, "driving")
+    run = o.executor.run
+    assert run is not None
+    for _ in range(3):
+        woken = run.llm_steps, len(run.messages)
+        await o.executor.on_user_turn("what time is it")
+        await async_wait_until(
+            lambda w=woken: not run.inbox and len(run.messages) > w[1], 5, "the turn planned"
+        )
+    await o.executor.wait_idle(10)
+    assert mission.state == "succeeded", mission.summary
+    assert o.world.at == "kitchen"
+
+
 def test_a_continue_that_comes_with_the_drives_end_is_used_up_there() -> None:
     """The drive's end (here: cancelled by the stop) and the user's "continue" arrive in one
     planner step: the answer is consumed with that outcome, so the detour drive that follows is

@@ -28,6 +28,8 @@ class ToolCall(BaseModel):
 
 
 HELD_BY_SAFETY_STOP = "HELD_BY_SAFETY_STOP"
+USER_TURN_PREFIX = "[user] "
+"""How the executor hands a person's mid-mission turn to the planner (one line each)."""
 """The error code of a motion tool call the brain held, never sent, because a safety stop
 waits for the person's answer (agent/dispatch.py); planners treat it as a pause."""
 

@@ -15,7 +15,7 @@ from typing import Any
 
 from robot_voice_chat.held_words import holding_answer, names_it
 from robot_voice_chat.robot_words import service_name
-from robot_voice_chat.services.llm.base import ToolDefinition
+from robot_voice_chat.services.llm.base import USER_TURN_PREFIX, ToolDefinition
 from robot_voice_chat.services.llm.rules.carry import (
     GET_HELD,
     NO_ARM,
@@ -64,7 +64,7 @@ UNDERSTOOD = (
 TASK_EVENT = re.compile(
     r"^\[task (?P<id>\S+) [\w.\-]+\] (?P<kind>done|failed|watch_event)\b(?P<rest>.*)"
 )
-USER_TURN = "[user] "  # a mid-mission turn as the executor posts it
+USER_TURN = USER_TURN_PREFIX  # a mid-mission turn as the executor posts it
 _SERVER_LOST = re.compile(r"^\[server (?P<server>\S+)\] unreachable: tasks (?P<ids>.+?) cannot")
 _SERVER_BACK = re.compile(r"^\[server (?P<server>\S+)\] back\b")
 _CONTINUE = ("continue", "yes", "go on", "resume", "carry on", "proceed", "ok", "okay", "sure")

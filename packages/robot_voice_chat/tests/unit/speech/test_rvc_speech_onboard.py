@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
@@ -120,3 +121,15 @@ def test_a_motion_heard_wrong_is_never_acted_on_unasked(
             # acted on without a read-back: only when it is what was said (the verb may be
             # heard as its synonym: "fetch" → "get")
             assert result.text.replace("get ", "fetch ") == said.replace(",", ""), result
+
+
+def test_a_recording_with_long_silence_around_the_speech_is_heard(
+    recognizer: PocketsphinxSpeechInput,
+) -> None:
+    """A push-to-talk recording: the button held well before and after the sentence (long
+    silence shifts the recognizer's cepstral mean; it is cut first)."""
+    pcm = say("find the scissors in the mailroom", "en-us", 160)
+    silence = np.zeros(int(1.5 * 16000), np.int16)
+    result = recognizer.hear_pcm(np.concatenate([silence, pcm, silence, silence]))
+    assert result.text == "find the scissors in the mailroom"
+    assert result.usable, result

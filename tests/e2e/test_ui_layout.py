@@ -183,4 +183,3 @@ def test_the_whole_map_is_in_view_above_the_status_bar(
         assert kitchen["bottom"] <= status["top"], (kitchen, status)
     finally:
         page.close()
-

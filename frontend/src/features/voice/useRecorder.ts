@@ -22,7 +22,12 @@ export function useRecorder(onRecording: (blob: Blob) => Promise<void>, onError:
     setState('starting');
     let stream: MediaStream;
     try {
-      stream = await navigator.mediaDevices.getUserMedia({ audio: true });
+      // The recognizer wants the voice as the microphone hears it: the browser's noise
+      // suppression and gain control reshape it (the on-board recognizer then scored the
+      // right sentence too low to act on). Echo cancellation stays: the robot may be talking.
+      stream = await navigator.mediaDevices.getUserMedia({
+        audio: { echoCancellation: true, noiseSuppression: false, autoGainControl: false },
+      });
     } catch (err) {
       wanted.current = false;
       setState('idle');

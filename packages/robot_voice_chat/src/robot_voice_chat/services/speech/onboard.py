@@ -62,7 +62,7 @@ STOP_MARGIN = 0.5  # ... and this much better than the full grammar's hypothesis
 # log-likelihood per frame (grammar − phone loop) mapped onto 0..1: (low, high)
 FRAME_SPAN = (-4.5, -2.0)
 # the worst word's log-likelihood per frame against the phone loop, mapped onto 0..1
-WORD_SPAN = (-8.5, -3.5)
+WORD_SPAN = (-9.0, -3.5)
 TRIM_KEEP_S = 0.3  # kept around the speech when the recording's silence is cut
 PAD_S = 0.3  # silence added at each end: the search needs to start and end in silence
 DITHER = 8.0  # std of the noise added (int16 units): digital silence breaks the features

@@ -157,12 +157,15 @@ def test_the_repository_stack_file_names_every_server() -> None:
         "episodic",
         "navigation",
         "brain",
+        "audio_listener",
     ]
     assert all(s.ready.tcp or s.ready.http or s.ready.pid_file for s in services)
     by_name = {s.name: s for s in services}
     assert by_name["navigation"].env["NAV_MOTION"] == "nav2"  # the real-robot data paths
     assert "frame_source=ros" in by_name["vision_node"].env["PERCEPTION_CONFIG_OVERRIDES"]
     assert by_name["robot_sim"].ready.pid_file == Path("/v/robot-sim.pid")
+    # the microphone listener posts to this stack's brain (issue 36)
+    assert by_name["audio_listener"].env["BRAIN_URL"] == "http://127.0.0.1:8000"
 
 
 STACK = (

@@ -50,16 +50,19 @@ VAD_RATES = (8_000, 16_000, 32_000, 48_000)
 @dataclass(frozen=True)
 class CutterConfig:
     """How utterances are cut: 30 ms frames; speech starts after ``start_ms`` of voiced frames
-    (within the last ``start_window_ms``), ends after ``end_ms`` of unvoiced frames; ``pre_ms``
-    before the start is kept (the first syllable's onset); an utterance is cut at ``max_s``;
-    one shorter than ``min_ms`` of voice is dropped (a click, a door)."""
+    (within the last ``start_window_ms``), ends after ``end_ms`` of unvoiced frames of which
+    ``tail_ms`` are kept; ``pre_ms`` before the start is kept (the first syllable's onset); an
+    utterance is cut at ``max_s``; one shorter than ``min_ms`` of voice is dropped (a click, a
+    door). Short margins matter: the recognizer tries the stop words alone only on a short
+    utterance (a bare "stop" is ~0.8 s with these)."""
 
     aggressiveness: int = 2
     frame_ms: int = 30
     start_ms: int = 90
     start_window_ms: int = 150
     end_ms: int = 600
-    pre_ms: int = 300
+    tail_ms: int = 150
+    pre_ms: int = 200
     max_s: float = 10.0
     min_ms: int = 150
 
@@ -131,6 +134,9 @@ class UtteranceCutter:
 
     def _finish(self) -> bytes | None:
         speech = self._speech or []
+        extra = self._silent_frames - self.config.tail_ms // self.config.frame_ms
+        if extra > 0:  # the silence that ended it, less the tail kept
+            speech = speech[:-extra]
         voiced_ms = self._voiced_frames * self.config.frame_ms
         self._speech = None
         self._voiced_frames = self._silent_frames = 0

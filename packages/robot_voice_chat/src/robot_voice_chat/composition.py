@@ -37,6 +37,7 @@ from robot_voice_chat.control.elicitation import approval_elicitation
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import FileLatchStore, LatchState
+from robot_voice_chat.control.lease_link import LeaseProcess
 from robot_voice_chat.control.policy import PolicyError, ToolPolicy
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.pipeline.chat import ChatPipeline
@@ -238,14 +239,17 @@ def assemble(
         timeout_s=config.control.approval_timeout_s,
     )
     # the lease is the brain's own control traffic: the supervisor alone holds the raw backend
-    # on a thread of its own with its own connections (issue 39): a busy loop cannot starve it
+    # in a process (or on a thread) of its own with its own connections (issue 39): a busy loop
+    # cannot starve it
+    thread_runner = config.control.lease_runner == "thread"
     supervisor = MotionSupervisor(
         adapters.tools,
         latch,
         period_s=config.control.lease_period_s,
         ttl_s=config.control.lease_ttl_s,
-        lease_tools=_lease_tools(config, adapters.tools),
+        lease_tools=_lease_tools(config, adapters.tools) if thread_runner else None,
         hung_after_s=config.control.lease_hung_s,
+        lease_process=None if thread_runner else _lease_process(config, adapters.tools),
     )
     latch.add_listener(_announce_latch(emitter, supervisor))
     # the one choke point: everything below holds the guarded backend, never the raw one
@@ -324,6 +328,17 @@ def _announce_latch(emitter: EventEmitter, supervisor: MotionSupervisor) -> Any:
     return announce
 
 
+def _lease_backend(config: AppConfig) -> dict[str, Any]:
+    """The lease connections' settings (``McpToolBackend`` keywords)."""
+    return {
+        "call_timeout_s": config.control.lease_ttl_s,
+        "connect_timeout_s": config.tools.connect_timeout_s,
+        "reconnect_interval_s": min(config.tools.reconnect_interval_s, LEASE_RECONNECT_S),
+        "health_interval_s": config.tools.health_interval_s,
+        "quiet_tools": frozenset({SUPERVISE_TOOL}),
+    }
+
+
 def _lease_tools(config: AppConfig, tools: ToolBackend) -> Callable[[], ToolBackend] | None:
     """The lease's own MCP connections to the motion servers (same URLs, transports and
     credential as the brain's), built on the supervisor's thread; None for in-process fakes."""
@@ -332,16 +347,18 @@ def _lease_tools(config: AppConfig, tools: ToolBackend) -> Callable[[], ToolBack
     motion = [cfg for cfg in tools.servers().values() if cfg.motion]
 
     def build() -> ToolBackend:
-        return McpToolBackend(
-            motion,
-            call_timeout_s=config.control.lease_ttl_s,
-            connect_timeout_s=config.tools.connect_timeout_s,
-            reconnect_interval_s=min(config.tools.reconnect_interval_s, LEASE_RECONNECT_S),
-            health_interval_s=config.tools.health_interval_s,
-            quiet_tools=frozenset({SUPERVISE_TOOL}),
-        )
+        return McpToolBackend(motion, **_lease_backend(config))
 
     return build
+
+
+def _lease_process(config: AppConfig, tools: ToolBackend) -> LeaseProcess | None:
+    """The lease in a child process with its own connections (same URLs, transports and
+    credential, handed over its stdin); None for in-process fakes."""
+    if not isinstance(tools, McpToolBackend):
+        return None
+    motion = [cfg for cfg in tools.servers().values() if cfg.motion]
+    return LeaseProcess(motion, _lease_backend(config))
 
 
 def _tell(emitter: EventEmitter, speech: SpeechOutput) -> Callable[[str], Awaitable[None]]:

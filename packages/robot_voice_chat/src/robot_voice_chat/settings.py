@@ -243,6 +243,13 @@ class ControlConfig(BaseModel):
     # renewing and the robot halts as for a dead brain (the loop's worst stall measured under
     # two busy loops: see readyz data.supervision.renewals.loop_lag_max_ms)
     lease_hung_s: float = Field(5.0, gt=0, le=60.0)
+    # where the renewals run: a thread of the brain (default) or a small child process with its
+    # own connections (benchmarks/supervision_jitter.py --runners process,thread, two busy loops
+    # + missions + chat bursts, load 7-12: the process starts its renewals on time more often,
+    # lateness p50 1.0-1.6 vs 2.1-3.5 ms, p99 18-40 vs 29-94 ms, but it was not clearly fewer
+    # lapses with the brain alive (13 in 4 phases, 12 of them in one phase while the whole host
+    # stalled, vs 0 in 4), so the thread stays the default until more runs say otherwise)
+    lease_runner: Literal["process", "thread"] = "thread"
 
     @model_validator(mode="after")
     def _period_within_ttl(self) -> ControlConfig:

@@ -14,7 +14,11 @@ chat turns, a slow request or a process start on the brain's loop cannot delay t
 the two loops: a latch change wakes the renewals at once (``call_soon_threadsafe``), each
 renewal's outcome is published as an immutable view under a lock, and waiters on the brain's
 loop are woken thread-safely. Without ``lease_tools`` (in-process fakes) the same renewal loop
-runs as tasks on the brain's loop.
+runs as tasks on the brain's loop. With ``lease_process`` (``control.lease_runner: process``)
+the same renewal code runs in a child process instead (``control.lease_child``,
+over the pipe of ``control.lease_link``): a thread still waits for the interpreter lock behind
+the brain's main thread when the CPU is starved, a process does not; this object then mirrors
+the views, timings and alarms the process reports, and sends it the latch and the heartbeat.
 
 Alarms (issue 35): a ``supervise`` answer carrying ``alarms`` (someone else renewed the lease,
 published on a lock / pose / map topic, or sent the base a goal) makes the next renewals carry
@@ -56,6 +60,7 @@ from robot_voice_chat.control.alarms import (
 )
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import LatchState
+from robot_voice_chat.control.lease_link import LeaseLink
 from robot_voice_chat.services.tools.base import ToolBackend
 
 logger = structlog.get_logger(__name__)
@@ -64,6 +69,7 @@ LeaseState = Literal["pending", "supervised", "unreachable", "unsupported", "ref
 START_TIMEOUT_S = 10.0  # the renewal thread's loop and backend come up within this
 HEARTBEAT_S = 0.1  # the brain's loop shows it runs this often (the renewal thread reads it)
 STATS_SIZE = 4096  # renewal timings kept for readiness and the jitter benchmark
+PROCESS_START_TIMEOUT_S = 30.0  # the renewal process imports, connects and says ready
 
 
 @dataclass(frozen=True)
@@ -108,15 +114,20 @@ class MotionSupervisor:
         lease_tools: Callable[[], ToolBackend] | None = None,
         on_notice: NoticeHandler | None = None,
         hung_after_s: float = 5.0,
+        lease_process: LeaseLink | None = None,
     ) -> None:
         """``lease_tools``: builds the renewals' own backend (called inside the renewal
         thread, whose loop then owns its connections); None: renew through ``tools`` on the
         brain's loop. ``on_notice``: the brain's answer to an alarm or a refused lease (by
         default an alarm latches the stop, a refusal is logged). ``hung_after_s``: a brain
         whose loop has not run for this long is hung, not busy: its renewal thread stops
-        renewing, so the robot halts as for a dead brain (issue 27's "killed or hung")."""
+        renewing, so the robot halts as for a dead brain (issue 27's "killed or hung").
+        ``lease_process``: the renewals run in a child process over this link
+        (``control.lease_link``); the brain's loop only mirrors what it reports."""
         if not 0 < period_s <= ttl_s / 2:
             raise ValueError("lease_period_s must be > 0 and at most half of lease_ttl_s")
+        if lease_process is not None and lease_tools is not None:
+            raise ValueError("the renewals run on a thread or in a process, not both")
         self.tools = tools
         self.latch = latch
         self.period_s = period_s
@@ -150,6 +161,10 @@ class MotionSupervisor:
         self._stopping: asyncio.Event | None = None
         self._thread: threading.Thread | None = None
         self._runner: asyncio.Task[None] | None = None
+        # the renewals' process (lease_runner: process): the link, what it last heard
+        self._link = lease_process
+        self._ready: asyncio.Future[None] | None = None
+        self._sent_latch: tuple[bool, str] | None = None
 
     # --- lifecycle ----------------------------------------------------------------------
     def motion_servers(self) -> list[str]:
@@ -158,6 +173,13 @@ class MotionSupervisor:
     @property
     def threaded(self) -> bool:
         return self._lease_factory is not None
+
+    @property
+    def runner(self) -> Literal["process", "thread", "loop"]:
+        """Where the renewals run: a child process, a thread of their own, the brain's loop."""
+        if self._link is not None:
+            return "process"
+        return "thread" if self.threaded else "loop"
 
     def set_notice_handler(self, handler: NoticeHandler) -> None:
         self._on_notice = handler
@@ -177,14 +199,19 @@ class MotionSupervisor:
         heartbeat = asyncio.create_task(self._heartbeat(), name="lease-heartbeat")
         self._owner_tasks.add(heartbeat)
         heartbeat.add_done_callback(self._owner_tasks.discard)
-        if self._lease_factory is None:
+        timeout_s = START_TIMEOUT_S
+        if self._link is not None:
+            self._ready = ready
+            timeout_s = PROCESS_START_TIMEOUT_S
+            await self._link.start(self._child_init, self._from_child)
+        elif self._lease_factory is None:
             self._runner = asyncio.create_task(self._renewals(servers, ready), name="leases")
         else:
             self._thread = threading.Thread(
                 target=self._thread_main, args=(servers, ready), name="supervision", daemon=True
             )
             self._thread.start()
-        async with asyncio.timeout(START_TIMEOUT_S):
+        async with asyncio.timeout(timeout_s):
             await ready
         logger.info(
             "supervision_started",
@@ -192,10 +219,13 @@ class MotionSupervisor:
             servers=servers,
             period_s=self.period_s,
             ttl_s=self.ttl_s,
-            thread=self.threaded,
+            runner=self.runner,
+            pid=self._link.pid if self._link is not None else None,
         )
 
     async def aclose(self) -> None:
+        if self._link is not None:
+            await self._link.stop(START_TIMEOUT_S)
         loop, stopping = self._renew_loop, self._stopping
         if loop is not None and stopping is not None:
             with contextlib.suppress(RuntimeError):  # its loop already ended
@@ -220,6 +250,8 @@ class MotionSupervisor:
             self._beat = now = self._clock()
             with self._lock:
                 self._lag.append(max(0.0, now - before - HEARTBEAT_S))
+            if self._link is not None:
+                self._send({"t": "beat"})
 
     def brain_hung(self) -> bool:
         """The brain's loop has not run for ``hung_after_s``: a hung brain is a dead one."""
@@ -274,8 +306,19 @@ class MotionSupervisor:
             loop.call_soon_threadsafe(callback, *args)
 
     def wake(self, server: str | None = None) -> None:
-        """Renew ``server``'s lease (every lease: None) now; thread-safe."""
+        """Renew ``server``'s lease (every lease: None) now; thread-safe (the process runner:
+        from the brain's loop)."""
+        if self._link is not None:
+            self._send({"t": "wake", "server": server})
+            return
         self._to_renewals(self._set_wakes, server)
+
+    def _renew_now(self, server: str) -> None:
+        """``server``'s lease connection retries now and its lease is renewed at once."""
+        if self._link is not None:
+            self._send({"t": "reconnect", "server": server})
+            return
+        self._to_renewals(self._reconnect, server)
 
     def _set_wakes(self, server: str | None) -> None:
         for name, event in self._wakes.items():
@@ -289,10 +332,10 @@ class MotionSupervisor:
         """The brain's backend (re)connected ``server``: the lease's own connection retries
         now too, and the lease is renewed at once."""
         if server in self._renewed:
-            self._to_renewals(self._reconnect, server)
+            self._renew_now(server)
 
     def _reconnect(self, server: str) -> None:
-        if self._lease_tools is not None and self._lease_tools is not self.tools:
+        if self._lease_tools is not None and self._own_connections():
             self._lease_tools.check_now(server)
         self._set_wakes(server)
 
@@ -300,7 +343,7 @@ class MotionSupervisor:
         """The lease's own connection (re)connected ``server``: renew now, and the brain's
         connection retries now too (the server is back)."""
         self._set_wakes(server)
-        self._to_owner(self.tools.check_now, server)
+        self._to_owner(self._brain_check_now, server)
 
     async def ensure_fresh(self, server: str, timeout_s: float | None = None) -> bool:
         """Before a motion call: a fresh lease on ``server`` (one is asked for at once when
@@ -311,7 +354,7 @@ class MotionSupervisor:
             return False  # not supervised by this brain: nothing to wait for
         if self._current(server):
             return True
-        self._to_renewals(self._reconnect, server)
+        self._renew_now(server)
         renewed = self._renewed[server]
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(self.ttl_s if timeout_s is None else timeout_s):
@@ -434,6 +477,7 @@ class MotionSupervisor:
             "period_s": self.period_s,
             "ttl_s": self.ttl_s,
             "thread": self.threaded,
+            "runner": self.runner,
             "servers": {s: v.as_dict(self.ttl_s, now) for s, v in list(self._views.items())},
             "alarms": self.alarms(),
             "renewals": self.renewal_summary(),
@@ -453,6 +497,88 @@ class MotionSupervisor:
                 out[f"{name}_max_ms"] = round(ordered[-1] * 1000, 1)
         return out
 
+    # --- hooks (the child process's renewer overrides them: control.lease_child) --------
+    def _own_connections(self) -> bool:
+        """The renewals hold connections of their own (not the brain's backend)."""
+        return self._lease_tools is not None and self._lease_tools is not self.tools
+
+    def _watches_heartbeat(self) -> bool:
+        """The renewals run off the brain's loop, so they must watch that it still runs."""
+        return self.threaded
+
+    def _brain_check_now(self, server: str) -> None:
+        """The brain's own connection to ``server`` is checked now (on the brain's loop)."""
+        self.tools.check_now(server)
+
+    def _record(self, kind: Literal["gaps", "late"], seconds: float) -> None:
+        with self._lock:
+            (self._gaps if kind == "gaps" else self._late).append(seconds)
+
+    # --- the renewals' process, seen from the brain's loop ------------------------------
+    def _child_init(self) -> dict[str, Any]:
+        """What a (re)started renewal process is told first (the link adds the servers)."""
+        latch = self.latch.state
+        self._sent_latch = (latch.latched, latch.reason or "")
+        return {
+            "holder": self.holder,
+            "period_s": self.period_s,
+            "ttl_s": self.ttl_s,
+            "hung_after_s": self.hung_after_s,
+            "latched": latch.latched,
+            "reason": latch.reason or "",
+        }
+
+    def _send(self, message: dict[str, Any]) -> None:
+        """To the renewal process, the latch first whenever it changed (``engage`` sets it
+        before any listener runs: the next renewal carries it, as on the thread)."""
+        link = self._link
+        if link is None:
+            return
+        latch = self.latch.state
+        now = (latch.latched, latch.reason or "")
+        if now != self._sent_latch:
+            self._sent_latch = now
+            link.send({"t": "latch", "latched": now[0], "reason": now[1]})
+        link.send(message)
+
+    def _from_child(self, message: dict[str, Any]) -> None:
+        """One message from the renewal process (on the brain's loop)."""
+        kind, server = message.get("t"), str(message.get("server", ""))
+        if kind == "view":
+            view = LeaseView(
+                server,
+                state=message["state"],
+                renewed_at=message.get("renewed_at"),
+                renewed_wall=message.get("renewed_wall"),
+                server_latched=message.get("server_latched"),
+                lock=message.get("lock"),
+                detail=str(message.get("detail", "")),
+            )
+            with self._lock:
+                self._views[server] = view
+        elif kind == "renewed":
+            self._ticks += 1
+            self._renewed_once(server)
+        elif kind == "stat":
+            self._record("gaps" if message.get("k") == "gaps" else "late", float(message["v"]))
+        elif kind == "alarms":
+            alarms = tuple(parse_alarms(server, message))
+            with self._lock:
+                if alarms:
+                    self._alarms[server] = alarms
+                else:
+                    self._alarms.pop(server, None)
+        elif kind == "alarm_seen":
+            self._alarms_seen(server, tuple(parse_alarms(server, message)))
+        elif kind == "notice":
+            self._notify(SupervisionNotice("not_permitted", server, reason=message["reason"]))
+        elif kind == "check_now":
+            self.tools.check_now(server)
+        elif kind == "ready" and self._ready is not None:
+            _succeed(self._ready)
+        elif kind == "failed" and self._ready is not None:
+            _fail(self._ready, RuntimeError(str(message.get("detail", "failed"))))
+
     # --- renewing (on the renewals' loop) ------------------------------------------------
     async def _loop(self, server: str) -> None:
         wake = self._wakes[server]
@@ -460,8 +586,7 @@ class MotionSupervisor:
         while True:
             started = self._clock()
             if due is not None:
-                with self._lock:
-                    self._late.append(max(0.0, started - due))
+                self._record("late", max(0.0, started - due))
             try:
                 if self._hung_now():
                     self._set(
@@ -487,7 +612,7 @@ class MotionSupervisor:
     def _hung_now(self) -> bool:
         """Renewals run on a thread of their own: they stop while the brain's loop is hung
         (logged once per stretch), so a hung brain halts the robot as a dead one does."""
-        hung = self.threaded and self.brain_hung()
+        hung = self._watches_heartbeat() and self.brain_hung()
         if hung != self._hung:
             self._hung = hung
             if hung:
@@ -510,7 +635,7 @@ class MotionSupervisor:
         view = self._views.get(server) or LeaseView(server)
         tool = f"{server}.{SUPERVISE_TOOL}"
         if tools.server_states().get(server) != "connected":
-            if view.state == "pending" and tools is not self.tools:
+            if view.state == "pending" and self._own_connections():
                 # the lease's own connections are still coming up (the brain's are up)
                 return self._set(view, "pending", f"connecting to {server}")
             return self._set(view, "unreachable", f"{server} is not connected")
@@ -534,17 +659,16 @@ class MotionSupervisor:
             state: LeaseState = (
                 "refused" if isinstance(answer, dict) or refused is not None else "unreachable"
             )
-            if state == "unreachable" and tools is not self.tools:
+            if state == "unreachable" and self._own_connections():
                 # the brain's own connection may not have noticed yet: a mission told of a
                 # lost motion server must not wait for its next health check
-                self._to_owner(self.tools.check_now, server)
+                self._to_owner(self._brain_check_now, server)
             return self._set(view, state, outcome.text[:200])
         if server in self._not_permitted:
             self._not_permitted.discard(server)
             logger.info("supervision_permitted", server=server)
         if view.renewed_at is not None:
-            with self._lock:
-                self._gaps.append(answered_at - view.renewed_at)
+            self._record("gaps", answered_at - view.renewed_at)
         lock = answer.get("lock")
         view = dataclasses.replace(
             view,
@@ -619,6 +743,8 @@ class MotionSupervisor:
             latched_now=newly,
         )
         self._notify(SupervisionNotice("alarms", server, alarms, reason))
+        if self._link is not None:
+            self._send({"t": "alarm_taken"})  # after the latch: the process carries it on
         self.wake()
 
     def _notify(self, notice: SupervisionNotice) -> None:

@@ -1,4 +1,5 @@
-"""The lease on its own thread (issue 39) and supervision alarms (issue 35): a blocked brain loop
+"""The lease on its own thread or in its own process (issue 39; the process's code run by
+``rvc_lease_fakes.PipeOnThread``) and supervision alarms (issue 35): a blocked brain loop
 does not stop the renewals; an alarm in a ``supervise`` answer latches the stop at once, names
 it and is told once; a ``not_permitted`` answer is told once."""
 
@@ -6,7 +7,7 @@ from __future__ import annotations
 
 import json
 import threading
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from typing import Any
 
 import pytest
@@ -27,6 +28,7 @@ from robot_voice_chat.services.tools.base import McpServerConfig, ToolOutcome
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 
 NAV = McpServerConfig(name="navigation", url="http://127.0.0.1:9/sse", motion=True)
+RUNNERS = ["thread", "process"]  # the process's code faked on a thread: conftest.PipeOnThread
 LOCK_ALARM = {
     "code": "LOCK_TOPIC_SHARED",
     "detail": "A second process publishes on /robot/supervisor_lock.",
@@ -101,18 +103,22 @@ class Told:
         self.stops.append(reason)
 
 
-@pytest.fixture
+@pytest.fixture(params=RUNNERS)
 async def threaded(
-    server: Server, latch: SafetyLatch
+    server: Server,
+    latch: SafetyLatch,
+    request: pytest.FixtureRequest,
+    make_supervisor: Callable[..., MotionSupervisor],
 ) -> AsyncIterator[tuple[MotionSupervisor, Told]]:
     told = Told()
-    supervisor = MotionSupervisor(
+    supervisor = make_supervisor(
+        request.param,
         backend(server),  # the brain's backend: never used for the lease here
+        lambda: backend(server),
         latch,
         period_s=0.1,
         ttl_s=2.0,
         holder="brain-test",
-        lease_tools=lambda: backend(server),
         on_notice=AlarmAnnouncer(stop=told.stop, tell=told.tell),
     )
     await supervisor.start()
@@ -131,12 +137,18 @@ async def test_renewals_go_on_while_the_brain_loop_is_blocked(
     wait_until(lambda: server.count() >= before + 3, 10, "renewals while the loop is blocked")
 
     assert server.threads == {"supervision"}
-    assert supervisor.summary()["thread"] is True
+    assert supervisor.summary()["runner"] in ("thread", "process")
 
 
-async def test_a_latch_wakes_the_renewal_thread_at_once(server: Server, latch: SafetyLatch) -> None:
-    supervisor = MotionSupervisor(
-        backend(server), latch, period_s=3.0, ttl_s=6.0, lease_tools=lambda: backend(server)
+@pytest.mark.parametrize("runner", RUNNERS)
+async def test_a_latch_wakes_the_renewal_thread_at_once(
+    server: Server,
+    latch: SafetyLatch,
+    runner: str,
+    make_supervisor: Callable[..., MotionSupervisor],
+) -> None:
+    supervisor = make_supervisor(
+        runner, backend(server), lambda: backend(server), latch, period_s=3.0, ttl_s=6.0
     )
     await supervisor.start()
     try:
@@ -299,15 +311,19 @@ class Brain(FakeToolBackend):
         self.checked.append((server, threading.current_thread().name))
 
 
+@pytest.mark.parametrize("runner", RUNNERS)
 async def test_a_lost_server_is_checked_at_once_by_the_brains_own_connection(
-    server: Server, latch: SafetyLatch
+    server: Server,
+    latch: SafetyLatch,
+    runner: str,
+    make_supervisor: Callable[..., MotionSupervisor],
 ) -> None:
     """The lease's connection notices a dead motion server first: the brain's connection is
     told to check it now (a mission hears of the loss without waiting for a health check),
     on the brain's own loop."""
     brain = Brain(server)
-    supervisor = MotionSupervisor(
-        brain, latch, period_s=0.05, ttl_s=0.5, lease_tools=lambda: backend(server)
+    supervisor = make_supervisor(
+        runner, brain, lambda: backend(server), latch, period_s=0.05, ttl_s=0.5
     )
     await supervisor.start()
     try:

@@ -31,6 +31,7 @@ SERVICES=(
   "robot-mcp-manipulation ros manipulation"
   "robot-mcp-episodic ros episodic"
   "robot-voice-chat brain"
+  "robot-audio-listener ros audio-listener"
 )
 UNITS=()
 for entry in "${SERVICES[@]}"; do UNITS+=("${entry%% *}"); done
@@ -222,6 +223,9 @@ write_env_files() {
     ADMIN_USERNAME=operator "ADMIN_PASSWORD_HASH=$quoted_hash" \
     "ADMIN_SECRET_KEY=$admin_key" ANTHROPIC_API_KEY= GROQ_API_KEY= OPENAI_API_KEY= \
     ROBOT_HOSTNAME=robot.local
+  # the robot's microphone (issue 36): the operator's login for the brain, set by hand
+  env_file audio-listener BRAIN_URL=http://127.0.0.1:8000 AUDIO_LISTENER_USERNAME=operator \
+    AUDIO_LISTENER_PASSWORD= LOG_LEVEL=INFO
   write_mcp_credentials
   # every env file a SERVICES entry names exists (empty for a new service without settings)
   local entry name

@@ -29,6 +29,7 @@ UNITS = [
     "robot-mcp-manipulation",
     "robot-mcp-episodic",
     "robot-voice-chat",
+    "robot-audio-listener",
 ]
 HARDENING = {
     "NoNewPrivileges": "yes",
@@ -86,6 +87,7 @@ SECRETS_OF = {
     "mcp-skill-control": credentials_of("mcp-skill-control"),
     "robot-mcp-memory": credentials_of("robot-mcp-memory"),
     "robot-mcp-episodic": credentials_of("robot-mcp-episodic"),
+    "robot-audio-listener": set(),  # the operator's password, set by hand (empty at install)
 }
 
 
@@ -146,6 +148,7 @@ def test_env_files_are_readable_by_root_only(installed: Path) -> None:
     assert stat.S_IMODE(etc.stat().st_mode) == 0o700
     files = sorted(p.name for p in etc.glob("*.env"))
     assert files == [
+        "audio-listener.env",
         "brain.env",
         "episodic.env",
         "manipulation.env",

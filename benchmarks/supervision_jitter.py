@@ -18,7 +18,12 @@ schedule), from readyz ``data.supervision.renewals``; lapses with the brain aliv
 (``supervision_lapse_recovered`` in the brain's); the missions route's latency.
 The dead-man bound (brain ``kill -9`` → halted) is ``supervision_halt.py --only brain``.
 
-Run: ``uv run python benchmarks/supervision_jitter.py [--seconds 60] [--phases idle,busy]``.
+``--runners process,thread`` runs every phase with each of the brain's lease runners
+(``control.lease_runner``: a child process of the brain, or a thread of it), one after the other
+on the same stack, and prints them side by side.
+
+Run: ``uv run python benchmarks/supervision_jitter.py [--seconds 60] [--phases idle,busy]
+[--runners process,thread]``.
 Writes benchmarks/results/supervision_jitter.json.
 """
 
@@ -26,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import json
 import os
 import subprocess
@@ -128,7 +134,8 @@ class Phase:
 
     async def renewals(self) -> dict[str, Any]:
         data = (await self.http.get("/api/readyz")).json()["data"]
-        return dict((data.get("supervision") or {}).get("renewals", {}))
+        supervision = data.get("supervision") or {}
+        return {**supervision.get("renewals", {}), "runner": supervision.get("runner")}
 
     async def chat(self, text: str) -> dict[str, Any]:
         started = time.monotonic()
@@ -167,10 +174,24 @@ class Phase:
             self.arrived += state == "succeeded"
 
 
+def restart_brain(services: LocalStack, runner: str) -> None:
+    """The brain again (its renewal statistics start afresh), with ``runner``'s lease."""
+    spec = services.specs["brain"]
+    env = {**spec.env, "RVC_CONFIG_OVERRIDES": f"control.lease_runner={runner}"}
+    services.launcher.stop(services["brain"])
+    services.start(dataclasses.replace(spec, env=env))
+
+
 async def phase(
-    services: LocalStack, brain: str, name: str, busy: int, seconds: float, burst_every: float
+    services: LocalStack,
+    brain: str,
+    name: str,
+    busy: int,
+    seconds: float,
+    burst_every: float,
+    runner: str,
 ) -> dict[str, Any]:
-    services.restart("brain")
+    restart_brain(services, runner)
     bench = Phase(services, brain)
     await async_wait_until(bench.supervised, 90, "every motion server supervised", 0.2)
     latched = (await bench.http.get("/api/safety")).json()
@@ -201,6 +222,7 @@ async def phase(
     }
     result = {
         "phase": name,
+        "runner": runner,
         "busy_loops": busy,
         "seconds": seconds,
         "load_average_before": [round(v, 2) for v in load_before],
@@ -247,14 +269,38 @@ async def run(args: argparse.Namespace) -> dict[str, Any]:
             only={"robot_sim", "memory", "navigation", "manipulation", "brain"},
         ) as services:
             for name in [p.strip() for p in args.phases.split(",") if p.strip()]:
-                results.append(
-                    await phase(services, brain, name, phases[name], args.seconds, args.burst_every)
-                )
+                for runner in [r.strip() for r in args.runners.split(",") if r.strip()]:
+                    results.append(
+                        await phase(
+                            services,
+                            brain,
+                            name,
+                            phases[name],
+                            args.seconds,
+                            args.burst_every,
+                            runner,
+                        )
+                    )
+    side_by_side(results)
     return {
         "benchmark": "supervision_jitter",
-        "settings": {"lease_period_s": 0.25, "lease_ttl_s": 0.8, "renewals": "own thread"},
+        "settings": {"lease_period_s": 0.25, "lease_ttl_s": 0.8, "runners": args.runners},
         "phases": results,
     }
+
+
+def side_by_side(results: list[dict[str, Any]]) -> None:
+    """One line per phase and runner: the figures to compare."""
+    print("phase  runner   load(1m)  late p50/p99/max ms  gap p99/max ms  lapses  probe max ms")
+    for r in results:
+        n = r["renewals"]
+        lapses = sum(r["lapses_with_brain_alive"].values())
+        print(
+            f"{r['phase']:<6} {r['runner']:<8} {r['load_average_after'][0]:>8}  "
+            f"{n.get('late_p50_ms')}/{n.get('late_p99_ms')}/{n.get('late_max_ms'):<10} "
+            f"{n.get('gaps_p99_ms')}/{n.get('gaps_max_ms'):<10} {lapses:>6}  "
+            f"{r['control_process_sleep_late'].get('max_ms')}"
+        )
 
 
 def main() -> None:
@@ -262,6 +308,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--burst-every", type=float, default=10.0)
     parser.add_argument("--phases", default="idle,busy")
+    parser.add_argument("--runners", default="thread,process", help="thread, process or both: a,b")
     parser.add_argument("--asyncio-debug", action="store_true", help="profile slow callbacks")
     parser.add_argument("--keep", default="", help="a directory for the stack's logs (kept)")
     args = parser.parse_args()

@@ -14,6 +14,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 SPDX = "Apache-2.0"
+UPSTREAM_INTERFACES = {"audio_common_msgs": "BSD"}
+"""Interface packages copied byte for byte from upstream, with upstream's own licence."""
 PYPROJECTS = [ROOT / "pyproject.toml", *sorted(ROOT.glob("packages/*/pyproject.toml"))]
 
 
@@ -38,8 +40,15 @@ def test_every_python_package_declares_the_license(path: Path) -> None:
     ids=lambda p: str(p.parent.relative_to(ROOT)),
 )
 def test_every_ament_package_declares_the_license(path: Path) -> None:
+    """Ours are Apache-2.0; a copy of an upstream interface package keeps upstream's licence,
+    and the README's License section names it."""
     licenses = [e.text for e in ET.parse(path).getroot().iter("license")]
-    assert licenses == [SPDX], path
+    upstream = UPSTREAM_INTERFACES.get(path.parent.name)
+    assert licenses == [upstream or SPDX], path
+    if upstream is not None:
+        readme = (ROOT / "README.md").read_text(encoding="utf-8").split("## License", 1)[1]
+        assert f"`interfaces/{path.parent.name}`" in readme
+        assert upstream in readme
 
 
 @pytest.mark.parametrize(

@@ -150,12 +150,14 @@ async def test_twenty_turns_during_one_drive_are_each_answered_but_said_aloud_on
     run = executor.run
     assert run is not None
     for i in range(20):  # one after the other: each wakes the planner on its own
-        steps = run.llm_steps
+        seen = len(run.messages)  # a step woken by the person's turn is not counted in llm_steps
         answer = await brain.chat(f"are you there {i}?")
         assert answer["route"] == "mission", answer
         assert "stop" in answer["reply"], answer
         await async_wait_until(
-            lambda s=steps: run.llm_steps > s and run.suspended, 10, "the planner heard it"
+            lambda m=seen: len(run.messages) > m and not run.inbox and run.suspended,
+            10,
+            "the planner heard it",
         )
     busy = [s for s in brain.speech.spoken if "busy" in s]
     assert len(busy) == 1, busy

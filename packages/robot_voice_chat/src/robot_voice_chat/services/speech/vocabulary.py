@@ -244,15 +244,21 @@ def is_sentence(text: str, pattern: re.Pattern[str]) -> bool:
     return bool(said) and pattern.fullmatch(said + " ") is not None
 
 
+def _names_a_place(said: str, vocabulary: Vocabulary) -> bool:
+    padded = f" {said} "
+    return any(f" {place} " in padded for place in vocabulary.place_phrases())
+
+
 def kind_of(text: str, vocabulary: Vocabulary) -> HeardKind:
     """What a hypothesis asks for, read from the grammar's own phrases: ``stop`` (a stop
-    word), ``answer`` (yes / no / an ordinal / a place alone), ``motion`` (a clause that starts
-    with a verb that moves the robot, its arm or its camera), ``other`` (questions, small
-    talk, a negation alone: "don't go to the kitchen" moves nothing)."""
+    word), ``answer`` (yes / no / an ordinal), ``motion`` (a clause that starts with a verb
+    that moves the robot, its arm or its camera, or a place named without a verb: the typed
+    path reads "the kitchen" as "go there"), ``other`` (questions, small talk, a negation
+    alone: "don't go to the kitchen" moves nothing)."""
     said = " ".join(words_of(text))
     if said in {"stop", "halt", "freeze", "stop right now", "abort", "abort the mission"}:
         return "stop"
-    if said in {*YES, *NO, *ORDINALS} or said in vocabulary.place_phrases():
+    if said in {*YES, *NO, *ORDINALS}:
         return "answer"
     verbs = {
         *vocabulary.intent_verbs("goto"),
@@ -275,7 +281,9 @@ def kind_of(text: str, vocabulary: Vocabulary) -> HeardKind:
         and any(tokens[i : i + len(v.split())] == v.split() for v in verbs if v)
     ]
     if not any(said.startswith(f"{n} ") for n in NEGATIONS):
-        return "motion" if starts else "other"
+        # a place named without a verb ("the east corridor", "please the meeting room") is
+        # read by the typed path as "go there": a motion, read back when unsure
+        return "motion" if starts or _names_a_place(said, vocabulary) else "other"
     # "don't go to X[, go to Y]": the negated command moves nothing, a second one does
     anywhere = [
         i

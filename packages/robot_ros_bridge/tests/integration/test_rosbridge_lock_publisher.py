@@ -56,7 +56,11 @@ def test_the_lock_follows_its_value_and_locks_when_the_publisher_falls_silent(
     value["locked"] = True
     wait_until(mux.locked, 5, "the lock locked on true")
     value["locked"] = False
-    wait_until(lambda: not mux.locked() and len(mux.stamps) > 25, 10, "open again, 25 messages")
+    # Twice in fresh-clone CI runs (stop 33, stop 40) no sample reached the other node of this
+    # process for over 10 s at load < 1: a DDS stall between two participants of one process,
+    # not the publisher's logic, and on the safe side (a silent lock is locked). The deadline
+    # covers such a stall; a publisher that never reopens the lock still fails here.
+    wait_until(lambda: not mux.locked() and len(mux.stamps) > 25, 30, "open again, 25 messages")
 
     publisher.close()
     wait_until(mux.locked, 5, "silent = locked")

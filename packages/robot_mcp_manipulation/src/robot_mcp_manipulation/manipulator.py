@@ -283,6 +283,11 @@ class Manipulator:
             await self._emit(motion, "task_done", done)
             logger.info("manipulation_finished", task_id=motion.task_id, state="succeeded")
             return info
+        refused = self.gate.refusal()
+        if outcome.status == "canceled" and motion.cancel_reason is None and refused is not None:
+            # the stop's cancel-all reached the arm before the watchdog's own cancel: the pick
+            # ended because supervision ended, not "on its own" (as navigation's _finish does)
+            motion.cancel_reason = refused.code
         state: TaskState = "failed"
         failure = self._failure(motion, outcome)
         if outcome.status == "canceled" and motion.cancel_reason is not None:

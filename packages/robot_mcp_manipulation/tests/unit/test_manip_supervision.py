@@ -12,7 +12,7 @@ from mcp import Client
 
 from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.testing_mcp import tool_answer
-from robot_mcp_manipulation.arm.fake import FakeArm
+from robot_mcp_manipulation.arm.fake import FakeArm, FakeArmGoal
 from robot_mcp_manipulation.composition import ManipulationApp, build_app
 from robot_mcp_manipulation.config import load_settings
 from robot_stack_testing import async_wait_until
@@ -62,6 +62,27 @@ async def test_a_latched_lease_refuses_the_pick_and_cancels_the_running_one(
         refused = await tool_answer(client, "pick", PICK)
         assert refused["_error"]["error"] == "SAFETY_STOP_LATCHED"
         assert (await tool_answer(client, "stop_manipulation"))["stopped"] is True  # never gated
+
+
+async def test_a_pick_the_stops_cancel_all_ended_first_is_told_as_cancelled_by_the_stop(
+    app: ManipulationApp,
+) -> None:
+    """The latch's cancel-all can reach the arm before the watchdog's own cancel: the pick
+    ended because of the stop, never "the arm stopped on its own (e.g. an emergency stop)"."""
+    arm = app.arm
+    assert isinstance(arm, FakeArm)
+    assert app.supervision is not None
+    async with Client(app.server) as client:
+        await tool_answer(client, "supervise", lease(latched=False))
+        running = await tool_answer(client, "pick", PICK)
+        goal = arm.goals[-1]
+        assert isinstance(goal, FakeArmGoal)
+        goal.canceled_by_another_client()
+        app.supervision.renew("brain-test", 2.0, latched=True)
+        await async_wait_until(lambda: not app.manipulator.moving, 5.0, "the pick ended")
+        ended = await tool_answer(client, "get_task", {"task_id": running["task_id"]})
+        assert ended["state"] == "cancelled", ended
+        assert ended["error"]["error_code"] == "CANCELLED", ended
 
 
 async def test_a_lapsed_lease_cancels_the_running_pick(app: ManipulationApp) -> None:

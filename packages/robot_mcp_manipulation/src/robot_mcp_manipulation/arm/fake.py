@@ -57,6 +57,11 @@ class FakeArmGoal(ArmGoal):
     def succeed(self, held: Held | None = None, placed_label: str = "") -> None:
         self._outcome.set_result(ArmOutcome("succeeded", held=held, placed_label=placed_label))
 
+    def canceled_by_another_client(self) -> None:
+        """The action server ended the goal for a cancel this server did not send (a stop's
+        cancel-all of every goal below it)."""
+        self._outcome.set_result(ArmOutcome("canceled"))
+
     def abort(self, error_code: int, error_msg: str = "", held: Held | None = None) -> None:
         self._outcome.set_result(ArmOutcome("aborted", error_code, error_msg, held))
 

@@ -41,6 +41,22 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
+def spin_on(executor: MultiThreadedExecutor) -> None:
+    """Spin until shutdown; a callback that raises is logged and spinning goes on (as
+    robot_ros_bridge's spin thread does). rmw can fail to send a service reply to a client
+    whose reply reader it has not matched yet ("failed to send response (timeout)"): that
+    raised out of spin() and took the whole simulated robot down in a CI run."""
+    while rclpy.ok():
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            raise
+        except Exception:  # the spin loop is the process's boundary
+            if not rclpy.ok():
+                return
+            logger.exception("ros_callback_failed")
+
+
 def main(args: list[str] | None = None) -> None:
     try:
         settings = load_settings(os.environ)
@@ -62,7 +78,7 @@ def main(args: list[str] | None = None) -> None:
         if settings.ready_file is not None:
             settings.ready_file.parent.mkdir(parents=True, exist_ok=True)
             settings.ready_file.write_text(str(os.getpid()))
-        executor.spin()
+        spin_on(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         logger.info("robot_sim_interrupted")
     finally:

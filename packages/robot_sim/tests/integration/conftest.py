@@ -3,6 +3,7 @@ everything between them crosses ROS (DDS on loopback, the run's domain id)."""
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import time
@@ -151,12 +152,13 @@ def sim(settings: SimSettings) -> Iterator[Sim]:
     stopping = threading.Event()
 
     def spin() -> None:
-        try:
-            executor.spin()
-        except Exception:
-            if not stopping.is_set():
-                raise
-            # teardown: rclpy may still hand the spin loop a handle it is destroying
+        while not stopping.is_set():
+            try:
+                executor.spin()
+            except Exception:  # as robot_sim.main.spin_on: a failed reply is not the sim's end
+                if stopping.is_set():
+                    return  # teardown: rclpy may still hand the spin loop a handle it destroys
+                logging.getLogger(__name__).exception("ros_callback_failed")
 
     spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()

@@ -224,8 +224,9 @@ class GraphWatcher:
     def _lock_callback(self, rule: LockRule) -> Callable[..., None]:
         def on_lock(msg: Any, info: Any = None) -> None:  # executor thread
             gid = _publisher_gid(info)
-            if gid is not None:  # the sender is known: only a foreign one is an intruder
-                if not self._own_gid(rule.topic, gid):
+            own = self._own_gid(rule.topic, gid) if gid is not None else None
+            if own is not None:  # the sender is known: only a foreign one is an intruder
+                if not own:
                     self._raise(
                         rule.code,
                         f"another program publishes on {rule.what} ({rule.topic}): a message "
@@ -257,14 +258,19 @@ class GraphWatcher:
 
         return on_lock_with_info
 
-    def _own_gid(self, topic: str, gid: bytes) -> bool:
+    def _own_gid(self, topic: str, gid: bytes) -> bool | None:
         """``gid`` is one of this process's publishers: its DDS participant's GUID prefix (the
-        gid's first 12 bytes) is ours — a dead predecessor's or a namesake's differs."""
+        gid's first 12 bytes) is ours — a dead predecessor's or a namesake's differs. None: not
+        known yet (right after start our own endpoints may not be in the graph yet, and our
+        own first messages must not count as an intruder's)."""
         prefix = self._own_prefix()
         if prefix is not None:
             return gid[:12] == prefix
         infos = self._bridge.node.get_publishers_info_by_topic(topic)  # no prefix: by name
-        return any(bytes(i.endpoint_gid)[:16] == gid for i in infos if _node_of(i) == self.own_node)
+        ours = [bytes(i.endpoint_gid)[:16] for i in infos if _node_of(i) == self.own_node]
+        if not ours:
+            return None
+        return gid in ours
 
     def _own_prefix(self) -> bytes | None:
         with self._mutex:

@@ -239,7 +239,7 @@ async def teaching_round_trip(stack: RunningStack, tmp_path: Path) -> None:
         armed = await user.http.post("/api/agent/teaching", json={"enabled": True})
         assert armed.json() == {"enabled": True}
         taught = await user.run_mission(instruction, timeout_s=60)
-        assert taught.outcome == "succeeded"
+        assert taught.outcome == "succeeded", (taught.of("mission_finished"), taught.of("speak"))
         await async_wait_until(lambda: user.record.of("teaching_saved"), 20, "teaching_saved")
         process_id = user.record.of("teaching_saved")[0]["process_id"]
     # the rules chat hands the planner its reading in the grammar's words ("go to reception")
@@ -248,7 +248,7 @@ async def teaching_round_trip(stack: RunningStack, tmp_path: Path) -> None:
     assert "navigation.navigate_to" in json.dumps(saved)
 
     again = await mission(stack, instruction)
-    assert again.outcome == "succeeded"
+    assert again.outcome == "succeeded", (again.of("mission_finished"), again.of("speak"))
     trace = tmp_path / "var" / "missions" / f"{again.mission_id}.jsonl"
     records = [json.loads(line) for line in trace.read_text().splitlines()]
     retrieved = [r for r in records if r["kind"] == "processes"]

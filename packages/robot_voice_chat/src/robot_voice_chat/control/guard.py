@@ -38,6 +38,7 @@ logger = structlog.get_logger(__name__)
 # server's own ``read_tools`` from the brain's config; never what its annotations claim)
 TASK_READ_TOOLS = frozenset({"get_task", "list_tasks"})
 STOP_TOOLS = frozenset({"cancel_task"})
+MOTION_READY_WAIT_S = 5.0  # a server's post-clear sweep retries an unanswered cancel each 1 s
 
 
 def refusal(code: str, detail: str, **extra: object) -> ToolOutcome:
@@ -179,9 +180,10 @@ class GuardedToolBackend(ToolBackend):
                     name, dict(arguments), answer.approval_id, answer.operator or "operator"
                 )
         if self.supervisor is not None and self.moves(name):
-            # right after a (re)connect the first lease may still be on its way: the server
-            # refuses motion without one (NOT_SUPERVISED), so let it land first
-            await self.supervisor.ensure_fresh(name.partition(".")[0])
+            # right after a (re)connect the first lease may still be on its way (the server
+            # refuses motion without one: NOT_SUPERVISED), and right after a clear the server
+            # sweeps the goals below it before its lock opens: let both land first
+            await self.supervisor.ready_for_motion(name.partition(".")[0], MOTION_READY_WAIT_S)
             refused = self.latched_refusal(name)
             if refused is not None:
                 return refused

@@ -363,6 +363,19 @@ class MotionSupervisor:
                     await renewed.wait()
         return self._current(server)
 
+    async def ready_for_motion(self, server: str, timeout_s: float) -> bool:
+        """Before a motion call: wait (at most ``timeout_s``) until ``server`` holds a fresh
+        lease with its lock open. Right after a clear a server first cancels every goal below
+        it (issue 35's sweep) and answers ``latched`` meanwhile: a call sent then would be
+        refused. A server this brain does not supervise, or a latched brain, answers at once
+        (False): the call goes on and meets its refusal, if any."""
+        view = self._views.get(server)
+        if server not in self._renewed or view is None or view.state == "unsupported":
+            return False
+        if self.latch.latched:
+            return False
+        return await self.wait_lock_open(server, timeout_s)
+
     async def wait_lock_open(self, server: str, timeout_s: float) -> bool:
         """Until ``server`` answered a fresh renewal with its dead-man lock open (the stop
         clear, no alarm): after a lapse, motion may be sent again. False at the timeout."""

@@ -108,6 +108,61 @@ async def test_a_motion_call_right_after_a_clear_waits_until_the_server_heard_it
         await supervisor.aclose()
 
 
+class SweepingServer(Server):
+    """After a clear it answers ``latched`` with its lock locked for a few renewals: it is
+    cancelling every goal below it first (issue 35's sweep), as robot_mcp_kit does."""
+
+    def __init__(self, sweeping_renewals: int) -> None:
+        super().__init__()
+        self.sweeping_renewals = sweeping_renewals
+        self.was_latched = False
+        self.owed = 0
+
+    def supervise(self, arguments: dict[str, Any]) -> Any:
+        self.leases.append(arguments)
+        if self.was_latched and not arguments["latched"]:
+            self.owed = self.sweeping_renewals
+        self.was_latched = arguments["latched"]
+        if self.owed:
+            self.owed -= 1
+            return {"supervised": True, "latched": True, "lock": "locked"}
+        return {"supervised": True, "latched": arguments["latched"], "lock": "open"}
+
+
+async def test_a_motion_call_right_after_a_clear_waits_for_the_servers_sweep(
+    latch: SafetyLatch,
+) -> None:
+    """The CI failure of stop 40: "continue" right after Clear stop was refused with "the stop
+    was cleared a moment ago" while navigation still swept the goals below it."""
+    sweeping = SweepingServer(sweeping_renewals=4)
+    backend = FakeToolBackend(
+        [McpServerConfig(name="navigation", url="http://127.0.0.1:9/sse", motion=True)]
+    )
+    backend.add("navigation.supervise", sweeping.supervise, holder="string", latched="boolean")
+    supervisor = MotionSupervisor(backend, latch, period_s=0.05, ttl_s=0.5)
+    await supervisor.start()
+    try:
+        await latch.stop("operator", "person in the way")
+        await async_wait_until(lambda: sweeping.was_latched, 5, "latched")
+        await latch.clear("operator", "checked")
+
+        assert await supervisor.ready_for_motion("navigation", timeout_s=5.0)
+
+        assert sweeping.owed == 0  # every sweeping answer came before it said ready
+        assert supervisor.lock_open("navigation")
+    finally:
+        await supervisor.aclose()
+
+
+async def test_ready_for_motion_answers_at_once_while_latched_or_unsupervised(
+    supervisor: MotionSupervisor, latch: SafetyLatch
+) -> None:
+    await async_wait_until(lambda: supervisor.fresh("navigation"), 5, "supervised")
+    assert await supervisor.ready_for_motion("memory", timeout_s=30) is False
+    await latch.stop("operator", "person in the way")
+    assert await supervisor.ready_for_motion("navigation", timeout_s=30) is False
+
+
 async def test_a_server_that_stops_answering_lapses_one_ttl_after_its_last_renewal(
     supervisor: MotionSupervisor, server: Server
 ) -> None:

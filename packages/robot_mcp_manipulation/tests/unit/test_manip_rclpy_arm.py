@@ -27,6 +27,7 @@ async def test_a_picks_result_says_what_is_held_before_the_held_topic_does() -> 
     from robot_manipulation_interfaces.msg import HeldObject
 
     from robot_mcp_manipulation.arm.rclpy_arm import RclpyArmGoal
+    from robot_ros_bridge.action_goal import ActionGoal
 
     held = HeldObject(holding=True, label="yellow package", since=Time(sec=12))
     response = SimpleNamespace(
@@ -35,7 +36,8 @@ async def test_a_picks_result_says_what_is_held_before_the_held_topic_does() -> 
     )
     handle = SimpleNamespace(get_result_async=lambda: object())
     remembered: list[Held] = []
-    goal = RclpyArmGoal(ResultOnlyBridge(response), handle, remembered.append)  # type: ignore[arg-type]
+    sent = ActionGoal(ResultOnlyBridge(response), handle)  # type: ignore[arg-type]
+    goal = RclpyArmGoal(sent, remembered.append)
 
     outcome = await goal.outcome()
 

@@ -7,25 +7,17 @@ and only with ``NAV_MOTION=nav2``.
 
 from __future__ import annotations
 
-import asyncio
-import collections
 import math
-import threading
 import time
-import uuid
 from collections.abc import Callable
 from typing import Any
 
 import structlog
-from action_msgs.msg import GoalInfo, GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav2_msgs.action import NavigateToPose
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_mcp_navigation.motion.base import Pose
-from robot_mcp_navigation.motion.nav2.port import (
-    GoalStatus as Status,
-)
 from robot_mcp_navigation.motion.nav2.port import (
     Nav2Action,
     Nav2Feedback,
@@ -35,16 +27,15 @@ from robot_mcp_navigation.motion.nav2.port import (
     PoseSample,
 )
 from robot_mcp_navigation.motion.nav2.pose_watch import PoseContinuity, Relocation
-from robot_ros_bridge import RosBridge, ServiceTimeoutError, ServiceUnavailableError
-from robot_ros_bridge.action_cancel import ActionCanceller
+from robot_ros_bridge import RosBridge
+from robot_ros_bridge.action_goal import (
+    ActionGoal,
+    ActionGoals,
+    ActionUnavailableError,
+    Unavailable,
+)
 
 logger = structlog.get_logger(__name__)
-
-_STATUS: dict[int, Status] = {
-    GoalStatus.STATUS_SUCCEEDED: "succeeded",
-    GoalStatus.STATUS_ABORTED: "aborted",
-    GoalStatus.STATUS_CANCELED: "canceled",
-}
 
 # AMCL latches its pose (reliable, transient local, depth 1): a late subscriber gets the last
 # one. A transient-local reader cannot match a volatile writer, so a second, best-effort
@@ -84,13 +75,6 @@ def goal_message(pose: Pose, frame: str) -> Any:
     return goal
 
 
-def goal_uuid_msg(goal_id: bytes) -> Any:
-    """A unique_identifier_msgs/UUID carrying ``goal_id`` (16 bytes)."""
-    msg = GoalInfo().goal_id
-    msg.uuid = list(goal_id)
-    return msg
-
-
 def feedback_of(msg: Any) -> Nav2Feedback:
     return Nav2Feedback(
         pose=pose_of(msg.current_pose.pose),
@@ -102,35 +86,33 @@ def feedback_of(msg: Any) -> Nav2Feedback:
 
 
 class RclpyGoal(Nav2Goal):
-    def __init__(self, bridge: RosBridge, handle: Any, result_future: Any) -> None:
-        self._bridge = bridge
-        self._handle = handle
-        self._result_future = result_future
+    def __init__(self, goal: ActionGoal) -> None:
+        self._goal = goal
 
     async def outcome(self) -> Nav2Outcome:
-        response = await self._bridge.await_future(self._result_future, None)
-        status = _STATUS.get(int(response.status), "unknown")
-        result = response.result
+        ended = await self._goal.result()
+        result = ended.result
         # Humble's NavigateToPose result is empty (error_code came with Iron): "no code".
         code = int(getattr(result, "error_code", 0))
-        return Nav2Outcome(status, code, str(getattr(result, "error_msg", "")))
+        said = str(getattr(result, "error_msg", "")) if result is not None else ended.error
+        return Nav2Outcome(ended.status, code, said)
 
     async def cancel(self, timeout_s: float) -> bool:
-        try:
-            response = await self._bridge.await_future(self._handle.cancel_goal_async(), timeout_s)
-        except ServiceTimeoutError:
-            return False
-        return len(response.goals_canceling) > 0
+        return await self._goal.cancel(timeout_s)
+
+
+_UNAVAILABLE: dict[Unavailable, str] = {
+    "absent": "no Nav2 NavigateToPose action server on {name} within {timeout:g} s (is Nav2 up, "
+    "in this ROS_DOMAIN_ID?)",
+    "silent": "the Nav2 action server on {name} did not answer the goal within {timeout:g} s",
+    "rejected": "the Nav2 action server on {name} rejected the goal (is Nav2 active, is the pose "
+    "inside its map?)",
+}
 
 
 class RclpyNav2Action(Nav2Action):
     def __init__(self, bridge: RosBridge, action_name: str, pose_topic: str) -> None:
-        self._bridge = bridge
-        self._action_name = action_name
-        self._client = bridge.create_action_client(NavigateToPose, action_name)
-        self._canceller = ActionCanceller(bridge, action_name)
-        self._sent: collections.deque[bytes] = collections.deque(maxlen=64)
-        self._sent_mutex = threading.Lock()
+        self._goals = ActionGoals(bridge, NavigateToPose, action_name)
         self._pose: PoseSample | None = None
         self._continuity = PoseContinuity()
         for qos in POSE_QOS:
@@ -152,16 +134,15 @@ class RclpyNav2Action(Nav2Action):
         return self._pose
 
     async def cancel_all(self, timeout_s: float) -> int | None:
-        return await self._canceller.cancel_all(timeout_s)
+        return await self._goals.cancel_all(timeout_s)
 
     def cancel_all_now(self) -> bool:
         """The cancel-all sent at once from any thread (the graph watcher's)."""
-        return self._canceller.cancel_all_now()
+        return self._goals.cancel_all_now()
 
     def sent(self, goal_id: bytes) -> bool:
         """Whether this client sent the goal ``goal_id`` (one of its last 64 goals)."""
-        with self._sent_mutex:
-            return goal_id in self._sent
+        return self._goals.sent(goal_id)
 
     def last_relocation(self) -> Relocation | None:
         return self._continuity.relocation
@@ -173,51 +154,11 @@ class RclpyNav2Action(Nav2Action):
         on_feedback: Callable[[Nav2Feedback], None],
         timeout_s: float,
     ) -> Nav2Goal:
-        started = time.monotonic()
         try:
-            await self._bridge.wait_for_server(self._client, timeout_s)
-        except ServiceUnavailableError:
-            raise Nav2UnavailableError(
-                f"no Nav2 NavigateToPose action server on {self._action_name} within "
-                f"{timeout_s:g} s (is Nav2 up, in this ROS_DOMAIN_ID?)"
-            ) from None
-        loop = asyncio.get_running_loop()
-
-        def feedback(msg: Any) -> None:  # executor thread
-            if not loop.is_closed():
-                loop.call_soon_threadsafe(on_feedback, feedback_of(msg.feedback))
-
-        goal_id = uuid.uuid4().bytes  # known before the server answers: the watcher's "ours"
-        with self._sent_mutex:
-            self._sent.append(goal_id)
-        sent = self._client.send_goal_async(
-            goal_message(pose, frame),
-            feedback_callback=feedback,
-            goal_uuid=goal_uuid_msg(goal_id),
-        )
-        remaining = max(timeout_s - (time.monotonic() - started), timeout_s / 2)
-        try:
-            handle = await self._bridge.await_future(sent, remaining)
-        except asyncio.CancelledError:
-            sent.add_done_callback(_cancel_if_accepted)  # never leave a goal we gave up on
-            raise
-        except ServiceTimeoutError:
-            sent.add_done_callback(_cancel_if_accepted)
-            raise Nav2UnavailableError(
-                f"the Nav2 action server on {self._action_name} did not answer the goal "
-                f"within {timeout_s:g} s"
-            ) from None
-        if not handle.accepted:
-            raise Nav2UnavailableError(
-                f"the Nav2 action server on {self._action_name} rejected the goal "
-                "(is Nav2 active, is the pose inside its map?)"
+            goal = await self._goals.send(
+                goal_message(pose, frame), lambda msg: on_feedback(feedback_of(msg)), timeout_s
             )
-        return RclpyGoal(self._bridge, handle, handle.get_result_async())
-
-
-def _cancel_if_accepted(future: Any) -> None:
-    """A goal accepted after we stopped waiting for the answer is canceled at once."""
-    handle = future.result() if future.exception() is None else None
-    if handle is not None and handle.accepted:
-        logger.warning("nav2_late_goal_canceled")
-        handle.cancel_goal_async()
+        except ActionUnavailableError as exc:
+            words = _UNAVAILABLE[exc.reason].format(name=self._goals.name, timeout=timeout_s)
+            raise Nav2UnavailableError(words) from None
+        return RclpyGoal(goal)

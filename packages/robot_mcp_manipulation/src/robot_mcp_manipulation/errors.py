@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
+from robot_mcp_kit.motion_tasks import MotionError
 
-class ManipulationError(Exception):
+
+class ManipulationError(MotionError):
     """A request the manipulator refuses; ``code`` is stable, ``detail`` is for humans/LLMs."""
 
     code = "MANIPULATION_ERROR"
-
-    def __init__(self, detail: str, code: str | None = None) -> None:
-        super().__init__(detail)
-        self.detail = detail
-        if code is not None:
-            self.code = code
 
 
 class ManipulationBusyError(ManipulationError):

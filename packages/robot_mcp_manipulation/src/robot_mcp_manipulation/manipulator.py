@@ -4,8 +4,8 @@ Policy (documented in the README):
 - One motion at a time: a pick or place while another runs is **refused** with
   MANIPULATION_BUSY (naming the running task). A repeated request must never change what
   the arm does silently; the caller stops or cancels first.
-- Motion is admitted at one seam (``MotionGate``, see ``gate.py``): before the goal is sent and
-  again once the arm took it (a refusal that came meanwhile cancels the goal at once).
+- Motion is admitted at one seam (``robot_mcp_kit.motion_tasks.MotionGate``): before the goal
+  is sent and again once the arm took it (a refusal that came meanwhile cancels the goal at once).
 - A task exists only once the arm's action server accepted the goal: an absent or refusing
   server is ARM_UNAVAILABLE, and nothing moved.
 - Every task ends with exactly one terminal event: ``task_done`` (with what is held, read from
@@ -19,13 +19,14 @@ from __future__ import annotations
 import asyncio
 import time
 import uuid
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import structlog
 
-from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.models import TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.motion_tasks import MotionGate, MotionTask, MotionTasks, MotionWords
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.error_codes import Action, named_failure
@@ -44,7 +45,6 @@ from robot_mcp_manipulation.errors import (
     ManipulationError,
     UnknownTaskError,
 )
-from robot_mcp_manipulation.gate import MotionGate, OpenGate
 
 logger = structlog.get_logger(__name__)
 
@@ -64,17 +64,27 @@ def new_task_id() -> str:
     return f"manip-{uuid.uuid4().hex[:8]}"
 
 
-@dataclass
-class _Motion:
-    task_id: str
+@dataclass(kw_only=True)
+class _Motion(MotionTask):
     tool: Tool
     label: str
     goal: ArmGoal | None = None
-    cancel_reason: str | None = None
-    latest: dict[str, Any] | None = None
-    runner: asyncio.Task[TaskInfo] | None = None
-    started: float = 0.0
-    live: list[asyncio.Task[None]] = field(default_factory=list)  # progress events being sent
+
+
+def _busy(active: _Motion) -> ManipulationBusyError:
+    return ManipulationBusyError(
+        f"the arm is busy with {active.tool} (task {active.task_id}); "
+        "call stop_manipulation or cancel_task first"
+    )
+
+
+def _refused(code: str, detail: str) -> ManipulationError:
+    return ManipulationError(detail, code=code)
+
+
+WORDS = MotionWords[_Motion](
+    log="manipulation", busy=_busy, refused=_refused, unknown_task=UnknownTaskError
+)
 
 
 class Manipulator:
@@ -88,24 +98,33 @@ class Manipulator:
         task_ids: Callable[[], str] = new_task_id,
     ) -> None:
         self._arm = arm
-        self._events = events
-        self._tasks = tasks
         self._settings = settings or ManipulatorSettings()
-        self.gate: MotionGate = gate or OpenGate()
         self._task_ids = task_ids
-        self._active: _Motion | None = None
+        self._motion = MotionTasks[_Motion](
+            events,
+            tasks,
+            WORDS,
+            self._halt,
+            gate=gate,
+            settle_timeout_s=self._settings.cancel_timeout_s,
+        )
+        self.gate = self._motion.gate
+        self.get_task = self._motion.get_task
+        self.list_tasks = self._motion.list_tasks
+        self.cancel_task = self._motion.cancel_task
+        self.close = self._motion.close
 
     # -- queries ---------------------------------------------------------------------------
 
     @property
     def moving(self) -> bool:
         """A pick or place is being taken or runs (what a lapsed lease must end)."""
-        return self._active is not None
+        return self._motion.moving
 
     def held(self) -> dict[str, Any]:
         """What the gripper holds, as the robot last reported it (``known`` false before)."""
         held = self._arm.held()
-        active = self._active
+        active = self._motion.active
         state: dict[str, Any] = (
             {"known": False, "holding": None, "label": None, "since": None}
             if held is None
@@ -117,18 +136,6 @@ class Manipulator:
             "task_id": active.task_id if active else None,
             "action": active.tool if active else None,
         }
-
-    def get_task(self, task_id: str) -> TaskInfo:
-        info = self._tasks.get(task_id)
-        if info is None:
-            raise UnknownTaskError(f"no task {task_id!r} on this server (it may predate a restart)")
-        active = self._active
-        if active is not None and active.task_id == task_id and active.latest is not None:
-            return info.model_copy(update={"progress": active.latest})
-        return info
-
-    def list_tasks(self, states: Iterable[TaskState] | None = None) -> list[TaskInfo]:
-        return self._tasks.list(states)
 
     # -- commands --------------------------------------------------------------------------
 
@@ -152,50 +159,14 @@ class Manipulator:
 
     async def stop(self, reason: str = "stop_manipulation") -> TaskInfo | None:
         """Cancel the running pick/place (if any) and return its final state."""
-        started = time.monotonic()
-        active = self._active
-        if active is None:
-            return None
-        if active.cancel_reason is None:
-            active.cancel_reason = reason
-        if active.goal is not None:
-            await self._cancel(active.goal)
-        final = await self._wait_finished(active)
-        logger.info(
-            "manipulation_stopped",
-            reason=reason,
-            task_id=active.task_id,
-            duration_ms=round((time.monotonic() - started) * 1000, 1),
-        )
-        return final
-
-    async def cancel_task(self, task_id: str) -> TaskInfo:
-        info = self.get_task(task_id)
-        active = self._active
-        if active is None or active.task_id != task_id:
-            return info
-        final = await self.stop(reason="cancel_task")
-        return final if final is not None else self.get_task(task_id)
-
-    async def close(self) -> None:
-        await self.stop(reason="shutdown")
+        return await self._motion.stop(reason)
 
     # -- the motion --------------------------------------------------------------------------
 
     def _claim(self, tool: Tool, label: str) -> _Motion:
-        refused = self.gate.refusal()
-        if refused is not None:
-            logger.warning("manipulation_refused", tool=tool, code=refused.code)
-            raise ManipulationError(refused.detail, code=refused.code)
-        active = self._active
-        if active is not None:
-            raise ManipulationBusyError(
-                f"the arm is busy with {active.tool} (task {active.task_id}); "
-                "call stop_manipulation or cancel_task first"
-            )
-        motion = _Motion(self._task_ids(), tool, label, started=time.monotonic())
-        self._active = motion  # held while the arm takes the goal: a parallel call is BUSY
-        return motion
+        self._motion.refuse_if_stopped(tool=tool)
+        # held while the arm takes the goal: a parallel call is BUSY
+        return self._motion.claim(_Motion(task_id=self._task_ids(), tool=tool, label=label))
 
     async def _start(
         self,
@@ -207,26 +178,20 @@ class Manipulator:
         try:
             goal: ArmGoal = await send(lambda fb: self._on_feedback(motion, fb))
         except ArmUnavailableError as exc:
-            self._active = None
+            self._motion.release(motion)
             logger.warning("manipulation_unavailable", tool=motion.tool, detail=exc.detail)
             raise ArmUnavailableManipulationError(exc.detail) from exc
         except BaseException:
-            self._active = None
+            self._motion.release(motion)
             raise
         motion.goal = goal
-        info = self._tasks.create(
-            motion.tool,
-            est_duration_s=est_s,
-            task_id=motion.task_id,
-            label=motion.label or None,
-            **extra,
-        )
-        refused = self.gate.refusal()
+        info = self._motion.register(motion, est_s, label=motion.label or None, **extra)
+        refused = self._motion.refusal()
         if refused is not None and motion.cancel_reason is None:
             motion.cancel_reason = refused.code  # a stop came while the goal was being taken
         if motion.cancel_reason is not None:
             await self._cancel(goal)
-        motion.runner = asyncio.create_task(self._run(motion, goal), name=motion.task_id)
+        self._motion.run(motion, self._run(motion, goal))
         logger.info(
             "manipulation_started",
             task_id=motion.task_id,
@@ -236,19 +201,13 @@ class Manipulator:
         )
         return info
 
+    async def _halt(self, active: _Motion | None) -> None:
+        if active is not None and active.goal is not None:
+            await self._cancel(active.goal)
+
     async def _cancel(self, goal: ArmGoal) -> None:
         if not await goal.cancel(self._settings.cancel_timeout_s):
             logger.warning("arm_cancel_refused")
-
-    async def _wait_finished(self, motion: _Motion) -> TaskInfo | None:
-        if motion.runner is None:
-            return self._tasks.get(motion.task_id)
-        try:
-            async with asyncio.timeout(self._settings.cancel_timeout_s):
-                return await asyncio.shield(motion.runner)
-        except TimeoutError:
-            logger.warning("manipulation_cancel_unconfirmed", task_id=motion.task_id)
-            return self._tasks.get(motion.task_id)
 
     async def _run(self, motion: _Motion, goal: ArmGoal) -> TaskInfo:
         outcome: ArmOutcome
@@ -261,13 +220,10 @@ class Manipulator:
         except Exception as exc:  # the ROS side is a boundary: a lost result ends the task
             logger.exception("arm_result_failed", task_id=motion.task_id)
             outcome = ArmOutcome("unknown", error_msg=str(exc) or type(exc).__name__)
-        try:
-            return await self._finish(motion, outcome)
-        finally:
-            self._active = None
+        return await self._finish(motion, outcome)
 
     async def _finish(self, motion: _Motion, outcome: ArmOutcome) -> TaskInfo:
-        await asyncio.gather(*motion.live)  # progress before the terminal event, in order
+        await self._motion.flush_live(motion)  # progress before the terminal event, in order
         held = outcome.held or self._arm.held()
         common = {
             "action": motion.tool,
@@ -279,21 +235,19 @@ class Manipulator:
             done = {**common, "duration_s": duration}
             if motion.tool != "pick":
                 done["placed_label"] = outcome.placed_label or motion.label or None
-            info = self._tasks.finish(motion.task_id, "succeeded", result=done)
-            await self._emit(motion, "task_done", done)
+            info = await self._motion.succeed(motion, done)
             logger.info("manipulation_finished", task_id=motion.task_id, state="succeeded")
             return info
-        refused = self.gate.refusal()
-        if outcome.status == "canceled" and motion.cancel_reason is None and refused is not None:
-            # the stop's cancel-all reached the arm before the watchdog's own cancel: the pick
-            # ended because supervision ended, not "on its own" (as navigation's _finish does)
-            motion.cancel_reason = refused.code
+        # the stop's cancel-all reached the arm before the watchdog's own cancel: the pick
+        # ended because supervision ended, not "on its own"
+        self._motion.blame_supervision(
+            motion, ended=outcome.status == "canceled", reason=lambda refused: refused.code
+        )
         state: TaskState = "failed"
         failure = self._failure(motion, outcome)
         if outcome.status == "canceled" and motion.cancel_reason is not None:
             state = "cancelled"
-        info = self._tasks.finish(motion.task_id, state, error=failure.model_dump())
-        await self._emit(motion, "task_failed", {**failure.model_dump(), **common, "state": state})
+        info = await self._motion.fail(motion, state, failure, common)
         logger.info(
             "manipulation_finished",
             task_id=motion.task_id,
@@ -356,16 +310,4 @@ class Manipulator:
         if motion.latest is not None and motion.latest["phase"] == feedback.phase:
             return
         motion.latest = snapshot
-        motion.live.append(
-            asyncio.get_running_loop().create_task(self._emit_live(motion, snapshot))
-        )
-
-    async def _emit_live(self, motion: _Motion, payload: dict[str, Any]) -> None:
-        if motion.cancel_reason is None:
-            await self._emit(motion, "progress", payload)
-
-    async def _emit(self, motion: _Motion, type: EventType, payload: dict[str, Any]) -> None:
-        try:
-            await self._events.emit(motion.task_id, motion.tool, type, payload)
-        except Exception:  # an event-sink failure must never stop the robot's bookkeeping
-            logger.exception("event_emit_failed", task_id=motion.task_id, type=type)
+        self._motion.emit_live_soon(motion, "progress", snapshot)

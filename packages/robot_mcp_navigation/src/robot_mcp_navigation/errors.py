@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
+from robot_mcp_kit.motion_tasks import MotionError
 
-class NavigationError(Exception):
+
+class NavigationError(MotionError):
     """A request the navigator refuses; ``code`` is stable, ``detail`` is for humans/LLMs."""
 
     code = "NAVIGATION_ERROR"
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
 
 
 class UnknownLocationError(NavigationError):
@@ -36,5 +34,4 @@ class MotionRefusedError(NavigationError):
     latched) or ``NOT_SUPERVISED`` (no fresh lease from a supervising brain)."""
 
     def __init__(self, code: str, detail: str) -> None:
-        super().__init__(detail)
-        self.code = code
+        super().__init__(detail, code)

@@ -34,7 +34,8 @@ from typing import Any
 
 import structlog
 
-from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.models import TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.motion_tasks import MotionTask, MotionTasks, MotionWords
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
@@ -75,19 +76,29 @@ def new_task_id() -> str:
     return f"nav-{uuid.uuid4().hex[:8]}"
 
 
-@dataclass
-class _Drive:
-    task_id: str
+@dataclass(kw_only=True)
+class _Drive(MotionTask):
     goal: DriveGoal
     triggers: list[Trigger]
     est_duration_s: float
     fired: set[int] = field(default_factory=set)
     last_pct: float | None = None
     last_progress_at: float = 0.0
-    latest: dict[str, Any] | None = None
-    cancel_reason: str | None = None
-    runner: asyncio.Task[TaskInfo] | None = None
-    started: float = field(default_factory=time.monotonic)
+
+
+def _busy(active: _Drive) -> NavigationBusyError:
+    return NavigationBusyError(
+        f"already navigating to {active.goal.name!r} (task {active.task_id}); "
+        "call stop_navigation or cancel_task first"
+    )
+
+
+WORDS = MotionWords[_Drive](
+    log="navigation",
+    busy=_busy,
+    refused=MotionRefusedError,
+    unknown_task=UnknownTaskError,
+)
 
 
 class Navigator:
@@ -103,12 +114,21 @@ class Navigator:
     ) -> None:
         self._map = nav_map
         self._base = base
-        self._events = events
-        self._tasks = tasks
         self._settings = settings or NavigatorSettings()
         self._task_ids = task_ids
-        self._active: _Drive | None = None
         self.supervision = supervision
+        self._motion = MotionTasks[_Drive](
+            events,
+            tasks,
+            WORDS,
+            self._halt,
+            gate=supervision,
+            settle_timeout_s=self._settings.stop_timeout_s,
+        )
+        self.get_task = self._motion.get_task
+        self.list_tasks = self._motion.list_tasks
+        self.cancel_task = self._motion.cancel_task
+        self.close = self._motion.close
 
     # -- queries -------------------------------------------------------------------------
 
@@ -135,7 +155,7 @@ class Navigator:
     @property
     def moving(self) -> bool:
         """A drive is under way (it may be being stopped)."""
-        return self._active is not None
+        return self._motion.moving
 
     def pose(self) -> dict[str, Any]:
         pose = self._base.current_pose()
@@ -147,7 +167,7 @@ class Navigator:
             ),
             None,
         )
-        active = self._active
+        active = self._motion.active
         status = self._base.pose_status()
         return {
             **pose.as_dict(),
@@ -161,29 +181,14 @@ class Navigator:
 
     def drive_started_at(self) -> float | None:
         """When the running drive began (``time.monotonic()``), None when not driving."""
-        active = self._active
+        active = self._motion.active
         return active.started if active is not None else None
-
-    def get_task(self, task_id: str) -> TaskInfo:
-        info = self._tasks.get(task_id)
-        if info is None:
-            raise UnknownTaskError(f"no task {task_id!r} on this server (it may predate a restart)")
-        active = self._active
-        if active is not None and active.task_id == task_id and active.latest is not None:
-            return info.model_copy(update={"progress": active.latest})
-        return info
-
-    def list_tasks(self, states: Iterable[TaskState] | None = None) -> list[TaskInfo]:
-        return self._tasks.list(states)
 
     # -- commands ------------------------------------------------------------------------
 
     def refuse_unsupervised(self) -> None:
         """Raise MotionRefusedError while supervision refuses motion (latched, unsupervised)."""
-        refused = self.supervision.refusal() if self.supervision is not None else None
-        if refused is not None:
-            logger.warning("navigation_refused", code=refused.code, detail=refused.detail)
-            raise MotionRefusedError(refused.code, refused.detail)
+        self._motion.refuse_if_stopped()
 
     async def navigate_to(self, location: str, triggers: Iterable[Trigger] = ()) -> TaskInfo:
         self.refuse_unsupervised()
@@ -191,36 +196,32 @@ class Navigator:
         if name is None:
             known = ", ".join(sorted(self._map.locations))
             raise UnknownLocationError(f"unknown location {location!r}; known: {known}")
-        active = self._active
-        if active is not None:
-            raise NavigationBusyError(
-                f"already navigating to {active.goal.name!r} (task {active.task_id}); "
-                "call stop_navigation or cancel_task first"
-            )
         goal = DriveGoal(name, self._map.locations[name].pose())
         est = round(self._base.estimate_duration_s(goal.pose), 2)
         trigger_list = list(triggers)
-        drive = _Drive(self._task_ids(), goal, trigger_list, est)
-        self._active = drive  # held while the base takes the goal: a parallel call is BUSY
+        drive = _Drive(
+            task_id=self._task_ids(),
+            tool=TOOL,
+            goal=goal,
+            triggers=trigger_list,
+            est_duration_s=est,
+        )
+        self._motion.claim(drive)  # held while the base takes the goal: a parallel call is BUSY
         started = time.monotonic()
         try:
             outcome = await self._base.start_drive(goal, partial(self._on_progress, drive))
         except BaseUnavailableError as exc:
-            self._active = None
+            self._motion.release(drive)
             logger.warning("navigation_refused", destination=name, detail=exc.detail)
             raise BaseUnavailableNavigationError(exc.detail) from exc
         except BaseException:
-            self._active = None
+            self._motion.release(drive)
             raise
-        info = self._tasks.create(
-            TOOL,
-            est_duration_s=est,
-            task_id=drive.task_id,
-            destination=name,
-            triggers=[t.model_dump() for t in trigger_list],
+        info = self._motion.register(
+            drive, est, destination=name, triggers=[t.model_dump() for t in trigger_list]
         )
-        drive.runner = asyncio.create_task(self._run(drive, outcome), name=f"drive-{info.task_id}")
-        refused = self.supervision.refusal() if self.supervision is not None else None
+        self._motion.run(drive, self._run(drive, outcome))
+        refused = self._motion.refusal()
         if refused is not None:  # latched or lapsed while the base took the goal
             await self.stop(reason=refused.detail)
             raise MotionRefusedError(refused.code, refused.detail)
@@ -235,43 +236,12 @@ class Navigator:
 
     async def stop(self, reason: str = "stop_navigation") -> TaskInfo | None:
         """Halt at once; cancel the running navigation (if any) and return its final state."""
-        started = time.monotonic()
-        active = self._active
-        if active is not None and active.cancel_reason is None:
-            active.cancel_reason = reason
-        await self._base.stop()
-        final = await self._wait_finished(active)
-        logger.info(
-            "navigation_stopped",
-            reason=reason,
-            task_id=active.task_id if active else None,
-            duration_ms=round((time.monotonic() - started) * 1000, 1),
-        )
-        return final
-
-    async def cancel_task(self, task_id: str) -> TaskInfo:
-        """Cancel ``task_id``; a task that already ended is returned unchanged."""
-        info = self.get_task(task_id)
-        active = self._active
-        if active is None or active.task_id != task_id:
-            return info
-        final = await self.stop(reason="cancel_task")
-        return final if final is not None else self.get_task(task_id)
-
-    async def close(self) -> None:
-        await self.stop(reason="shutdown")
+        return await self._motion.stop(reason)
 
     # -- the drive -------------------------------------------------------------------------
 
-    async def _wait_finished(self, drive: _Drive | None) -> TaskInfo | None:
-        if drive is None or drive.runner is None:
-            return None
-        try:
-            async with asyncio.timeout(self._settings.stop_timeout_s):
-                return await asyncio.shield(drive.runner)
-        except TimeoutError:
-            logger.warning("navigation_stop_slow", task_id=drive.task_id)
-            return self._tasks.get(drive.task_id)
+    async def _halt(self, active: _Drive | None) -> None:
+        await self._base.stop()
 
     def _drive_timeout_s(self, drive: _Drive) -> float:
         s = self._settings
@@ -299,10 +269,7 @@ class Navigator:
             failure = DriveFailure(
                 "BASE_ERROR", "the robot base reported an internal error", recoverable=False
             )
-        try:
-            final = await self._finish(drive, result, failure)
-        finally:
-            self._active = None
+        final = await self._finish(drive, result, failure)
         logger.info(
             "navigation_finished",
             task_id=drive.task_id,
@@ -316,16 +283,13 @@ class Navigator:
     ) -> TaskInfo:
         pose = self._base.current_pose().as_dict()
         common = {"destination": drive.goal.name, "pose": pose}
-        refused = self.supervision.refusal() if self.supervision is not None else None
-        if refused is not None and drive.cancel_reason is None and result is not None:
-            # the lock stopped the base before the watchdog's cancel (robot-sim aborts its goal
-            # the moment its lock engages): the drive ended because supervision ended
-            drive.cancel_reason = refused.reason
+        # the lock stopped the base before the watchdog's cancel (robot-sim aborts its goal the
+        # moment its lock engages): the drive ended because supervision ended
+        self._motion.blame_supervision(drive, ended=result is not None)
         if result is not None and result.status == "arrived":
-            done = {**common, "duration_s": round(result.elapsed_s, 2)}
-            info = self._tasks.finish(drive.task_id, "succeeded", result=done)
-            await self._emit(drive, "task_done", done)
-            return info
+            return await self._motion.succeed(
+                drive, {**common, "duration_s": round(result.elapsed_s, 2)}
+            )
         state: TaskState = "failed"
         ours = (
             result is not None
@@ -361,11 +325,7 @@ class Navigator:
             recoverable=failure.recoverable,
             suggestions=list(failure.suggestions),
         )
-        info = self._tasks.finish(drive.task_id, state, error=task_failure.model_dump())
-        await self._emit(
-            drive, "task_failed", {**task_failure.model_dump(), **common, "state": state}
-        )
-        return info
+        return await self._motion.fail(drive, state, task_failure, common)
 
     async def _on_progress(self, drive: _Drive, progress: DriveProgress) -> None:
         if drive.cancel_reason is not None:
@@ -383,7 +343,7 @@ class Navigator:
         for index, trigger in enumerate(drive.triggers):
             if index not in drive.fired and trigger.is_met(progress):
                 drive.fired.add(index)
-                await self._emit_live(
+                await self._motion.emit_live(
                     drive, "trigger_fired", {**snapshot, "trigger": trigger.model_dump()}
                 )
         s = self._settings
@@ -394,15 +354,4 @@ class Navigator:
         ):
             drive.last_pct = pct
             drive.last_progress_at = progress.elapsed_s
-            await self._emit_live(drive, "progress", snapshot)
-
-    async def _emit_live(self, drive: _Drive, type: EventType, payload: dict[str, Any]) -> None:
-        """Emit a non-terminal event unless cancellation was requested meanwhile."""
-        if drive.cancel_reason is None:
-            await self._emit(drive, type, payload)
-
-    async def _emit(self, drive: _Drive, type: EventType, payload: dict[str, Any]) -> None:
-        try:
-            await self._events.emit(drive.task_id, TOOL, type, payload)
-        except Exception:  # an event-sink failure must never stop the robot's bookkeeping
-            logger.exception("event_emit_failed", task_id=drive.task_id, type=type)
+            await self._motion.emit_live(drive, "progress", snapshot)

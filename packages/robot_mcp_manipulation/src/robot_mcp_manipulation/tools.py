@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Awaitable
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
 from mcp.server.mcpserver import MCPServer
 from pydantic import BaseModel, ConfigDict, Field
 
-from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
-from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
-from robot_mcp_kit.models import TaskState
+from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors
+from robot_mcp_kit.motion_tools import add_stop_tool, add_task_tools, guard
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_manipulation.arm.port import DetectionTarget
-from robot_mcp_manipulation.errors import ManipulationError
 from robot_mcp_manipulation.manipulator import Manipulator
 
 SERVER_NAME = "manipulation"
@@ -27,7 +25,6 @@ perception server returned (find_object): the arm reads the mask from the robot 
 motion at a time; stop_manipulation stops the arm immediately. After a pick or place, call
 get_held to read back what the robot holds."""
 
-T = TypeVar("T")
 LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
 
 
@@ -43,14 +40,6 @@ class MaskRef(BaseModel):
     stamp: float = Field(gt=0, description="the detection result's stamp (unix seconds)")
     index: int = Field(default=-1, ge=-1, description="the detection's index; -1: best by label")
     url: str | None = Field(default=None, description="ignored: the arm reads masks from ROS")
-
-
-async def _guard(call: Awaitable[T]) -> T:
-    """Turn domain errors into tool errors the planner can read."""
-    try:
-        return await call
-    except ManipulationError as exc:
-        raise tool_error(exc.code, exc.detail) from exc
 
 
 def build_mcp_server(
@@ -76,7 +65,7 @@ def build_mcp_server(
         recoverable and suggestions). Refused with MANIPULATION_BUSY while the arm is busy.
         """
         target = DetectionTarget(mask_ref.topic, mask_ref.stamp, mask_ref.index, label.strip())
-        info = await _guard(manipulator.pick(target, max_age_s))
+        info = await guard(manipulator.pick(target, max_age_s))
         return info.model_dump(mode="json")
 
     @server.tool(annotations=MOVES_ROBOT)
@@ -86,14 +75,14 @@ def build_mcp_server(
         Returns at once with a TaskInfo; task_done carries placed_label and what is held
         after; task_failed: NOTHING_HELD, NO_SURFACE, PLACE_FAILED, ARM_NOT_READY, ...
         """
-        info = await _guard(manipulator.place("place"))
+        info = await guard(manipulator.place("place"))
         return info.model_dump(mode="json")
 
     @server.tool(annotations=MOVES_ROBOT)
     async def release() -> dict[str, Any]:
         """Open the gripper where the arm is, without placing (hand it over to a person who
         holds it, or drop it). Asynchronous like place."""
-        info = await _guard(manipulator.place("release"))
+        info = await guard(manipulator.place("release"))
         return info.model_dump(mode="json")
 
     @server.tool(annotations=READ_ONLY)
@@ -102,41 +91,14 @@ def build_mcp_server(
         label, since, busy, task_id, action}. known is false until the robot reported."""
         return manipulator.held()
 
-    @server.tool(annotations=STOPS)
-    async def stop_manipulation() -> dict[str, Any]:
-        """Stop the arm immediately: cancel the running pick or place, if any.
-
-        Safe to call at any time. Returns the cancelled task (state "cancelled") or null,
-        and what the gripper holds now."""
-        final = await manipulator.stop()
-        return {
-            "stopped": True,
-            "cancelled_task": final.model_dump(mode="json") if final else None,
-            "held": manipulator.held(),
-        }
-
-    @server.tool(annotations=READ_ONLY)
-    async def get_task(task_id: str) -> dict[str, Any]:
-        """The current TaskInfo of a pick/place task: state (running, succeeded, failed,
-        cancelled), live progress while running, result or error when finished."""
-        try:
-            info = manipulator.get_task(task_id)
-        except ManipulationError as exc:
-            raise tool_error(exc.code, exc.detail) from exc
-        return info.model_dump(mode="json")
-
-    @server.tool(annotations=STOPS)
-    async def cancel_task(task_id: str) -> dict[str, Any]:
-        """Cancel a pick/place task: the arm stops and the task ends as cancelled. A task
-        that already ended is returned unchanged."""
-        info = await _guard(manipulator.cancel_task(task_id))
-        return info.model_dump(mode="json")
-
-    @server.tool(annotations=READ_ONLY)
-    async def list_tasks(states: list[TaskState] | None = None) -> dict[str, Any]:
-        """Pick/place tasks known to this server (since it started), optionally filtered by
-        state, e.g. states=["running"] to reconcile after a restart."""
-        tasks = manipulator.list_tasks(states)
-        return {"tasks": [t.model_dump(mode="json") for t in tasks]}
-
+    add_stop_tool(
+        server,
+        "stop_manipulation",
+        "Stop the arm immediately: cancel the running pick or place, if any.\n\nSafe to call "
+        'at any time. Returns the cancelled task (state "cancelled") or null, and what the '
+        "gripper holds now.",
+        manipulator.stop,
+        lambda: {"held": manipulator.held()},
+    )
+    add_task_tools(server, manipulator, "pick/place", "the arm stops")
     return server

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Awaitable
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
 from mcp.server.mcpserver import Context, MCPServer
 
-from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY, STOPS
-from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
-from robot_mcp_kit.models import TaskState
+from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors
+from robot_mcp_kit.motion_tools import add_stop_tool, add_task_tools, guard
 from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_navigation.confirmation import MotionConfirmer
-from robot_mcp_navigation.errors import NavigationError
 from robot_mcp_navigation.mapview.base import MapView, NoMapView
 from robot_mcp_navigation.mapview.render import floor_view, plan_points
 from robot_mcp_navigation.navigator import Navigator
@@ -27,16 +25,7 @@ server pushes progress, trigger_fired, task_done or task_failed events for that 
 Only one navigation runs at a time; stop_navigation halts the robot immediately.
 Durations are robot seconds."""
 
-T = TypeVar("T")
 LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
-
-
-async def _guard(call: Awaitable[T]) -> T:
-    """Turn domain errors into tool errors the planner can read."""
-    try:
-        return await call
-    except NavigationError as exc:
-        raise tool_error(exc.code, exc.detail) from exc
 
 
 async def _refused_now(navigator: Navigator) -> None:
@@ -75,24 +64,20 @@ def build_mcp_server(
         this server's lease.
         """
         if confirmer is not None:
-            await _guard(_refused_now(navigator))  # never ask a person about a refused drive
+            await guard(_refused_now(navigator))  # never ask a person about a refused drive
             await confirmer.confirm(ctx, location)
-        info = await _guard(navigator.navigate_to(location, triggers or []))
+        info = await guard(navigator.navigate_to(location, triggers or []))
         return info.model_dump(mode="json")
 
-    @server.tool(annotations=STOPS)
-    async def stop_navigation() -> dict[str, Any]:
-        """Halt the robot immediately and cancel the running navigation, if any.
-
-        Safe to call at any time (also when not moving). Returns the pose where the robot
-        stopped and the cancelled task (state "cancelled"), or null if none was running.
-        """
-        final = await navigator.stop()
-        return {
-            "stopped": True,
-            "pose": navigator.pose(),
-            "cancelled_task": final.model_dump(mode="json") if final else None,
-        }
+    add_stop_tool(
+        server,
+        "stop_navigation",
+        "Halt the robot immediately and cancel the running navigation, if any.\n\nSafe to "
+        "call at any time (also when not moving). Returns the pose where the robot stopped "
+        'and the cancelled task (state "cancelled"), or null if none was running.',
+        navigator.stop,
+        lambda: {"pose": navigator.pose()},
+    )
 
     @server.tool(annotations=READ_ONLY)
     async def get_pose() -> dict[str, Any]:
@@ -134,28 +119,5 @@ def build_mcp_server(
             "destination": pose["destination"],
         }
 
-    @server.tool(annotations=READ_ONLY)
-    async def get_task(task_id: str) -> dict[str, Any]:
-        """The current TaskInfo of a navigation task: state (running, succeeded, failed,
-        cancelled), live progress while running, result or error when finished."""
-        try:
-            info = navigator.get_task(task_id)
-        except NavigationError as exc:
-            raise tool_error(exc.code, exc.detail) from exc
-        return info.model_dump(mode="json")
-
-    @server.tool(annotations=STOPS)
-    async def cancel_task(task_id: str) -> dict[str, Any]:
-        """Cancel a navigation task: the robot halts where it is and the task ends as
-        cancelled. A task that already ended is returned unchanged."""
-        info = await _guard(navigator.cancel_task(task_id))
-        return info.model_dump(mode="json")
-
-    @server.tool(annotations=READ_ONLY)
-    async def list_tasks(states: list[TaskState] | None = None) -> dict[str, Any]:
-        """Navigation tasks known to this server (since it started), optionally filtered
-        by state, e.g. states=["running"] to reconcile after a restart."""
-        tasks = navigator.list_tasks(states)
-        return {"tasks": [t.model_dump(mode="json") for t in tasks]}
-
+    add_task_tools(server, navigator, "navigation", "the robot halts where it is")
     return server

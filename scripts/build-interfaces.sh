@@ -27,7 +27,7 @@ build_one() {
   stamp="$venv/.$pkg.stamp"
   modules="$(modules_of "$src" "$pkg")"
   digest="$(cd "$src" && shopt -s nullglob \
-    && cat CMakeLists.txt package.xml cmake/*.cmake msg/*.msg srv/*.srv action/*.action \
+    && cat CMakeLists.txt package.xml ../cmake/*.cmake msg/*.msg srv/*.srv action/*.action \
     | sha256sum | cut -d' ' -f1)"
   if [[ -f "$stamp" && "$(cat "$stamp")" == "$digest" ]] \
      && "$python" -c "import $modules" 2>/dev/null; then

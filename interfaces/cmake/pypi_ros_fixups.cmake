@@ -1,4 +1,8 @@
-# Fix-ups for building against the ROS 2 wheels from PyPI (no effect on a system ROS install).
+# Fix-ups for building against the ROS 2 wheels from PyPI (no effect on a system ROS install),
+# shared by every package of interfaces/: each one's CMakeLists.txt includes it from ../cmake/
+# (its real path, so a package symlinked into a workspace finds it). A package copied out on its
+# own builds without it: fine on a system ROS 2, where nothing needs repairing; against the wheels,
+# build it in place (scripts/build-interfaces.sh, scripts/colcon-build.sh) or symlink it.
 #
 # The wheels' exported *__rosidl_generator_py targets carry include directories of the
 # machine they were built on (/opt/python/cp3XX-...). CMake refuses imported targets with

@@ -14,11 +14,11 @@ import numpy as np
 import numpy.typing as npt
 import structlog
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.render.annotate import annotate_view, describe
 from robot_sim.render.renderer import MujocoRenderer
 from robot_sim.store import SceneStore, StoredFrame
 from robot_sim.world import World
+from robot_site_map import Pose
 
 logger = structlog.get_logger(__name__)
 

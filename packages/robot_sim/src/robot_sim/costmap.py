@@ -17,10 +17,10 @@ from collections.abc import Callable
 import numpy as np
 from skimage.draw import line
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.floor.floor import Floor
 from robot_sim.floor.grid import Grid
 from robot_sim.planner import Costmap, GridPlanner, Point
+from robot_site_map import Pose
 
 SENSOR_RANGE_M = 3.5
 

@@ -17,10 +17,9 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import Literal
 
-from robot_mcp_navigation.map import FailureSpec, NavMap
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.costmap import RobotMap
 from robot_sim.planner import NO_VALID_PATH, NoPathError, Point, path_length
+from robot_site_map import FailureSpec, NavMap, Pose
 
 GOAL_MATCH_M = 0.25
 """A goal this close to a map location counts as a drive to that location (for failures)."""

@@ -23,9 +23,9 @@ from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry, Path
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.floor.grid import Grid
 from robot_sim.store import StoredFrame
+from robot_site_map import Pose
 
 MAP_FRAME = "map"
 ODOM_FRAME = "odom"

@@ -16,9 +16,9 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from robot_mcp_navigation.map import MapError, NavMap, load_map
 from robot_sim.floor.floor import Floor, load_floor
 from robot_sim.floor.plan import FloorError
+from robot_site_map import MapError, NavMap, load_map
 
 Shape = Literal["mug", "bottle", "parcel", "box", "scissors", "plate", "folder"]
 DoorState = Literal["open", "closed"]

@@ -69,8 +69,8 @@ class Sim:
         """Send a goal; the goal handle once the server answered (accepted or not)."""
         from nav2_msgs.action import NavigateToPose
 
-        from robot_mcp_navigation.motion.base import Pose
         from robot_sim import messages
+        from robot_site_map import Pose
 
         goal = NavigateToPose.Goal(behavior_tree=behavior_tree)
         goal.pose = messages.pose_stamped(

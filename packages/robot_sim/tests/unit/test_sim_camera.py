@@ -11,13 +11,13 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.camera import Camera
 from robot_sim.config import default_world_path
 from robot_sim.render.annotate import MIN_PIXELS, describe
 from robot_sim.render.renderer import HEIGHT, WIDTH, MujocoRenderer, camera_matrix
 from robot_sim.store import SceneStore
 from robot_sim.world import World, load_world
+from robot_site_map import Pose
 
 
 @pytest.fixture(scope="module")

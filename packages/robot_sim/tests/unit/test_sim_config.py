@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim import messages
 from robot_sim.config import ConfigError, default_scenes_dir, load_settings
 from robot_sim.store import StoredFrame
+from robot_site_map import Pose
 
 
 def test_defaults_serve_nav2s_names_and_a_five_fps_camera() -> None:

@@ -7,12 +7,11 @@ import math
 
 import pytest
 
-from robot_mcp_navigation.map import parse_map
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.config import default_world_path
 from robot_sim.costmap import RobotMap
 from robot_sim.drive import DriveSim, DriveState
 from robot_sim.world import World, load_world
+from robot_site_map import Pose, parse_map
 
 
 @pytest.fixture

@@ -13,17 +13,22 @@ import pytest
 import yaml
 from skimage.draw import line
 
-from robot_mcp_navigation.config import default_map_path
-from robot_mcp_navigation.map import load_map
 from robot_sim.config import default_world_path
 from robot_sim.floor import draw
 from robot_sim.floor.floor import load_floor
 from robot_sim.floor.grid import FREE, OCCUPIED, UNKNOWN, load_grid
 from robot_sim.floor.plan import FloorError, load_plan
 from robot_sim.planner import GridPlanner, NoPathError, path_length
+from robot_site_map import Location, load_map
 
 PLAN = default_world_path().parents[1] / "floor" / "office.plan.yaml"
 MAP_YAML = PLAN.parent / "office.yaml"
+
+
+def office_places() -> dict[str, Location]:
+    """The named places of the map the shipped world reads (the navigation server's map)."""
+    world = default_world_path()
+    return load_map(world.parent / yaml.safe_load(world.read_text())["map"]).locations
 
 
 def test_the_map_is_map_servers_format_a_trinary_image_with_its_yaml() -> None:
@@ -60,7 +65,7 @@ def test_the_grid_reads_the_image_bottom_row_first_as_occupancy_values() -> None
 def test_every_named_place_lies_in_free_space_clear_of_walls_and_furniture() -> None:
     grid = load_grid(MAP_YAML)
     costmap = GridPlanner().costmap(grid)
-    for name, place in load_map(default_map_path()).locations.items():
+    for name, place in office_places().items():
         cell = grid.cell_of(place.x, place.y)
         assert grid.inside(*cell), name
         assert grid.cells[cell] == FREE, name
@@ -72,7 +77,7 @@ def test_a_planned_path_never_crosses_a_wall_cell() -> None:
     grid = floor.with_doors_closed(["mailroom_west_door"])
     planner = GridPlanner()
     costmap = planner.costmap(grid)
-    places = load_map(default_map_path()).locations
+    places = office_places()
     for a, b in itertools.combinations(places.values(), 2):
         points = planner.plan(costmap, (a.x, a.y), (b.x, b.y))
         assert points[0] == (a.x, a.y)

@@ -9,23 +9,11 @@ from __future__ import annotations
 
 import abc
 import asyncio
-import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-
-@dataclass(frozen=True)
-class Pose:
-    x: float
-    y: float
-    theta: float = 0.0
-
-    def distance_to(self, other: Pose) -> float:
-        return math.hypot(other.x - self.x, other.y - self.y)
-
-    def as_dict(self) -> dict[str, float]:
-        return {"x": round(self.x, 3), "y": round(self.y, 3), "theta": round(self.theta, 3)}
+from robot_site_map import Pose as Pose  # the pose type, shared with robot-sim
 
 
 @dataclass(frozen=True)

@@ -26,9 +26,9 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from robot_mcp_navigation.motion.base import Pose
 from robot_sim.render.scene import PlacedObject, SceneSpec, build_scene
 from robot_sim.world import World
+from robot_site_map import Pose
 
 os.environ.setdefault("MUJOCO_GL", "osmesa")
 os.environ.setdefault("PYOPENGL_PLATFORM", os.environ["MUJOCO_GL"])

@@ -1,20 +1,24 @@
-"""The MCP tools every motion server serves the same way over its ``MotionTasks``: the stop
-tool (never gated), ``get_task``, ``cancel_task``, ``list_tasks``, and the guard that turns a
-domain's ``MotionError`` into a tool error the planner reads (``{"error", "detail"}``)."""
+"""The MCP tools every motion server serves the same way over its ``MotionTasks``: the server
+itself (tool errors as JSON, the brain's ``supervise`` tool), the stop tool (never gated),
+``get_task``, ``cancel_task``, ``list_tasks``, and the guard that turns a domain's
+``MotionError`` into a tool error the planner reads (``{"error", "detail"}``)."""
 
 from __future__ import annotations
 
 from collections.abc import Awaitable, Callable, Iterable
-from typing import Any, Protocol, TypeVar
+from typing import Any, Literal, Protocol, TypeVar
 
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.annotations import READ_ONLY, STOPS
-from robot_mcp_kit.mcp_runtime import tool_error
+from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskInfo, TaskState
 from robot_mcp_kit.motion_tasks import MotionError
+from robot_mcp_kit.supervision import Supervision
+from robot_mcp_kit.supervision_tools import add_supervise_tool
 
 T = TypeVar("T")
+LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
 
 
 class TaskService(Protocol):
@@ -23,6 +27,21 @@ class TaskService(Protocol):
     async def cancel_task(self, task_id: str) -> TaskInfo: ...
 
     def list_tasks(self, states: Iterable[TaskState] | None = None) -> list[TaskInfo]: ...
+
+
+def motion_server(
+    name: str,
+    instructions: str | None = None,
+    log_level: LogLevel = "INFO",
+    supervision: Supervision | None = None,
+) -> MCPServer:
+    """A motion server's MCPServer: tool errors reach the planner as ``{"error", "detail"}``;
+    with ``supervision``, the brain's ``supervise`` tool renews its lease (issue 27)."""
+    server = MCPServer(name, instructions=instructions, log_level=log_level)
+    install_json_tool_errors(server)
+    if supervision is not None:
+        add_supervise_tool(server, supervision)
+    return server
 
 
 async def guard(call: Awaitable[T]) -> T:

@@ -2,26 +2,22 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
+from robot_mcp_kit.motion_serving import motion_running
 from robot_mcp_kit.supervision import FOREIGN_GOAL_CLIENT, LOCK_TOPIC_SHARED, Supervision
-from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.port import ArmActions
 from robot_mcp_manipulation.config import ConfigError, ManipulationSettings
 from robot_mcp_manipulation.manipulator import Manipulator, ManipulatorSettings
 from robot_mcp_manipulation.tools import SERVER_NAME, build_mcp_server
-
-logger = structlog.get_logger(__name__)
 
 
 @dataclass
@@ -40,32 +36,21 @@ class ManipulationApp:
     async def running(self) -> AsyncIterator[ManipulationApp]:
         """Start the event sink and the supervision watchdog (a lapsed or latched lease stops
         the arm); on exit stop the arm and flush the events."""
-        started = time.monotonic()
-        await self.events.start()
-        try:
-            async with supervising(
-                self.supervision,
-                self.manipulator.stop,
-                lambda: self.manipulator.moving,
-                self.publish_lock,
-                self.cancel_all,
-            ):
-                logger.info(
-                    "manipulation_ready",
-                    pick_action=self.settings.pick_action,
-                    place_action=self.settings.place_action,
-                    supervision=self.settings.supervision,
-                    duration_ms=round((time.monotonic() - started) * 1000, 1),
-                )
-                yield self
-        finally:
-            try:
-                await self.manipulator.close()
-                await self.events.close()
-            finally:
-                for close in self.closers:
-                    close()
-            logger.info("manipulation_shutdown")
+        async with motion_running(
+            "manipulation",
+            self.events,
+            self.manipulator,
+            supervision=self.supervision,
+            publish_lock=self.publish_lock,
+            cancel_all=self.cancel_all,
+            closers=self.closers,
+            ready={
+                "pick_action": self.settings.pick_action,
+                "place_action": self.settings.place_action,
+                "supervision": self.settings.supervision,
+            },
+        ):
+            yield self
 
 
 def build_event_sink(settings: ManipulationSettings) -> EventSink:
@@ -99,60 +84,47 @@ def build_arm(settings: ManipulationSettings, supervision: Supervision | None = 
     """
     try:
         from robot_mcp_manipulation.arm.rclpy_arm import RclpyArm
-        from robot_ros_bridge import RosBridge
-        from robot_ros_bridge.graph_watch import GraphWatcher
-        from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
+        from robot_ros_bridge.motion_side import DeadManLock, open_motion_side
     except ImportError as exc:
         raise ConfigError(
             f"the manipulation server needs rclpy and robot_manipulation_interfaces ({exc}): "
             "run `make setup`, or on a system ROS 2 build interfaces/robot_manipulation_interfaces "
             "with colcon and source its setup.bash"
         ) from exc
-    bridge = RosBridge("robot_mcp_manipulation").start()
+    lock = None
+    if supervision is not None:
+        lock = DeadManLock(
+            settings.lock_topic,
+            settings.lock_hz,
+            supervision.locked,
+            supervision.raise_alarm,
+            LOCK_TOPIC_SHARED,
+            "the arm's dead-man lock",
+        )
+    side = open_motion_side("robot_mcp_manipulation", lock)
     try:
-        arm = RclpyArm(bridge, settings.pick_action, settings.place_action, settings.held_topic)
-        lock = watcher = None
-        if supervision is not None:
-            lock = SupervisorLockPublisher(
-                bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
-            )
-            watcher = GraphWatcher(bridge, supervision.raise_alarm)
-            watch_arm_graph(watcher, settings, supervision, arm, lock)
+        arm = RclpyArm(
+            side.bridge, settings.pick_action, settings.place_action, settings.held_topic
+        )
+        if supervision is not None and side.watcher is not None:
+            watch_arm_graph(side.watcher, settings, supervision, arm)
     except BaseException:
-        bridge.close()
+        side.close()
         raise
-
-    def close() -> None:
-        if lock is not None:
-            lock.close()  # the lock falls silent first: twist_mux locks
-        if watcher is not None:
-            watcher.close()
-        bridge.close()
-
-    if lock is None:
-        return ArmSide(arm, close)
+    if side.lock is None:
+        return ArmSide(arm, side.close)
 
     async def cancel_all() -> bool:
         return await arm.cancel_all(settings.cancel_timeout_s)
 
-    return ArmSide(arm, close, lock.publish, cancel_all)
+    return ArmSide(arm, side.close, side.publish_lock, cancel_all)
 
 
 def watch_arm_graph(
-    watcher: Any, settings: ManipulationSettings, supervision: Supervision, arm: Any, lock: Any
+    watcher: Any, settings: ManipulationSettings, supervision: Supervision, arm: Any
 ) -> None:
-    """What manipulation watches (issue 35): its own lock topic (only this server publishes
-    it) and the Pick and Place actions while motion is refused."""
-    watcher.watch_publishers(
-        settings.lock_topic, LOCK_TOPIC_SHARED, own=True, what="the arm's dead-man lock"
-    )
-    watcher.watch_lock(
-        settings.lock_topic,
-        LOCK_TOPIC_SHARED,
-        locked=supervision.locked,
-        last_open_at=lock.last_open_at,
-        what="the arm's dead-man lock",
-    )
+    """What manipulation watches (issue 35) besides its own lock topic: the Pick and Place
+    actions while motion is refused."""
     for action, what in zip(arm.action_names, ("pick", "place"), strict=True):
         watcher.watch_goals(
             action,

@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 from mcp.server.mcpserver import MCPServer
 from pydantic import BaseModel, ConfigDict, Field
 
 from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY
-from robot_mcp_kit.mcp_runtime import install_json_tool_errors
-from robot_mcp_kit.motion_tools import add_stop_tool, add_task_tools, guard
+from robot_mcp_kit.motion_tools import LogLevel, add_stop_tool, add_task_tools, guard, motion_server
 from robot_mcp_kit.supervision import Supervision
-from robot_mcp_kit.supervision_tools import add_supervise_tool
 from robot_mcp_manipulation.arm.port import DetectionTarget
 from robot_mcp_manipulation.manipulator import Manipulator
 
@@ -24,8 +22,6 @@ task_done or task_failed events for that task_id. pick takes the mask_ref of a d
 perception server returned (find_object): the arm reads the mask from the robot itself. One
 motion at a time; stop_manipulation stops the arm immediately. After a pick or place, call
 get_held to read back what the robot holds."""
-
-LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
 
 
 class MaskRef(BaseModel):
@@ -48,10 +44,7 @@ def build_mcp_server(
     max_age_s: float = 0.0,
     supervision: Supervision | None = None,
 ) -> MCPServer:
-    server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
-    install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
-    if supervision is not None:
-        add_supervise_tool(server, supervision)  # the brain's lease (issue 27)
+    server = motion_server(SERVER_NAME, INSTRUCTIONS, log_level, supervision)
 
     @server.tool(annotations=MOVES_ROBOT)
     async def pick(label: str, mask_ref: MaskRef) -> dict[str, Any]:

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import structlog
 from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit import task_events
+from robot_mcp_kit.motion_serving import motion_running
 from robot_mcp_kit.supervision import (
     FOREIGN_GOAL_CLIENT,
     LOCK_TOPIC_SHARED,
@@ -19,7 +18,6 @@ from robot_mcp_kit.supervision import (
     POSE_TOPIC_SHARED,
     Supervision,
 )
-from robot_mcp_kit.supervision_tools import supervising
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_navigation.config import ConfigError, NavigationSettings
@@ -33,7 +31,8 @@ from robot_mcp_navigation.motion.simulated import PoseFile, SimulatedBase
 from robot_mcp_navigation.navigator import Navigator, NavigatorSettings
 from robot_mcp_navigation.tools import SERVER_NAME, build_mcp_server
 
-logger = structlog.get_logger(__name__)
+if TYPE_CHECKING:  # imports rclpy: built only with NAV_MOTION=nav2
+    from robot_ros_bridge.motion_side import MotionRosSide
 
 
 @dataclass
@@ -53,35 +52,24 @@ class NavigationApp:
     async def running(self) -> AsyncIterator[NavigationApp]:
         """Start the event sink and the supervision watchdog; on exit halt the robot and flush
         the events."""
-        started = time.monotonic()
-        await self.events.start()
-        await self.base.cancel_stale_goals()  # before a lease can open the lock (issue 27)
-        try:
-            async with supervising(
-                self.supervision,
-                self.navigator.stop,
-                lambda: self.navigator.moving,
-                self.publish_lock,
-                self.cancel_all,
-            ):
-                logger.info(
-                    "navigation_ready",
-                    map=self.nav_map.name,
-                    locations=len(self.nav_map.locations),
-                    failures=len(self.nav_map.failures),
-                    motion=self.settings.motion,
-                    time_scale=self.settings.time_scale,
-                    duration_ms=round((time.monotonic() - started) * 1000, 1),
-                )
-                yield self
-        finally:
-            try:
-                await self.navigator.close()
-                await self.events.close()
-            finally:
-                for close in self.closers:
-                    close()
-            logger.info("navigation_shutdown")
+        async with motion_running(
+            "navigation",
+            self.events,
+            self.navigator,
+            supervision=self.supervision,
+            publish_lock=self.publish_lock,
+            cancel_all=self.cancel_all,
+            closers=self.closers,
+            prepare=self.base.cancel_stale_goals,  # before a lease can open the lock (issue 27)
+            ready={
+                "map": self.nav_map.name,
+                "locations": len(self.nav_map.locations),
+                "failures": len(self.nav_map.failures),
+                "motion": self.settings.motion,
+                "time_scale": self.settings.time_scale,
+            },
+        ):
+            yield self
 
 
 def build_event_sink(settings: NavigationSettings) -> EventSink:
@@ -127,7 +115,7 @@ def build_motion_base(
 
 def build_nav2_action(
     settings: NavigationSettings, supervision: Supervision | None = None
-) -> tuple[Nav2Action, MapView, RosSide]:
+) -> tuple[Nav2Action, MapView, MotionRosSide]:
     """The rclpy NavigateToPose client, the pose, map, costmap and plan subscriptions — and,
     with ``supervision``, the dead-man lock on ``NAV_LOCK_TOPIC`` and the graph watcher that
     raises its alarms (issue 35) — and the ROS side that closes them.
@@ -137,48 +125,42 @@ def build_nav2_action(
     try:
         from robot_mcp_navigation.mapview.rclpy_view import RclpyMapView
         from robot_mcp_navigation.motion.nav2.rclpy_action import RclpyNav2Action
-        from robot_ros_bridge import RosBridge
-        from robot_ros_bridge.graph_watch import GraphWatcher
-        from robot_ros_bridge.lock_publisher import SupervisorLockPublisher
+        from robot_ros_bridge.motion_side import DeadManLock, open_motion_side
     except ImportError as exc:
         raise ConfigError(
             f"NAV_MOTION=nav2 needs rclpy and nav2_msgs ({exc}): run `make setup`, or on a "
             "system ROS 2 source its setup.bash with ros-$ROS_DISTRO-nav2-msgs installed"
         ) from exc
-    bridge = RosBridge("robot_mcp_navigation").start()
+    lock = None
+    if supervision is not None:
+        lock = DeadManLock(
+            settings.lock_topic,
+            settings.lock_hz,
+            supervision.locked,
+            supervision.raise_alarm,
+            LOCK_TOPIC_SHARED,
+            "the robot's dead-man lock",
+        )
+    side = open_motion_side("robot_mcp_navigation", lock)
     try:
+        bridge = side.bridge
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
         view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
-        lock = watcher = None
-        if supervision is not None:
-            lock = SupervisorLockPublisher(
-                bridge, supervision.locked, topic=settings.lock_topic, rate_hz=settings.lock_hz
-            )
-            watcher = GraphWatcher(bridge, supervision.raise_alarm)
-            watch_navigation_graph(watcher, settings, supervision, action, lock)
+        if supervision is not None and side.watcher is not None:
+            watch_navigation_graph(side.watcher, settings, supervision, action)
     except BaseException:
-        bridge.close()
+        side.close()
         raise
-    return action, view, RosSide(bridge, lock, watcher)
+    return action, view, side
 
 
 def watch_navigation_graph(
-    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any, lock: Any
+    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any
 ) -> None:
-    """What navigation watches on the ROS graph (issue 35): its lock topic (only this server
-    publishes it), ``/amcl_pose`` and ``/map`` (one publisher each: the base's localisation and
-    map server), and the NavigateToPose action while motion is refused (a goal not ours, or
-    another client of it, is cancelled and alarmed)."""
-    watcher.watch_publishers(
-        settings.lock_topic, LOCK_TOPIC_SHARED, own=True, what="the robot's dead-man lock"
-    )
-    watcher.watch_lock(
-        settings.lock_topic,
-        LOCK_TOPIC_SHARED,
-        locked=supervision.locked,
-        last_open_at=lock.last_open_at,
-        what="the robot's dead-man lock",
-    )
+    """What navigation watches on the ROS graph (issue 35) besides its own lock topic:
+    ``/amcl_pose`` and ``/map`` (one publisher each: the base's localisation and map server),
+    and the NavigateToPose action while motion is refused (a goal not ours, or another client
+    of it, is cancelled and alarmed)."""
     watcher.watch_publishers(
         settings.pose_topic, POSE_TOPIC_SHARED, others_allowed=1, what="the robot's position"
     )
@@ -194,26 +176,6 @@ def watch_navigation_graph(
         allowed_clients=settings.allowed_goal_clients,
         what="drive (NavigateToPose)",
     )
-
-
-@dataclass
-class RosSide:
-    """The process's ROS side: its bridge and (with supervision) the dead-man lock."""
-
-    bridge: Any
-    lock: Any = None
-    watcher: Any = None
-
-    def publish_lock(self) -> None:
-        if self.lock is not None:
-            self.lock.publish()
-
-    def close(self) -> None:
-        if self.lock is not None:
-            self.lock.close()  # the lock falls silent first: twist_mux locks
-        if self.watcher is not None:
-            self.watcher.close()
-        self.bridge.close()
 
 
 def build_app(

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 from mcp.server.mcpserver import Context, MCPServer
 
 from robot_mcp_kit.annotations import MOVES_ROBOT, READ_ONLY
-from robot_mcp_kit.mcp_runtime import install_json_tool_errors
-from robot_mcp_kit.motion_tools import add_stop_tool, add_task_tools, guard
-from robot_mcp_kit.supervision_tools import add_supervise_tool
+from robot_mcp_kit.motion_tools import LogLevel, add_stop_tool, add_task_tools, guard, motion_server
 from robot_mcp_navigation.confirmation import MotionConfirmer
 from robot_mcp_navigation.mapview.base import MapView, NoMapView
 from robot_mcp_navigation.mapview.render import floor_view, plan_points
@@ -25,8 +23,6 @@ server pushes progress, trigger_fired, task_done or task_failed events for that 
 Only one navigation runs at a time; stop_navigation halts the robot immediately.
 Durations are robot seconds."""
 
-LogLevel = Literal["DEBUG", "INFO", "WARNING", "ERROR"]
-
 
 async def _refused_now(navigator: Navigator) -> None:
     navigator.refuse_unsupervised()
@@ -41,10 +37,7 @@ def build_mcp_server(
     """``confirmer``: ask the client's person before each drive (NAV_CONFIRM_MOTION=elicit);
     ``map_view``: the robot's map, costmap and plan (Nav2's topics)."""
     view = map_view or NoMapView()
-    server = MCPServer(SERVER_NAME, instructions=INSTRUCTIONS, log_level=log_level)
-    install_json_tool_errors(server)  # tool errors reach the planner as {"error", "detail"}
-    if navigator.supervision is not None:
-        add_supervise_tool(server, navigator.supervision)  # the brain's lease (issue 27)
+    server = motion_server(SERVER_NAME, INSTRUCTIONS, log_level, navigator.supervision)
 
     @server.tool(annotations=MOVES_ROBOT)
     async def navigate_to(

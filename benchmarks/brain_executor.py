@@ -20,7 +20,7 @@ from typing import Any
 
 import structlog
 
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 
 RESULTS = Path(__file__).with_name("results")

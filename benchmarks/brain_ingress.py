@@ -26,14 +26,15 @@ from robot_mcp_kit.signing import signed_headers
 from robot_stack_testing import free_tcp_port, wait_for_tcp_port
 
 SECRET = (
-    "nav-event-secret-for-tests-0123456789abcdef"  # = robot_voice_chat.agent.harness.NAV_SECRET
+    "nav-event-secret-for-tests-0123456789abcdef"  # = robot_stack_testing.brain.harness.NAV_SECRET
 )
 RESULTS = Path(__file__).with_name("results")
 
 
 def build_container(trace_dir: str) -> Any:
-    from robot_voice_chat.agent.harness import make_harness
-    from robot_voice_chat.composition import Adapters, assemble
+    from robot_stack_testing.brain.harness import make_harness
+    from robot_voice_chat.api.container import Adapters
+    from robot_voice_chat.composition import assemble
     from robot_voice_chat.services.emitter.base import FakeEventEmitter
     from robot_voice_chat.services.llm.fake import FakeLLM
     from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput

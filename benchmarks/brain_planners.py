@@ -27,12 +27,12 @@ from typing import Any
 
 import structlog
 
+from robot_stack_testing.brain.fake_wire import anthropic_responder
+from robot_stack_testing.brain.office import office
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_voice_chat.services.llm.anthropic import AnthropicLLM
-from robot_voice_chat.services.llm.fake_wire import anthropic_responder
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.tools.fake_office import office
 
 RESULTS = Path(__file__).with_name("results")
 MAILROOM = "Please fetch the package from the mailroom."

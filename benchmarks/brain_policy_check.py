@@ -19,7 +19,7 @@ from typing import Any
 
 import structlog
 
-from robot_voice_chat.agent.harness import nav_servers
+from robot_stack_testing.brain.harness import nav_servers
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore

@@ -30,8 +30,8 @@ import httpx
 import structlog
 
 from robot_stack_testing import wait_until
+from robot_stack_testing.brain.harness import make_harness, task_info
 from robot_stack_testing.ports import free_tcp_port
-from robot_voice_chat.agent.harness import make_harness, task_info
 from robot_voice_chat.control.latch_store import FileLatchStore
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 

@@ -36,8 +36,8 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.supervisor import MotionSupervisor
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import McpServerConfig
 
 RESULTS = Path(__file__).with_name("results")
 TOKEN = fresh_token()  # the navigation server's credential (MCP_AUTH_TOKEN) for this run

@@ -30,7 +30,8 @@ from playwright.sync_api import Page, sync_playwright
 
 from robot_stack_testing import free_tcp_port, wait_for_tcp_port
 from robot_voice_chat.api.app import create_asgi_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput

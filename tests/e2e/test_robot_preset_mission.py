@@ -20,6 +20,7 @@ import httpx
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.fake_wire import anthropic_responder, openai_responder
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_stack_testing.fake_openai import FakeOpenAIApi
@@ -30,7 +31,6 @@ from robot_stack_testing.mission_driver import (
     sim_world,
 )
 from robot_stack_testing.stack import free_port_overrides
-from robot_voice_chat.services.llm.fake_wire import anthropic_responder, openai_responder
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 

@@ -26,7 +26,7 @@ from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import DAY_S, Episode, ManualClock, play_office_day
 from robot_mcp_episodic.timeparse import ago
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM
@@ -35,12 +35,11 @@ from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCA
 from robot_voice_chat.services.llm.understanding.understand import Understanding
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
-    McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
 )
-from robot_voice_chat.settings import ChatConfig
+from robot_voice_chat.settings import ChatConfig, McpServerConfig
 
 START = 1_790_000_000.0  # 2026-09-21 14:13:20 UTC: offset 640 s is 14:24, 2800 s is 15:00
 LIST_LOCATIONS = "navigation.list_locations"

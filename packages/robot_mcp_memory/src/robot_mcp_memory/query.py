@@ -20,7 +20,6 @@ from functools import lru_cache
 
 import snowballstemmer  # type: ignore[import-untyped]
 
-from robot_mcp_memory.store.base import SearchQuery
 from robot_mcp_memory.synonyms import SYNONYM_GROUPS
 
 MAX_QUERY_WORDS = 32
@@ -163,6 +162,23 @@ def document_concepts(title: str, task_pattern: str, tags: tuple[str, ...], body
     would make nearly every document match every request."""
     del body  # part of the signature: adapters pass the whole document
     return " ".join(concepts("\n".join([title, task_pattern, " ".join(tags)])))
+
+
+@dataclass(frozen=True)
+class SearchQuery:
+    """A text query. ``words`` are the caller's own words and phrases (lowercase word characters
+    and spaces only), matched with stemming against title, task pattern, tags and body.
+    ``concepts`` are synonym-concept tokens matched against the concepts indexed for each
+    document (:func:`robot_mcp_memory.query.document_concepts`). A document matching anything
+    is a candidate, scored ``text_score(words) + concept_weight · text_score(concepts)``."""
+
+    words: tuple[str, ...]
+    concepts: tuple[str, ...] = ()
+    concept_weight: float = 1.0
+
+    @property
+    def empty(self) -> bool:
+        return not self.words and not self.concepts
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from robot_mcp_perception.models.base import Box, Mask, Point
+from robot_mcp_perception.pixels import Box, Mask, Point
 
 
 def empty_mask(height: int, width: int) -> Mask:

@@ -6,7 +6,7 @@ from collections.abc import Generator
 
 import pytest
 
-from robot_voice_chat.services.llm.fake_wire import (
+from robot_stack_testing.brain.fake_wire import (
     anthropic_responder,
     from_openai_request,
     openai_responder,

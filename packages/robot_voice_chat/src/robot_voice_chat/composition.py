@@ -9,7 +9,7 @@ import importlib
 import inspect
 import uuid
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import socketio
@@ -23,14 +23,15 @@ from omegaconf.errors import OmegaConfBaseException
 from pydantic import ValidationError
 
 from robot_mcp_kit.supervision import SUPERVISE_TOOL
-from robot_voice_chat.agent.archive import SqliteMissionArchive
+from robot_voice_chat.agent.archive import MissionArchive, SqliteMissionArchive
 from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import MissionStore
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.api.auth import AdminSecrets, AuthSetupError, OperatorAuth
-from robot_voice_chat.api.seen_events import SeenEvents, SqliteSeenEvents
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.api.seen_events import SqliteSeenEvents
 from robot_voice_chat.control.alarms import BY_SUPERVISION, AlarmAnnouncer
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.elicitation import approval_elicitation
@@ -41,18 +42,18 @@ from robot_voice_chat.control.lease_link import LeaseProcess
 from robot_voice_chat.control.policy import PolicyError, ToolPolicy
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.pipeline.chat import ChatPipeline
-from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.emitter.episodic import EpisodicNoteEmitter
 from robot_voice_chat.services.emitter.history import ChatHistory, HistoryRecordingEmitter
 from robot_voice_chat.services.emitter.socketio import SocketIOEventEmitter
 from robot_voice_chat.services.llm.base import LLMProvider
-from robot_voice_chat.services.speech.base import SpeechInput, SpeechOutput
+from robot_voice_chat.services.speech.base import SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.services.tools.mcp import McpToolBackend
 from robot_voice_chat.settings import (
     CONFIG_DIR,
+    AgentConfig,
     AppConfig,
     data_dir,
     resolve_path,
@@ -125,16 +126,6 @@ def build_adapter(group: str, cfg: dict[str, Any], **wiring: Any) -> Any:
         raise ConfigError(f"cannot build {group} ({target}): {_reason(exc)}") from exc
 
 
-@dataclass
-class Adapters:
-    llm: LLMProvider
-    planner: LLMProvider | None
-    tools: ToolBackend
-    speech_output: SpeechOutput
-    speech_input: SpeechInput
-    camera: CameraFeed | None = None
-
-
 def build_adapters(config: AppConfig, emitter: EventEmitter) -> Adapters:
     llm = build_adapter("llm", config.llm)
     planner = _build_planner(config)
@@ -172,55 +163,6 @@ def _build_planner(config: AppConfig) -> LLMProvider | None:
     return planner
 
 
-@dataclass
-class Container:
-    config: AppConfig
-    adapters: Adapters
-    emitter: EventEmitter
-    executor: MissionExecutor
-    pipeline: ChatPipeline
-    teaching: Teaching
-    trace: TraceRecorder
-    sio: Any = None
-    auth: OperatorAuth | None = None  # None: no operator login (dev on loopback)
-    history: ChatHistory = field(default_factory=ChatHistory)
-    supervisor: MotionSupervisor | None = None  # the lease on every motion server
-    seen_events: SeenEvents | None = None  # handled event ids across restarts (the ingress)
-
-    def policy_summary(self) -> dict[str, Any] | None:
-        """The tool policy in force (version, digest, file) for readyz."""
-        tools = self.adapters.tools
-        policy = tools.policy if isinstance(tools, GuardedToolBackend) else None
-        return policy.summary() if policy is not None else None
-
-    async def start(self) -> None:
-        self.trace.prune(self.config.agent.trace_retention_days)
-        await self.executor.recover()  # before any server connects and reconciles
-        self.adapters.tools.add_connect_listener(self.executor.reconcile)
-        self.adapters.tools.add_disconnect_listener(self.executor.on_server_lost)
-        await self.adapters.tools.start()
-        if self.supervisor is not None:
-            await self.supervisor.start()
-        logger.info(
-            "app_started",
-            deployment=self.config.deployment,
-            llm=self.adapters.llm.name,
-            planner=self.adapters.planner.name if self.adapters.planner else None,
-        )
-
-    async def stop(self) -> None:
-        await self.executor.shutdown()
-        if self.supervisor is not None:
-            await self.supervisor.aclose()
-        await self.adapters.tools.aclose()
-        await self.adapters.speech_output.aclose()
-        await self.adapters.llm.aclose()
-        if self.adapters.camera is not None:
-            await self.adapters.camera.aclose()
-        if self.adapters.planner is not None:
-            await self.adapters.planner.aclose()
-
-
 def assemble(
     config: AppConfig, adapters: Adapters, emitter: EventEmitter, sio: Any = None
 ) -> Container:
@@ -256,18 +198,13 @@ def assemble(
     guarded = GuardedToolBackend(adapters.tools, latch, policy, approvals, supervisor)
     adapters = replace(adapters, tools=guarded)
     archive = SqliteMissionArchive(state_path(agent, agent.missions_db, "missions.sqlite3"))
-    memory = MemoryClient(adapters.tools, config.agent.memory_server, config.agent.tool_timeout_s)
-    teaching = Teaching(emitter, memory)
-    executor = MissionExecutor(
-        planner=adapters.planner,
-        tools=adapters.tools,
-        emitter=emitter,
-        speech=adapters.speech_output,
-        memory=memory,
-        trace=trace,
-        teaching=teaching,
-        config=config.agent,
-        prompt_path=resolve_path(config.agent.prompt_file),
+    executor = build_executor(
+        config.agent,
+        adapters.planner,
+        adapters.tools,
+        emitter,
+        adapters.speech_output,
+        trace,
         store=MissionStore(),
         archive=archive,
         latch=latch,
@@ -302,12 +239,49 @@ def assemble(
         emitter,
         executor,
         pipeline,
-        teaching,
+        executor.teaching,
         trace,
         sio,
         history=history,
         supervisor=supervisor,
         seen_events=seen,
+    )
+
+
+def build_executor(
+    config: AgentConfig,
+    planner: LLMProvider | None,
+    tools: ToolBackend,
+    emitter: EventEmitter,
+    speech: SpeechOutput,
+    trace: TraceRecorder,
+    *,
+    memory: MemoryClient | None = None,
+    store: MissionStore | None = None,
+    archive: MissionArchive | None = None,
+    latch: SafetyLatch | None = None,
+    approvals: ApprovalBroker | None = None,
+    supervisor: MotionSupervisor | None = None,
+) -> MissionExecutor:
+    """The mission executor with its memory client and teaching: built here and nowhere else
+    (``assemble`` for the product; test harnesses pass their fakes). ``memory`` default: a
+    client of the configured memory server on ``tools``."""
+    memory = memory or MemoryClient(tools, config.memory_server, config.tool_timeout_s)
+    return MissionExecutor(
+        planner=planner,
+        tools=tools,
+        emitter=emitter,
+        speech=speech,
+        memory=memory,
+        trace=trace,
+        teaching=Teaching(emitter, memory),
+        config=config,
+        prompt_path=resolve_path(config.prompt_file),
+        store=store,
+        archive=archive,
+        latch=latch,
+        approvals=approvals,
+        supervisor=supervisor,
     )
 
 

@@ -17,8 +17,8 @@ from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.elicitation import approval_elicitation, yes_no_field
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.mcp import McpToolBackend
+from robot_voice_chat.settings import McpServerConfig
 from robot_voice_chat.socket_events import ApprovalRequested
 
 

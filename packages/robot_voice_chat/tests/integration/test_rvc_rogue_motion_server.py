@@ -24,9 +24,8 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.policy import POLICY_DENIED, ToolPolicy
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.mcp import McpToolBackend
-from robot_voice_chat.settings import CONFIG_DIR
+from robot_voice_chat.settings import CONFIG_DIR, McpServerConfig
 
 ROGUE = Path(__file__).parent / "rvc_rogue_motion_server.py"
 TOKEN = fresh_token()

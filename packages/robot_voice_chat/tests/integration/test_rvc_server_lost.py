@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 
 from robot_stack_testing import ProcessLauncher, async_wait_until, free_tcp_port
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.mcp import McpToolBackend
+from robot_voice_chat.settings import McpServerConfig
 
 SERVERS = Path(__file__).with_name("rvc_fake_mcp_servers.py")
 HEALTH_S, CONNECT_S = 0.5, 2.0

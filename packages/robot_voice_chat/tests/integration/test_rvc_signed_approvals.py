@@ -28,9 +28,8 @@ from robot_voice_chat.control.guard import ApprovalAnswer, GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.policy import ToolPolicy
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.mcp import McpToolBackend
-from robot_voice_chat.settings import CONFIG_DIR
+from robot_voice_chat.settings import CONFIG_DIR, McpServerConfig
 
 TOKEN = fresh_token()
 APPROVALS = fresh_token()

@@ -17,6 +17,8 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing.brain.office import Office, office
+from robot_stack_testing.brain.office_world import DOOR_SUGGESTIONS
 from robot_voice_chat.agent.abort import aborted_summary, aborting_note, busy_note
 from robot_voice_chat.agent.bargein import STOP_QUESTION
 from robot_voice_chat.agent.mission import Mission
@@ -44,7 +46,6 @@ from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN, read_recall
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
-from robot_voice_chat.services.tools.fake_office import DOOR_SUGGESTIONS, Office, office
 from robot_voice_chat.settings import ChatConfig
 
 

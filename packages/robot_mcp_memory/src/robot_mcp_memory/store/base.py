@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from robot_mcp_memory.documents import ProcessDocument
+from robot_mcp_memory.query import SearchQuery as SearchQuery  # the port's query, built there
 
 Visibility = Literal["robot", "fleet"]
 FLEET_SCOPE = "fleet"
@@ -127,23 +128,6 @@ class OutcomeRecord:
     note: str
     recorded_at: float
     robot_id: str
-
-
-@dataclass(frozen=True)
-class SearchQuery:
-    """A text query. ``words`` are the caller's own words and phrases (lowercase word characters
-    and spaces only), matched with stemming against title, task pattern, tags and body.
-    ``concepts`` are synonym-concept tokens matched against the concepts indexed for each
-    document (:func:`robot_mcp_memory.query.document_concepts`). A document matching anything
-    is a candidate, scored ``text_score(words) + concept_weight · text_score(concepts)``."""
-
-    words: tuple[str, ...]
-    concepts: tuple[str, ...] = ()
-    concept_weight: float = 1.0
-
-    @property
-    def empty(self) -> bool:
-        return not self.words and not self.concepts
 
 
 @dataclass(frozen=True)

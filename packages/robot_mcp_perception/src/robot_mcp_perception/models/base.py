@@ -11,20 +11,11 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-import numpy as np
-import numpy.typing as npt
-
-Image = npt.NDArray[np.uint8]
-"""An RGB frame, shape (H, W, 3), dtype uint8."""
-
-Mask = npt.NDArray[np.bool_]
-"""A full-frame boolean mask, shape (H, W)."""
-
-Box = tuple[int, int, int, int]
-"""Pixel box (x_min, y_min, x_max, y_max)."""
-
-Point = tuple[int, int]
-"""Pixel point (x, y)."""
+# the pixel types live below the models: mask post-processing uses them too
+from robot_mcp_perception.pixels import Box as Box
+from robot_mcp_perception.pixels import Image as Image
+from robot_mcp_perception.pixels import Mask as Mask
+from robot_mcp_perception.pixels import Point as Point
 
 CostClass = Literal["local", "cloud"]
 TargetKind = Literal["object", "region"]

@@ -1,4 +1,5 @@
-"""Test/benchmark helpers: an executor wired to fakes at every port (no network)."""
+"""Test/benchmark helpers: the brain's executor, built by its composition root, on fakes at every
+port (no network)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from robot_voice_chat.agent.executor import MissionExecutor
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.teaching import Teaching
 from robot_voice_chat.agent.trace import TraceRecorder
+from robot_voice_chat.composition import build_executor
 from robot_voice_chat.control.approvals import ApprovalBroker
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
@@ -22,9 +24,8 @@ from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
+from robot_voice_chat.settings import AgentConfig, McpServerConfig
 
 NAV_SECRET = "nav-event-secret-for-tests-0123456789abcdef"  # noqa: S105 - test fixture
 PERCEPTION_SECRET = "perception-event-secret-for-tests-0123456789"  # noqa: S105
@@ -96,27 +97,24 @@ def make_harness(
     tools = harness_tools()
     emitter, speech = emitter or FakeEventEmitter(), FakeSpeechOutput()
     trace = trace or TraceRecorder(tmp_path / "missions")
-    memory = MemoryClient(tools, memory_server)
-    teaching = Teaching(emitter, memory)
-    config = AgentConfig(memory_server=memory_server, **agent)
     latch = SafetyLatch(latch_store or MemoryLatchStore())
     leases = (
         MotionSupervisor(tools, latch, period_s=supervisor[0], ttl_s=supervisor[1])
         if supervisor is not None
         else None
     )
-    executor = MissionExecutor(
-        planner=planner,
-        tools=GuardedToolBackend(tools, latch, policy, approvals),
-        emitter=emitter,
-        speech=speech,
-        memory=memory,
-        trace=trace,
-        teaching=teaching,
-        config=config,
-        prompt_path=CONFIG_DIR / "agent_prompt.yaml",
+    executor = build_executor(
+        AgentConfig(memory_server=memory_server, **agent),
+        planner,
+        GuardedToolBackend(tools, latch, policy, approvals),
+        emitter,
+        speech,
+        trace,
+        memory=MemoryClient(tools, memory_server),  # on the raw fakes, past the guard
         latch=latch,
         approvals=approvals,
         supervisor=leases,
     )
-    return Harness(executor, planner, tools, emitter, speech, trace, teaching, latch, leases)
+    return Harness(
+        executor, planner, tools, emitter, speech, trace, executor.teaching, latch, leases
+    )

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from robot_voice_chat.agent.harness import harness_tools
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_stack_testing.brain.harness import harness_tools
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.services.camera.base import CameraFeed
 from robot_voice_chat.services.emitter.base import FakeEventEmitter

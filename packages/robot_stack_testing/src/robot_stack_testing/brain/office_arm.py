@@ -9,14 +9,12 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from pydantic import SecretStr
 
-from robot_voice_chat.services.tools.base import McpServerConfig
-
-if TYPE_CHECKING:
-    from robot_voice_chat.services.tools.fake_office import OfficeWorld
+from robot_stack_testing.brain.office_world import OfficeWorld
+from robot_voice_chat.settings import McpServerConfig
 
 ARM_SECRET = "an-arm-event-secret-that-is-32-bytes"  # noqa: S105 - a test fake's
 

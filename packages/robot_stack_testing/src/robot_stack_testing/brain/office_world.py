@@ -10,22 +10,10 @@ import itertools
 import json
 import time
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from robot_mcp_kit.models import TaskEvent
-from robot_voice_chat.agent.executor import MissionExecutor
-from robot_voice_chat.agent.harness import nav_servers
-from robot_voice_chat.agent.memory import MemoryClient
-from robot_voice_chat.agent.mission import Mission
-from robot_voice_chat.agent.teaching import Teaching
-from robot_voice_chat.agent.trace import TraceRecorder
-from robot_voice_chat.services.emitter.base import FakeEventEmitter
-from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import CONFIG_DIR, AgentConfig
 
 Deliver = Callable[[TaskEvent], Awaitable[Any]]
 PLACES: dict[str, list[str]] = {
@@ -272,48 +260,3 @@ class OfficeWorld:
             "skills": [],
             "hint": "instantiate describe_scene",
         }
-
-
-@dataclass
-class Office:
-    executor: MissionExecutor
-    world: OfficeWorld
-    tools: FakeToolBackend
-    emitter: FakeEventEmitter
-    speech: FakeSpeechOutput
-    trace: TraceRecorder
-
-    async def run(self, instruction: str, timeout_s: float = 10.0) -> Mission:
-        mission = await self.executor.start(instruction)
-        await self.executor.wait_idle(timeout_s)
-        return mission
-
-    def statuses(self, mission: Mission) -> dict[str, str]:
-        return {s.id: s.status for s in mission.steps}
-
-
-def office(tmp_path: Path, drive_s: float = 0.05, arm: bool = False, **agent: Any) -> Office:
-    """An executor on the rules planner in the simulated office (swap ``executor.planner``);
-    ``arm``: the robot has one (the manipulation server's tools, fake_office_arm.py)."""
-    from robot_voice_chat.services.tools.fake_office_arm import OfficeArm, arm_server
-
-    tools = FakeToolBackend(nav_servers() + ([arm_server()] if arm else []))
-    world = OfficeWorld(tools, drive_s=drive_s)
-    if arm:
-        world.arm = OfficeArm(world)
-    emitter, speech = FakeEventEmitter(), FakeSpeechOutput()
-    trace = TraceRecorder(tmp_path / "missions")
-    memory = MemoryClient(tools, "")
-    executor = MissionExecutor(
-        planner=RulesPlanner(),
-        tools=tools,
-        emitter=emitter,
-        speech=speech,
-        memory=memory,
-        trace=trace,
-        teaching=Teaching(emitter, memory),
-        config=AgentConfig(memory_server="", **agent),
-        prompt_path=CONFIG_DIR / "agent_prompt.yaml",
-    )
-    world.deliver = executor.on_task_event
-    return Office(executor, world, tools, emitter, speech, trace)

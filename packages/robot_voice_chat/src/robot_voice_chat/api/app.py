@@ -17,6 +17,7 @@ from robot_voice_chat.api.body_limit import (
     SocketIOBodyLimit,
     validation_error,
 )
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.api.forwarded import ForwardedFromProxy
 from robot_voice_chat.api.middleware import RequestContextMiddleware
 from robot_voice_chat.api.rate_limit import DefaultRateLimitMiddleware
@@ -37,7 +38,6 @@ from robot_voice_chat.api.routes import (
 from robot_voice_chat.api.security_headers import SecurityHeadersMiddleware
 from robot_voice_chat.api.socket import register_handlers
 from robot_voice_chat.api.socket_sessions import SocketSessions
-from robot_voice_chat.composition import Container
 
 
 def _guard_options(container: Container) -> dict[str, Any]:

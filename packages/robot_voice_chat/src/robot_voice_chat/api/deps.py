@@ -6,7 +6,7 @@ from typing import Annotated
 
 from fastapi import Depends, Request
 
-from robot_voice_chat.composition import Container
+from robot_voice_chat.api.container import Container
 
 
 def get_container(request: Request) -> Container:

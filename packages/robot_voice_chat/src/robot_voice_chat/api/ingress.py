@@ -12,7 +12,7 @@ from limits.storage import MemoryStorage
 from limits.strategies import MovingWindowRateLimiter
 
 from robot_mcp_kit.signing import SignatureError, verify
-from robot_voice_chat.services.tools.base import McpServerConfig
+from robot_voice_chat.settings import McpServerConfig
 
 # Verified against when the server is unknown or has no secret, so every 401 costs the same.
 _DUMMY_SECRET = secrets.token_hex(32)

@@ -13,9 +13,9 @@ import socketio
 import structlog
 from pydantic import ValidationError
 
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.api.routes.safety import safety_view
 from robot_voice_chat.api.socket_sessions import SocketSessions
-from robot_voice_chat.composition import Container
 from robot_voice_chat.socket_events import SendMessage
 
 logger = structlog.get_logger(__name__)

@@ -16,11 +16,10 @@ import uuid
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import structlog
 
-from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext
 from robot_voice_chat.control.guard import ApprovalAnswer
 from robot_voice_chat.control.latch_store import append_record
@@ -31,6 +30,13 @@ from robot_voice_chat.socket_events import ApprovalRequested, ApprovalResolved
 logger = structlog.get_logger(__name__)
 Verdict = Literal["approve", "deny"]
 StateHook = Callable[["PendingApproval", bool], Awaitable[None]]
+
+
+class MissionTrace(Protocol):
+    """Where each decision is written beside the mission's own lines (the agent's
+    ``TraceRecorder``); control sits below the agent and names only what it calls."""
+
+    def record(self, mission_id: str, kind: str, **data: Any) -> None: ...
 
 
 class ApprovalRefusedError(RuntimeError):
@@ -144,7 +150,7 @@ class ApprovalBroker:
         self,
         *,
         emitter: EventEmitter,
-        trace: TraceRecorder,
+        trace: MissionTrace,
         audit_path: Path,
         timeout_s: float = 60.0,
     ) -> None:

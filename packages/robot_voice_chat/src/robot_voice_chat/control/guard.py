@@ -26,12 +26,12 @@ from robot_voice_chat.services.tools.base import (
     ApprovedCall,
     ConnectionState,
     ElicitationHandler,
-    McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
     approved_call,
 )
+from robot_voice_chat.settings import McpServerConfig
 
 logger = structlog.get_logger(__name__)
 # tools of a motion server that stop or observe: never refused by the latch (with the

@@ -161,8 +161,8 @@ def _raw(alarms: list[SupervisionAlarm] | tuple[SupervisionAlarm, ...]) -> list[
 
 def build(init: Message, send: Callable[[Message], None]) -> ChildRenewer:
     """The renewer an ``init`` message describes, with its own MCP connections."""
-    from robot_voice_chat.services.tools.base import McpServerConfig
     from robot_voice_chat.services.tools.mcp import McpToolBackend
+    from robot_voice_chat.settings import McpServerConfig
 
     servers = [McpServerConfig.model_validate(s) for s in init["servers"]]
     backend = dict(init.get("backend", {}))

@@ -32,7 +32,7 @@ from typing import Any, Protocol
 import structlog
 from pydantic import SecretStr
 
-from robot_voice_chat.services.tools.base import McpServerConfig
+from robot_voice_chat.settings import McpServerConfig
 
 logger = structlog.get_logger(__name__)
 

@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import Harness, make_harness
+from robot_stack_testing.brain.harness import Harness, make_harness
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.approvals import ApprovalBroker, ApprovalRefusedError, parse_answer
 from robot_voice_chat.control.policy import POLICY_DENIED, ToolPolicy

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.harness import Harness, make_harness, task_info
 from robot_voice_chat.agent.bargein import STOP_QUESTION
-from robot_voice_chat.agent.harness import Harness, make_harness, task_info
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.tools.base import ToolOutcome

@@ -7,12 +7,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.fake_wire import anthropic_responder
+from robot_stack_testing.brain.office import office
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_voice_chat.services.llm.anthropic import AnthropicLLM
-from robot_voice_chat.services.llm.fake_wire import anthropic_responder
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.tools.fake_office import office
 
 FETCH = "fetch the package from the mailroom and bring it to reception"
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from robot_voice_chat.services.tools.fake_office import Office, office
+from robot_stack_testing.brain.office import Office, office
 
 
 def _record_where_each_drive_starts(o: Office) -> list[tuple[str, str]]:

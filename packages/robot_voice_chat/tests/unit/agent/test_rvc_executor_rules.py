@@ -1,6 +1,6 @@
 """The spec §13 executor scenarios with the rules planner instead of a scripted fake: the
 same executor, registry, reactions and trace, driven by typed commands over a simulated office
-(robot_voice_chat.services.tools.fake_office) that answers like the real servers."""
+(robot_stack_testing.brain.office_world) that answers like the real servers."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import task_info
+from robot_stack_testing.brain.harness import task_info
+from robot_stack_testing.brain.office import Office, office
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.program import MissionProgram
 from robot_voice_chat.services.llm.rules.steps import Observation, Program
-from robot_voice_chat.services.tools.fake_office import Office, office
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan
 
 

@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.office import Office, office
 from robot_voice_chat.agent.holding import tell_what_is_held
 from robot_voice_chat.agent.supervision_words import held_part, lost_motion_server
 from robot_voice_chat.held_words import (
@@ -25,7 +26,6 @@ from robot_voice_chat.held_words import (
 from robot_voice_chat.robot_words import check_robot_words
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LOCATIONS
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.services.tools.fake_office import Office, office
 
 FETCH = "fetch the package from the mailroom and bring it to reception"
 QUESTION = "Should I put it down here, or take it somewhere?"

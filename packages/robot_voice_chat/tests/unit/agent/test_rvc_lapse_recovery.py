@@ -13,7 +13,7 @@ import pytest
 from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.supervision import LAPSE_REASONS
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import Harness, make_harness, task_info
+from robot_stack_testing.brain.harness import Harness, make_harness, task_info
 from robot_voice_chat.agent.lapse import IssuedCall, carrying_on, is_lapse
 from robot_voice_chat.robot_words import leaks
 from robot_voice_chat.services.llm.fake import FakeLLM, reply

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.agent.run import SafetyStopLatchedError
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.latch_store import FileLatchStore

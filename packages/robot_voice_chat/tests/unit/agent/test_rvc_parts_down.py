@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing.brain.office import office
 from robot_voice_chat.robot_words import check_robot_words
 from robot_voice_chat.services.llm.rules.plain import down_sentence, part_down, reason_of
-from robot_voice_chat.services.tools.fake_office import office
 
 WHAT_HAPPENED = "episodic.what_happened"
 # what skill_control answers when the vision node was killed: its call timed out, and the

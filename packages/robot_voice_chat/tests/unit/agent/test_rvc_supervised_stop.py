@@ -12,7 +12,7 @@ import pytest
 
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import Harness, make_harness
+from robot_stack_testing.brain.harness import Harness, make_harness
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.tools.base import ToolOutcome
 

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import Harness, make_harness
+from robot_stack_testing.brain.harness import Harness, make_harness
 from robot_voice_chat.agent.teaching import render_transcript
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.approvals import ApprovalBroker

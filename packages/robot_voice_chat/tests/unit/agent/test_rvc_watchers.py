@@ -8,7 +8,7 @@ from pathlib import Path
 
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 
 WATCHER = {

@@ -21,8 +21,9 @@ import websockets
 from robot_stack_testing import async_wait_until, free_tcp_port
 from robot_voice_chat.api.app import create_app, create_asgi_app
 from robot_voice_chat.api.auth import hash_password
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.api.forwarded import unix_listener
-from robot_voice_chat.composition import Container, bootstrap, compose_config
+from robot_voice_chat.composition import bootstrap, compose_config
 from robot_voice_chat.main import server_config
 from robot_voice_chat.socket_events import MissionEventLine
 

@@ -14,16 +14,16 @@ import httpx
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import nav_servers
+from robot_stack_testing.brain.harness import nav_servers
+from robot_stack_testing.brain.life import brain_life
+from robot_stack_testing.brain.office_world import OfficeWorld
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.api.fake_brain import brain_life
-from robot_voice_chat.composition import Container
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.services.tools.fake_office import OfficeWorld
 from robot_voice_chat.socket_events import ChatMessage, MissionEventLine, MissionStarted
 
 PLACES = ["kitchen", "reception", "mailroom", "corridor_b", "dock"]

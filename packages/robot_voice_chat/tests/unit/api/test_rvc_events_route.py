@@ -20,16 +20,16 @@ from pydantic import SecretStr, ValidationError
 from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.signing import sign, signed_headers
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import NAV_SECRET, PERCEPTION_SECRET, make_harness
+from robot_stack_testing.brain.harness import NAV_SECRET, PERCEPTION_SECRET, make_harness
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.main import main
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.audio import wav_bytes
 from robot_voice_chat.services.speech.fake import FakeSpeechInput, FakeSpeechOutput
-from robot_voice_chat.services.tools.base import McpServerConfig
-from robot_voice_chat.settings import AppConfig, McpToolsConfig
+from robot_voice_chat.settings import AppConfig, McpServerConfig, McpToolsConfig
 
 SECRET = NAV_SECRET
 

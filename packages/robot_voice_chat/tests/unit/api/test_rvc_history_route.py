@@ -24,20 +24,20 @@ from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import ManualClock
 from robot_mcp_kit.mcp_runtime import parse_tool_error
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput, NoSpeechInput
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
-    McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
 )
 from robot_voice_chat.services.tools.fake import FakeToolBackend
-from robot_voice_chat.settings import AppConfig
+from robot_voice_chat.settings import AppConfig, McpServerConfig
 
 NOW = datetime.now(UTC).timestamp()
 

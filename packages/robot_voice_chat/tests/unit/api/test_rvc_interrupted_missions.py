@@ -12,9 +12,9 @@ import httpx
 
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.life import brain_life, fake_servers
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.api.fake_brain import brain_life, fake_servers
-from robot_voice_chat.composition import Container
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import LLMResponse
 from robot_voice_chat.services.llm.fake import FakeLLM, reply

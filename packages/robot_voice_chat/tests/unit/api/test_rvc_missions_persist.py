@@ -7,9 +7,10 @@ from pathlib import Path
 import httpx
 import pytest
 
+from robot_stack_testing.brain.life import brain_life
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.api.fake_brain import brain_life
-from robot_voice_chat.composition import Container, compose_config
+from robot_voice_chat.api.container import Container
+from robot_voice_chat.composition import compose_config
 from robot_voice_chat.services.llm.base import Usage
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.settings import AgentConfig, data_dir

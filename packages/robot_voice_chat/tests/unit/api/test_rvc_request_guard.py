@@ -16,10 +16,11 @@ import websockets
 
 from robot_mcp_kit.signing import signed_headers
 from robot_stack_testing import async_wait_until, free_tcp_port
-from robot_voice_chat.agent.harness import NAV_SECRET
+from robot_stack_testing.brain.harness import NAV_SECRET
 from robot_voice_chat.api.app import create_app, create_asgi_app
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.api.request_guard import host_name
-from robot_voice_chat.composition import Container, bootstrap, compose_config
+from robot_voice_chat.composition import bootstrap, compose_config
 
 
 def dev_container(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, *overrides: str) -> Container:

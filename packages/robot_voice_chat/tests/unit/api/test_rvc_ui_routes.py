@@ -13,7 +13,8 @@ import socketio
 
 from robot_voice_chat.agent.mission import Mission
 from robot_voice_chat.api.app import create_app, create_asgi_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.services.camera.base import CameraFrame, CameraOfflineError, FakeCameraFeed
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import FakeEventEmitter

@@ -6,10 +6,10 @@ from __future__ import annotations
 import httpx
 import respx
 
-from robot_voice_chat.agent.harness import nav_servers
+from robot_stack_testing.brain.harness import nav_servers
+from robot_stack_testing.brain.life import brain_life
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.api.fake_brain import brain_life
-from robot_voice_chat.composition import Container
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.services.camera.base import (
     CameraFeed,
     CameraFrame,

@@ -15,10 +15,10 @@ from robot_voice_chat.control.guard import ApprovalAnswer, GuardedToolBackend
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED, SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.policy import POLICY_DENIED, ToolPolicy
-from robot_voice_chat.services.tools.base import McpServerConfig, approved_call
+from robot_voice_chat.services.tools.base import approved_call
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.services.tools.mcp import call_meta
-from robot_voice_chat.settings import CONFIG_DIR
+from robot_voice_chat.settings import CONFIG_DIR, McpServerConfig
 
 CLAIMS_READ_ONLY = {"readOnlyHint": True, "destructiveHint": False, "idempotentHint": True}
 

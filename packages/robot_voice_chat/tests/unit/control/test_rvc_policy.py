@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_voice_chat.agent.harness import make_harness, nav_servers
+from robot_stack_testing.brain.harness import make_harness, nav_servers
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore

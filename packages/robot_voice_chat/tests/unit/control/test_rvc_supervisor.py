@@ -13,8 +13,9 @@ from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.supervisor import MotionSupervisor
-from robot_voice_chat.services.tools.base import McpServerConfig, ToolOutcome
+from robot_voice_chat.services.tools.base import ToolOutcome
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import McpServerConfig
 
 
 class Server:

@@ -23,8 +23,8 @@ from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.lease_child import MirrorLatch
 from robot_voice_chat.control.lease_link import CHILD_MODULE, LeaseProcess, server_payload
 from robot_voice_chat.control.supervisor import MotionSupervisor
-from robot_voice_chat.services.tools.base import McpServerConfig
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import McpServerConfig
 
 # a motion server's brain credential (never on a command line)
 TOKEN = "brain-credential-0123456789-abcdef-0123456789"

@@ -24,8 +24,9 @@ from robot_voice_chat.control.latch import SafetyLatch
 from robot_voice_chat.control.latch_store import MemoryLatchStore
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import leaks
-from robot_voice_chat.services.tools.base import McpServerConfig, ToolOutcome
+from robot_voice_chat.services.tools.base import ToolOutcome
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.settings import McpServerConfig
 
 NAV = McpServerConfig(name="navigation", url="http://127.0.0.1:9/sse", motion=True)
 RUNNERS = ["thread", "process"]  # the process's code faked on a thread: conftest.PipeOnThread

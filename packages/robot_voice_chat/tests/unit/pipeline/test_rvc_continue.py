@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat

@@ -7,7 +7,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 
 from robot_stack_testing import async_wait_until
-from robot_voice_chat.agent.harness import Harness, make_harness
+from robot_stack_testing.brain.harness import Harness, make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.base import LLMError, Message, StreamEvent, ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM, reply

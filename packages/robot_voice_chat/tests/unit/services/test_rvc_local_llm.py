@@ -10,16 +10,16 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing.brain.fake_wire import openai_responder
+from robot_stack_testing.brain.office import office
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_stack_testing.fake_openai import FakeOpenAIApi
 from robot_voice_chat.composition import build_adapter, compose_config
 from robot_voice_chat.services.llm.base import LLMError, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.chain import PlannerChain
-from robot_voice_chat.services.llm.fake_wire import openai_responder
 from robot_voice_chat.services.llm.openai_compat import OpenAICompatLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.tools.fake_office import office
 
 TOOL = [ToolDefinition(name="navigation.navigate_to", description="drive")]
 

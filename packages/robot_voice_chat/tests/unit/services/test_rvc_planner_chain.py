@@ -9,15 +9,15 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.brain.fake_wire import anthropic_responder
+from robot_stack_testing.brain.office import office
 from robot_stack_testing.fake_anthropic import FakeAnthropicApi
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_voice_chat.services.llm.anthropic import AnthropicLLM
 from robot_voice_chat.services.llm.base import LLMError, Message, ToolDefinition
 from robot_voice_chat.services.llm.chain import NOTICE, PlannerChain
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
-from robot_voice_chat.services.llm.fake_wire import anthropic_responder
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
-from robot_voice_chat.services.tools.fake_office import office
 
 SAY = [ToolDefinition(name="say")]
 

@@ -11,9 +11,10 @@ import httpx
 import numpy as np
 import pytest
 
-from robot_voice_chat.agent.harness import make_harness
+from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.api.app import create_app
-from robot_voice_chat.composition import Adapters, Container, assemble
+from robot_voice_chat.api.container import Adapters, Container
+from robot_voice_chat.composition import assemble
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.speech.audio import (

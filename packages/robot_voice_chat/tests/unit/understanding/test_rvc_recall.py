@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing.brain.office import office
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.chat import RulesChat
@@ -22,7 +23,6 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.services.tools.fake_office import office
 
 EPISODIC = [ToolDefinition(name=n) for n in (WHAT_HAPPENED, LAST_SEEN, POSE_AT)]
 TOOLS = [*FAST_LOCAL_TOOLS, *EPISODIC]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from robot_stack_testing.brain.episodic_chat import recall_turn
 from robot_voice_chat.services.llm.base import Message
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
@@ -19,7 +20,6 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.services.tools.fake_episodic import recall_turn
 
 OFFICE = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
 

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import pytest
 
+from robot_stack_testing.brain.episodic_chat import SIGHTINGS_ONLY
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN, read_recall
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.services.tools.fake_episodic import SIGHTINGS_ONLY
 
 OFFICE = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
 

@@ -8,6 +8,7 @@ import json
 
 import pytest
 
+from robot_stack_testing.brain.episodic_chat import RECALL_TOOLS, recall_turn
 from robot_voice_chat.services.llm.base import Message, ToolResult
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.understanding.places import PlaceIndex
@@ -17,7 +18,6 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import Understanding
-from robot_voice_chat.services.tools.fake_episodic import RECALL_TOOLS, recall_turn
 
 RED_MUG_SEEN = {
     "query": "red mug",

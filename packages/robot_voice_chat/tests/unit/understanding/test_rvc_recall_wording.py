@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing.brain.episodic_chat import RECALL_TOOLS, SIGHTINGS_ONLY, recall_turn
 from robot_voice_chat.services.llm.base import Message, ToolResult
 from robot_voice_chat.services.llm.rules.chat import RulesChat
 from robot_voice_chat.services.llm.rules.recollection import recollection
@@ -23,7 +24,6 @@ from robot_voice_chat.services.llm.understanding.recall import (
 )
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.understanding.understand import NOT_READ_RECALL, Understanding
-from robot_voice_chat.services.tools.fake_episodic import RECALL_TOOLS, SIGHTINGS_ONLY, recall_turn
 
 
 @pytest.mark.parametrize(

@@ -13,7 +13,7 @@ from robot_voice_chat.services.speech.audio import AudioFormatError, Unsupported
 from robot_voice_chat.services.speech.base import TranscriptionError
 
 if TYPE_CHECKING:
-    from robot_voice_chat.composition import Container
+    from robot_voice_chat.api.container import Container
 from robot_voice_chat.socket_events import SendMessage
 
 router = APIRouter(prefix="/api/chat", tags=["chat"])

@@ -13,8 +13,8 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException
 from pydantic import BaseModel, Field
 
+from robot_voice_chat.api.container import Container
 from robot_voice_chat.api.deps import ContainerDep
-from robot_voice_chat.composition import Container
 from robot_voice_chat.control.latch import NotLatchedError, acting
 from robot_voice_chat.control.latch_store import LatchState
 from robot_voice_chat.socket_events import SafetyState

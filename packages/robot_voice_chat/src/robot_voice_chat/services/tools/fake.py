@@ -9,11 +9,11 @@ from typing import Any
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
-    McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
 )
+from robot_voice_chat.settings import McpServerConfig
 
 Handler = Callable[[dict[str, Any]], Awaitable[Any] | Any]
 

@@ -43,12 +43,12 @@ from robot_voice_chat.services.tools import mcp_logs
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
     ElicitationHandler,
-    McpServerConfig,
     ServerListener,
     ToolBackend,
     ToolOutcome,
     approved_call,
 )
+from robot_voice_chat.settings import McpServerConfig
 
 logger = structlog.get_logger(__name__)
 

@@ -15,8 +15,8 @@ manipulation's picks and places, a dock's docking), said once.
   was refused, before anyone asked it to stop, was ended by supervision — the stop's cancel-all
   (or the dead-man lock) reached the robot before the watchdog's own cancel — never "on its own".
 
-The domain supplies its words (:class:`MotionWords`: its busy, refused and unknown-task errors
-and its log prefix) and how to halt the robot.
+The domain supplies its words (:class:`MotionWords`: its busy and refused errors and its log
+prefix) and how to halt the robot.
 """
 
 from __future__ import annotations
@@ -30,24 +30,12 @@ from typing import Any, Generic, Protocol, TypeVar
 import structlog
 
 from robot_mcp_kit.models import EventType, TaskFailure, TaskInfo, TaskState
+from robot_mcp_kit.motion_errors import UnknownTaskError
 from robot_mcp_kit.supervision import Refusal
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 
 logger = structlog.get_logger(__name__)
-
-
-class MotionError(Exception):
-    """A request a motion service refuses; ``code`` is stable, ``detail`` is for humans/LLMs.
-    The tools' guard (``motion_tools.guard``) turns it into a tool error."""
-
-    code = "MOTION_ERROR"
-
-    def __init__(self, detail: str, code: str | None = None) -> None:
-        super().__init__(detail)
-        self.detail = detail
-        if code is not None:
-            self.code = code
 
 
 class GateRefusal(Protocol):
@@ -101,7 +89,6 @@ class MotionWords(Generic[T]):
     log: str
     busy: Callable[[T], Exception]
     refused: Callable[[str, str], Exception]  # (code, detail)
-    unknown_task: Callable[[str], Exception]
 
 
 class MotionTasks(Generic[T]):
@@ -135,9 +122,7 @@ class MotionTasks(Generic[T]):
     def get_task(self, task_id: str) -> TaskInfo:
         info = self._tasks.get(task_id)
         if info is None:
-            raise self._words.unknown_task(
-                f"no task {task_id!r} on this server (it may predate a restart)"
-            )
+            raise UnknownTaskError(f"no task {task_id!r} on this server (it may predate a restart)")
         active = self.active
         if active is not None and active.task_id == task_id and active.latest is not None:
             return info.model_copy(update={"progress": active.latest})

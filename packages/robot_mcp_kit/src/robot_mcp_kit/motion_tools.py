@@ -13,7 +13,7 @@ from mcp.server.mcpserver import MCPServer
 from robot_mcp_kit.annotations import READ_ONLY, STOPS
 from robot_mcp_kit.mcp_runtime import install_json_tool_errors, tool_error
 from robot_mcp_kit.models import TaskInfo, TaskState
-from robot_mcp_kit.motion_tasks import MotionError
+from robot_mcp_kit.motion_errors import MotionError
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.supervision_tools import add_supervise_tool
 

@@ -7,20 +7,12 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import platformdirs
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, SecretStr
+from pydantic import BeforeValidator, Field
 
-from robot_mcp_kit.settings_fields import (
-    EventsUrl,
-    LogLevel,
-    RosName,
-    StatePath,
-    empty_is_none,
-    lower_case,
-    settings_from_environ,
-)
+from robot_mcp_kit.motion_settings import MotionServerSettings
+from robot_mcp_kit.settings_fields import RosName, StatePath, lower_case, settings_from_environ
 
 DEFAULT_PORT = 9102
-DEFAULT_EVENTS_URL = "http://127.0.0.1:8000/api/agent/events"
 APP_NAME = "robot-mcp-manipulation"
 
 
@@ -33,9 +25,7 @@ class ConfigError(ValueError):
     """The environment does not describe a valid configuration."""
 
 
-class ManipulationSettings(BaseModel):
-    model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
-
+class ManipulationSettings(MotionServerSettings):
     pick_action: RosName = Field(default="/manipulation/pick", alias="MANIP_PICK_ACTION")
     place_action: RosName = Field(default="/manipulation/place", alias="MANIP_PLACE_ACTION")
     held_topic: RosName = Field(default="/manipulation/held", alias="MANIP_HELD_TOPIC")
@@ -56,21 +46,8 @@ class ManipulationSettings(BaseModel):
     # issue 35: Pick/Place clients besides this server that may be on the graph while the stop
     # holds (node names, comma-separated)
     goal_clients: str = Field(default="", max_length=1000, alias="MANIP_GOAL_CLIENTS")
-    events_url: EventsUrl = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
-    event_secret: Annotated[SecretStr | None, BeforeValidator(empty_is_none)] = Field(
-        default=None, alias="RVC_EVENT_SECRET"
-    )
     outbox_path: StatePath = Field(default_factory=default_outbox_path, alias="MANIP_OUTBOX")
-    transport: Literal["stdio", "sse", "streamable-http"] = Field(
-        default="stdio", alias="MCP_TRANSPORT"
-    )
-    host: str = Field(default="127.0.0.1", alias="MCP_HOST")
     port: int = Field(default=DEFAULT_PORT, ge=1, le=65535, alias="MCP_PORT")
-    log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
-
-    @property
-    def allowed_goal_clients(self) -> tuple[str, ...]:
-        return tuple(name.strip() for name in self.goal_clients.split(",") if name.strip())
 
 
 def load_settings(environ: Mapping[str, str]) -> ManipulationSettings:

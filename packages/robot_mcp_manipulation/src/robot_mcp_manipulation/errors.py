@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from robot_mcp_kit.motion_tasks import MotionError
+from robot_mcp_kit.motion_errors import MotionError
+from robot_mcp_kit.motion_errors import UnknownTaskError as UnknownTaskError
 
 
 class ManipulationError(MotionError):
@@ -13,10 +14,6 @@ class ManipulationError(MotionError):
 
 class ManipulationBusyError(ManipulationError):
     code = "MANIPULATION_BUSY"
-
-
-class UnknownTaskError(ManipulationError):
-    code = "UNKNOWN_TASK"
 
 
 class ArmUnavailableManipulationError(ManipulationError):

@@ -43,7 +43,6 @@ from robot_mcp_manipulation.errors import (
     ArmUnavailableManipulationError,
     ManipulationBusyError,
     ManipulationError,
-    UnknownTaskError,
 )
 
 logger = structlog.get_logger(__name__)
@@ -82,9 +81,7 @@ def _refused(code: str, detail: str) -> ManipulationError:
     return ManipulationError(detail, code=code)
 
 
-WORDS = MotionWords[_Motion](
-    log="manipulation", busy=_busy, refused=_refused, unknown_task=UnknownTaskError
-)
+WORDS = MotionWords[_Motion](log="manipulation", busy=_busy, refused=_refused)
 
 
 class Manipulator:

@@ -7,20 +7,12 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import platformdirs
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, SecretStr
+from pydantic import BeforeValidator, Field
 
-from robot_mcp_kit.settings_fields import (
-    EventsUrl,
-    LogLevel,
-    RosName,
-    StatePath,
-    empty_is_none,
-    lower_case,
-    settings_from_environ,
-)
+from robot_mcp_kit.motion_settings import MotionServerSettings
+from robot_mcp_kit.settings_fields import RosName, StatePath, lower_case, settings_from_environ
 
 DEFAULT_PORT = 9101
-DEFAULT_EVENTS_URL = "http://127.0.0.1:8000/api/agent/events"
 APP_NAME = "robot-mcp-navigation"
 
 
@@ -44,9 +36,7 @@ class ConfigError(ValueError):
     """The environment does not describe a valid configuration."""
 
 
-class NavigationSettings(BaseModel):
-    model_config = ConfigDict(extra="ignore", frozen=True, populate_by_name=True)
-
+class NavigationSettings(MotionServerSettings):
     map_path: Path = Field(default_factory=default_map_path, alias="NAV_MAP")
     motion: Annotated[Literal["simulated", "nav2"], BeforeValidator(lower_case)] = Field(
         default="simulated", alias="NAV_MOTION"
@@ -67,18 +57,9 @@ class NavigationSettings(BaseModel):
     progress_interval_s: float = Field(default=2.0, gt=0.0, alias="NAV_PROGRESS_INTERVAL_S")
     progress_pct_step: float = Field(default=10.0, gt=0.0, le=100.0, alias="NAV_PROGRESS_PCT_STEP")
     tick_s: float = Field(default=0.05, gt=0.0, le=1.0, alias="NAV_TICK_S")
-    events_url: EventsUrl = Field(default=DEFAULT_EVENTS_URL, alias="RVC_EVENTS_URL")
-    event_secret: Annotated[SecretStr | None, BeforeValidator(empty_is_none)] = Field(
-        default=None, alias="RVC_EVENT_SECRET"
-    )
     outbox_path: StatePath = Field(default_factory=default_outbox_path, alias="NAV_OUTBOX")
     pose_path: StatePath = Field(default_factory=default_pose_path, alias="NAV_POSE_PATH")
-    transport: Literal["stdio", "sse", "streamable-http"] = Field(
-        default="stdio", alias="MCP_TRANSPORT"
-    )
-    host: str = Field(default="127.0.0.1", alias="MCP_HOST")
     port: int = Field(default=DEFAULT_PORT, ge=1, le=65535, alias="MCP_PORT")
-    log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
     # elicit: ask the MCP client's person to confirm each navigate_to (third-party hosts)
     confirm_motion: Literal["off", "elicit"] = Field(default="off", alias="NAV_CONFIRM_MOTION")
     # issue 27: the brain's lease (required: no motion without a fresh one) and the dead-man
@@ -96,10 +77,6 @@ class NavigationSettings(BaseModel):
     # issue 35: NavigateToPose clients besides this server that may be on the graph while the
     # stop holds (node names, comma-separated; e.g. Nav2's waypoint_follower on a robot)
     goal_clients: str = Field(default="", max_length=1000, alias="NAV_GOAL_CLIENTS")
-
-    @property
-    def allowed_goal_clients(self) -> tuple[str, ...]:
-        return tuple(name.strip() for name in self.goal_clients.split(",") if name.strip())
 
 
 def load_settings(environ: Mapping[str, str]) -> NavigationSettings:

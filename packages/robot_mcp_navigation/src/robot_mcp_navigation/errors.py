@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from robot_mcp_kit.motion_tasks import MotionError
+from robot_mcp_kit.motion_errors import MotionError
+from robot_mcp_kit.motion_errors import UnknownTaskError as UnknownTaskError
 
 
 class NavigationError(MotionError):
@@ -17,10 +18,6 @@ class UnknownLocationError(NavigationError):
 
 class NavigationBusyError(NavigationError):
     code = "NAVIGATION_BUSY"
-
-
-class UnknownTaskError(NavigationError):
-    code = "UNKNOWN_TASK"
 
 
 class BaseUnavailableNavigationError(NavigationError):

@@ -44,7 +44,6 @@ from robot_mcp_navigation.errors import (
     MotionRefusedError,
     NavigationBusyError,
     UnknownLocationError,
-    UnknownTaskError,
 )
 from robot_mcp_navigation.map import NavMap
 from robot_mcp_navigation.motion.base import (
@@ -97,7 +96,6 @@ WORDS = MotionWords[_Drive](
     log="navigation",
     busy=_busy,
     refused=MotionRefusedError,
-    unknown_task=UnknownTaskError,
 )
 
 

@@ -8,7 +8,8 @@ import uuid
 from dataclasses import dataclass
 
 from robot_mcp_kit.models import TaskFailure, TaskInfo
-from robot_mcp_kit.motion_tasks import MotionError, MotionGate, MotionTask, MotionTasks, MotionWords
+from robot_mcp_kit.motion_errors import MotionError
+from robot_mcp_kit.motion_tasks import MotionGate, MotionTask, MotionTasks, MotionWords
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 
@@ -27,10 +28,6 @@ class DockUnavailableError(DockingError):
     code = "DOCK_UNAVAILABLE"
 
 
-class UnknownTaskError(DockingError):
-    code = "UNKNOWN_TASK"
-
-
 @dataclass(kw_only=True)
 class Docking(MotionTask):
     goal: FakeDockGoal | None = None
@@ -40,7 +37,6 @@ WORDS = MotionWords[Docking](
     log="docking",
     busy=lambda active: DockingBusyError(f"already docking (task {active.task_id})"),
     refused=lambda code, detail: DockingError(detail, code),
-    unknown_task=UnknownTaskError,
 )
 
 

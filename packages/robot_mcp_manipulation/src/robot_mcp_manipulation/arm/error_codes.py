@@ -4,18 +4,11 @@ keeps the two equal."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
+from robot_mcp_kit.motion_errors import NamedFailure
+
 Action = Literal["pick", "place"]
-
-
-@dataclass(frozen=True)
-class NamedFailure:
-    code: str
-    what: str
-    recoverable: bool
-    suggestions: tuple[str, ...]
 
 
 _LOOK_AGAIN = "look again (find_object), then call pick with the new detection's mask_ref"

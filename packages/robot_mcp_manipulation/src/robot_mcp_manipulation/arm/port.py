@@ -10,6 +10,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from robot_mcp_kit.motion_errors import UnavailableError
+
 GoalStatus = Literal["succeeded", "aborted", "canceled", "unknown"]
 PlaceMode = Literal["place", "release"]
 
@@ -57,12 +59,8 @@ class ArmOutcome:
     placed_label: str = ""
 
 
-class ArmUnavailableError(RuntimeError):
+class ArmUnavailableError(UnavailableError):
     """No action server answered, or it rejected the goal: the goal is not running."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
 
 
 class ArmGoal(abc.ABC):

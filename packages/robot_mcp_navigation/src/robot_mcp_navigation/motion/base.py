@@ -13,6 +13,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from robot_mcp_kit.motion_errors import UnavailableError
 from robot_site_map import Pose as Pose  # the pose type, shared with robot-sim
 
 
@@ -85,13 +86,9 @@ class MotionBusyError(RuntimeError):
     """drive_to was called while the base is already driving."""
 
 
-class BaseUnavailableError(RuntimeError):
+class BaseUnavailableError(UnavailableError):
     """The base cannot take a goal now (its driver is absent or rejected the goal); nothing
     moved. ``detail`` says why, for the planner and the operator."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
 
 
 class MotionBase(abc.ABC):

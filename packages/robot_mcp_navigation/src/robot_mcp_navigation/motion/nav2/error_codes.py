@@ -9,18 +9,8 @@ The README ("Nav2 error codes") renders this table; a test keeps the two equal.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from robot_mcp_kit.motion_errors import NamedFailure
 from robot_mcp_navigation.motion.base import DriveFailure
-
-
-@dataclass(frozen=True)
-class NamedFailure:
-    code: str
-    what: str
-    recoverable: bool
-    suggestions: tuple[str, ...]
-
 
 _RETRY = "call navigate_to again once; if it fails again, ask an operator"
 _OPERATOR = "ask an operator to check the robot's Nav2 (its logs name the problem)"

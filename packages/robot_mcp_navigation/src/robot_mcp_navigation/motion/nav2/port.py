@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from robot_mcp_kit.motion_errors import UnavailableError
 from robot_mcp_navigation.motion.base import Pose
 from robot_mcp_navigation.motion.nav2.pose_watch import Relocation
 
@@ -45,12 +46,8 @@ class PoseSample:
     received_at: float
 
 
-class Nav2UnavailableError(RuntimeError):
+class Nav2UnavailableError(UnavailableError):
     """No action server answered, or it rejected the goal: the goal is not running."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
 
 
 class Nav2Goal(abc.ABC):

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Awaitable, Callable
-from contextlib import asynccontextmanager
-from dataclasses import dataclass, field
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from mcp.server.mcpserver import MCPServer
 
-from robot_mcp_kit import task_events
-from robot_mcp_kit.motion_serving import motion_running
+from robot_mcp_kit.motion_serving import (
+    MotionSide,
+    MotionWiring,
+    motion_event_sink,
+    motion_supervision,
+)
 from robot_mcp_kit.supervision import (
     FOREIGN_GOAL_CLIENT,
     LOCK_TOPIC_SHARED,
@@ -36,51 +39,12 @@ if TYPE_CHECKING:  # imports rclpy: built only with NAV_MOTION=nav2
 
 
 @dataclass
-class NavigationApp:
+class NavigationApp(MotionWiring):
     settings: NavigationSettings
     nav_map: NavMap
     base: MotionBase
-    events: EventSink
     navigator: Navigator
     server: MCPServer
-    closers: list[Callable[[], None]] = field(default_factory=list)
-    supervision: Supervision | None = None
-    publish_lock: Callable[[], object] | None = None  # the dead-man lock, published now
-    cancel_all: Callable[[], Awaitable[bool]] | None = None  # every goal below (issue 35)
-
-    @asynccontextmanager
-    async def running(self) -> AsyncIterator[NavigationApp]:
-        """Start the event sink and the supervision watchdog; on exit halt the robot and flush
-        the events."""
-        async with motion_running(
-            "navigation",
-            self.events,
-            self.navigator,
-            supervision=self.supervision,
-            publish_lock=self.publish_lock,
-            cancel_all=self.cancel_all,
-            closers=self.closers,
-            prepare=self.base.cancel_stale_goals,  # before a lease can open the lock (issue 27)
-            ready={
-                "map": self.nav_map.name,
-                "locations": len(self.nav_map.locations),
-                "failures": len(self.nav_map.failures),
-                "motion": self.settings.motion,
-                "time_scale": self.settings.time_scale,
-            },
-        ):
-            yield self
-
-
-def build_event_sink(settings: NavigationSettings) -> EventSink:
-    """Signed posts to the brain when a secret is configured, else log-only (documented)."""
-    return task_events.build_event_sink(
-        SERVER_NAME,
-        settings.events_url,
-        settings.event_secret,
-        settings.outbox_path,
-        "NAV_EVENT_SECRET",
-    )
 
 
 def build_motion_base(
@@ -131,50 +95,29 @@ def build_nav2_action(
             f"NAV_MOTION=nav2 needs rclpy and nav2_msgs ({exc}): run `make setup`, or on a "
             "system ROS 2 source its setup.bash with ros-$ROS_DISTRO-nav2-msgs installed"
         ) from exc
-    lock = None
-    if supervision is not None:
-        lock = DeadManLock(
-            settings.lock_topic,
-            settings.lock_hz,
-            supervision.locked,
-            supervision.raise_alarm,
-            LOCK_TOPIC_SHARED,
-            "the robot's dead-man lock",
-        )
-    side = open_motion_side("robot_mcp_navigation", lock)
-    try:
+    codes = (LOCK_TOPIC_SHARED, FOREIGN_GOAL_CLIENT)
+    what = "the robot's dead-man lock"
+    lock = DeadManLock.of(supervision, settings, codes, what) if supervision else None
+    with open_motion_side("robot_mcp_navigation", lock).closed_on_error() as side:
         bridge = side.bridge
         action = RclpyNav2Action(bridge, settings.nav2_action, settings.pose_topic)
         view = RclpyMapView(bridge, settings.map_topic, settings.costmap_topic, settings.plan_topic)
-        if supervision is not None and side.watcher is not None:
-            watch_navigation_graph(side.watcher, settings, supervision, action)
-    except BaseException:
-        side.close()
-        raise
+        drive = "drive (NavigateToPose)"
+        side.watch_goals(settings.nav2_action, action.sent, action.cancel_all_now, drive)
+        if side.watcher is not None:
+            watch_navigation_graph(side.watcher, settings)
     return action, view, side
 
 
-def watch_navigation_graph(
-    watcher: Any, settings: NavigationSettings, supervision: Supervision, action: Any
-) -> None:
-    """What navigation watches on the ROS graph (issue 35) besides its own lock topic:
-    ``/amcl_pose`` and ``/map`` (one publisher each: the base's localisation and map server),
-    and the NavigateToPose action while motion is refused (a goal not ours, or another client
-    of it, is cancelled and alarmed)."""
+def watch_navigation_graph(watcher: Any, settings: NavigationSettings) -> None:
+    """What navigation watches on the ROS graph (issue 35) besides its own lock topic and its
+    NavigateToPose goals: ``/amcl_pose`` and ``/map`` (one publisher each: the base's
+    localisation and map server)."""
     watcher.watch_publishers(
         settings.pose_topic, POSE_TOPIC_SHARED, others_allowed=1, what="the robot's position"
     )
     watcher.watch_publishers(
         settings.map_topic, MAP_TOPIC_SHARED, others_allowed=1, what="the robot's map"
-    )
-    watcher.watch_goals(
-        settings.nav2_action,
-        FOREIGN_GOAL_CLIENT,
-        ours=action.sent,
-        stopped=lambda: supervision.refusal() is not None,
-        cancel_all_now=action.cancel_all_now,
-        allowed_clients=settings.allowed_goal_clients,
-        what="drive (NavigateToPose)",
     )
 
 
@@ -188,30 +131,20 @@ def build_app(
     nav_map = load_map(settings.map_path)
     if not settings.failures_enabled:
         nav_map = nav_map.without_failures()
-    closers: list[Callable[[], None]] = []
-    required = settings.supervision == "required"
-    # with Nav2 below a supervised server, every stop cancels all its goals, and the lock opens
-    # again only after that sweep (issue 35)
-    supervision = Supervision(
-        required=required,
-        max_ttl_s=settings.lease_max_ttl_s,
-        sweeps=required and base is None and settings.motion == "nav2",
-    )
+    supervision = motion_supervision(settings, below=base is None and settings.motion == "nav2")
     view: MapView = map_view or NoMapView()
-    publish_lock = None
-    cancel_all = None
+    side = None
     if base is None:
         nav2_action = None
         if settings.motion == "nav2":
             # the lock only where it means something: a robot's twist_mux (or robot-sim)
             locking = supervision if supervision.required else None
             nav2_action, view, ros = build_nav2_action(settings, locking)
-            closers.append(ros.close)
-            publish_lock = ros.publish_lock
-            if locking is not None:
-                cancel_all = sweeper(nav2_action, settings.nav2_cancel_timeout_s)
+            timeout_s = settings.nav2_cancel_timeout_s
+            cancel_all = sweeper(nav2_action, timeout_s) if locking is not None else None
+            side = MotionSide(ros.close, ros.publish_lock, cancel_all)
         base = build_motion_base(settings, nav_map, nav2_action)
-    events = events or build_event_sink(settings)
+    events = events or motion_event_sink(SERVER_NAME, settings, "NAV_EVENT_SECRET")
     navigator = Navigator(
         nav_map,
         base,
@@ -225,17 +158,27 @@ def build_app(
         supervision=supervision,
     )
     confirmer = MotionConfirmer(nav_map) if settings.confirm_motion == "elicit" else None
+    server = build_mcp_server(navigator, settings.log_level, confirmer, view)
+    ready = {
+        "map": nav_map.name,
+        "locations": len(nav_map.locations),
+        "failures": len(nav_map.failures),
+        "motion": settings.motion,
+        "time_scale": settings.time_scale,
+    }
     return NavigationApp(
         settings,
         nav_map,
         base,
-        events,
         navigator,
-        build_mcp_server(navigator, settings.log_level, confirmer, view),
-        closers,
-        supervision,
-        publish_lock,
-        cancel_all,
+        server,
+        name="navigation",
+        service=navigator,
+        events=events,
+        supervision=supervision,
+        side=side,
+        ready=ready,
+        prepare=base.cancel_stale_goals,  # before a lease can open the lock (issue 27)
     )
 
 

@@ -1,17 +1,16 @@
 """Step 5 of the recipe: the composition root and the console script — the kit runs the
-process (``motion_running``, ``run_motion_server``); a real server would open its ROS side here
-with ``robot_ros_bridge.motion_side.open_motion_side`` and add its closer."""
+process (``MotionWiring.run_motion``, ``run_motion_server``); a real server opens its ROS side
+here (``robot_ros_bridge.motion_side.open_motion_side``) and hands it over as a ``MotionSide``."""
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator, Callable, Mapping
-from contextlib import asynccontextmanager
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Literal
 
 from mcp.server.mcpserver import MCPServer
 
-from robot_mcp_kit.motion_serving import motion_running, run_motion_server
+from robot_mcp_kit.motion_serving import MotionWiring, run_motion_server
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
@@ -34,26 +33,11 @@ class DockSettings:
 
 
 @dataclass
-class DockApp:
+class DockApp(MotionWiring):
     settings: DockSettings
     dock: FakeDock
-    events: FakeEventSink
     docker: Docker
     server: MCPServer
-    supervision: Supervision
-    closers: list[Callable[[], None]] = field(default_factory=list)
-
-    @asynccontextmanager
-    async def running(self) -> AsyncIterator[DockApp]:
-        async with motion_running(
-            "docking",
-            self.events,
-            self.docker.motion,
-            supervision=self.supervision,
-            closers=self.closers,
-            ready={"dock": "fake"},
-        ):
-            yield self
 
 
 def build_app(settings: DockSettings, supervision: Supervision | None = None) -> DockApp:
@@ -61,7 +45,17 @@ def build_app(settings: DockSettings, supervision: Supervision | None = None) ->
     dock, events = FakeDock(), FakeEventSink()
     docker = Docker(dock, events, TaskTable("dock"), gate=supervision)
     server = build_mcp_server(docker, supervision)
-    return DockApp(settings, dock, events, docker, server, supervision)
+    return DockApp(
+        settings,
+        dock,
+        docker,
+        server,
+        name="docking",
+        service=docker.motion,
+        events=events,
+        supervision=supervision,
+        ready={"dock": "fake"},
+    )
 
 
 def load_settings(environ: Mapping[str, str]) -> DockSettings:

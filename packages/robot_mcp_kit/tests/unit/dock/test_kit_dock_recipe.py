@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from mcp import Client
 
+from robot_mcp_kit.motion_serving import MotionSide
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing import async_wait_until
@@ -139,7 +140,7 @@ async def test_running_starts_the_events_ends_motion_on_a_lapse_and_closes_every
     app: DockApp, clock: Clock
 ) -> None:
     closed: list[str] = []
-    app.closers.append(lambda: closed.append("ros side"))
+    app.side = MotionSide(lambda: closed.append("ros side"))
     async with app.running():
         assert app.events.started
         info = await app.docker.dock()

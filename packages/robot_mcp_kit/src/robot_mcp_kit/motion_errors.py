@@ -44,3 +44,8 @@ class NamedFailure:
     what: str
     recoverable: bool
     suggestions: tuple[str, ...]
+
+
+def by_code(*failures: NamedFailure) -> dict[str, NamedFailure]:
+    """The named failures of an action, by their code."""
+    return {failure.code: failure for failure in failures}

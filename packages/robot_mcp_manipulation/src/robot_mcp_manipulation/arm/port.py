@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 from robot_mcp_kit.motion_errors import UnavailableError
+from robot_mcp_kit.motion_goal import GoalStatus, MotionGoal
 
-GoalStatus = Literal["succeeded", "aborted", "canceled", "unknown"]
 PlaceMode = Literal["place", "release"]
 
 
@@ -63,16 +63,8 @@ class ArmUnavailableError(UnavailableError):
     """No action server answered, or it rejected the goal: the goal is not running."""
 
 
-class ArmGoal(abc.ABC):
-    """One goal the action server accepted."""
-
-    @abc.abstractmethod
-    async def outcome(self) -> ArmOutcome:
-        """Wait for the server's terminal status (no deadline: the caller sets one)."""
-
-    @abc.abstractmethod
-    async def cancel(self, timeout_s: float) -> bool:
-        """Ask the server to cancel; True when it accepted the request within ``timeout_s``."""
+class ArmGoal(MotionGoal[ArmOutcome]):
+    """One Pick or Place goal the action server accepted."""
 
 
 FeedbackCallback = Callable[[ArmFeedback], None]

@@ -9,111 +9,107 @@ The README ("Nav2 error codes") renders this table; a test keeps the two equal.
 
 from __future__ import annotations
 
-from robot_mcp_kit.motion_errors import NamedFailure
+from robot_mcp_kit.motion_errors import NamedFailure, by_code
 from robot_mcp_navigation.motion.base import DriveFailure
 
 _RETRY = "call navigate_to again once; if it fails again, ask an operator"
 _OPERATOR = "ask an operator to check the robot's Nav2 (its logs name the problem)"
 
-FAILURES: dict[str, NamedFailure] = {
-    f.code: f
-    for f in (
-        NamedFailure(
-            "NO_PATH",
-            "Nav2 found no path to the destination (the way may be blocked, e.g. a closed door)",
-            True,
-            (
-                "try a detour: navigate_to a location on another route, then to the destination",
-                "ask someone to open or clear the way, then call navigate_to again",
-            ),
+FAILURES = by_code(
+    NamedFailure(
+        "NO_PATH",
+        "Nav2 found no path to the destination (the way may be blocked, e.g. a closed door)",
+        True,
+        (
+            "try a detour: navigate_to a location on another route, then to the destination",
+            "ask someone to open or clear the way, then call navigate_to again",
         ),
-        NamedFailure(
-            "ROBOT_STUCK",
-            "the robot could not make progress along its path (an obstacle in the way?)",
-            True,
-            (
-                "ask someone to clear the way, then call navigate_to again",
-                "try a detour: navigate_to a location on another route, then to the destination",
-            ),
+    ),
+    NamedFailure(
+        "ROBOT_STUCK",
+        "the robot could not make progress along its path (an obstacle in the way?)",
+        True,
+        (
+            "ask someone to clear the way, then call navigate_to again",
+            "try a detour: navigate_to a location on another route, then to the destination",
         ),
-        NamedFailure(
-            "OBSTACLE_AHEAD",
-            "a recovery manoeuvre stopped because of an obstacle close to the robot",
-            True,
-            ("ask someone to clear the space around the robot, then call navigate_to again",),
+    ),
+    NamedFailure(
+        "OBSTACLE_AHEAD",
+        "a recovery manoeuvre stopped because of an obstacle close to the robot",
+        True,
+        ("ask someone to clear the space around the robot, then call navigate_to again",),
+    ),
+    NamedFailure(
+        "GOAL_BLOCKED",
+        "the destination itself is occupied on Nav2's costmap",
+        True,
+        (
+            "ask someone to clear the destination, then call navigate_to again",
+            "navigate_to a nearby location instead",
         ),
-        NamedFailure(
-            "GOAL_BLOCKED",
-            "the destination itself is occupied on Nav2's costmap",
-            True,
-            (
-                "ask someone to clear the destination, then call navigate_to again",
-                "navigate_to a nearby location instead",
-            ),
-        ),
-        NamedFailure(
-            "START_BLOCKED",
-            "the robot's own position is occupied on Nav2's costmap (boxed in?)",
-            True,
-            ("ask someone to clear the space around the robot, then call navigate_to again",),
-        ),
-        NamedFailure(
-            "NAVIGATION_TIMEOUT",
-            "Nav2 gave up because the drive (or a step of it) took too long",
-            True,
-            ("check for obstacles, then call navigate_to again",),
-        ),
-        NamedFailure(
-            "PLANNER_FAILED",
-            "Nav2's planner or path smoother failed",
-            True,
-            (_RETRY,),
-        ),
-        NamedFailure(
-            "CONTROLLER_FAILED",
-            "Nav2's controller failed while following the path",
-            True,
-            (_RETRY,),
-        ),
-        NamedFailure(
-            "RECOVERY_FAILED",
-            "a Nav2 recovery behaviour failed",
-            True,
-            (_RETRY,),
-        ),
-        NamedFailure(
-            "NAVIGATION_ABORTED",
-            "Nav2 aborted the drive without naming a cause",
-            True,
-            (_RETRY,),
-        ),
-        NamedFailure(
-            "LOCALIZATION_LOST",
-            "Nav2 does not know where the robot is (no map→base transform, or outside the map)",
-            False,
-            ("ask an operator to re-localize the robot (set its initial pose), then retry",),
-        ),
-        NamedFailure(
-            "GOAL_OUTSIDE_MAP",
-            "the destination's pose is outside Nav2's map (the map file and the robot's map "
-            "disagree)",
-            False,
-            ("ask an operator to fix the location's x/y in the navigation map file",),
-        ),
-        NamedFailure(
-            "NAV2_CONFIG_ERROR",
-            "Nav2 is misconfigured (behaviour tree, planner or controller plugin not loaded)",
-            False,
-            (_OPERATOR,),
-        ),
-        NamedFailure(
-            "NAV2_ERROR",
-            "Nav2 aborted the drive with an error code this server does not know",
-            False,
-            (_OPERATOR,),
-        ),
-    )
-}
+    ),
+    NamedFailure(
+        "START_BLOCKED",
+        "the robot's own position is occupied on Nav2's costmap (boxed in?)",
+        True,
+        ("ask someone to clear the space around the robot, then call navigate_to again",),
+    ),
+    NamedFailure(
+        "NAVIGATION_TIMEOUT",
+        "Nav2 gave up because the drive (or a step of it) took too long",
+        True,
+        ("check for obstacles, then call navigate_to again",),
+    ),
+    NamedFailure(
+        "PLANNER_FAILED",
+        "Nav2's planner or path smoother failed",
+        True,
+        (_RETRY,),
+    ),
+    NamedFailure(
+        "CONTROLLER_FAILED",
+        "Nav2's controller failed while following the path",
+        True,
+        (_RETRY,),
+    ),
+    NamedFailure(
+        "RECOVERY_FAILED",
+        "a Nav2 recovery behaviour failed",
+        True,
+        (_RETRY,),
+    ),
+    NamedFailure(
+        "NAVIGATION_ABORTED",
+        "Nav2 aborted the drive without naming a cause",
+        True,
+        (_RETRY,),
+    ),
+    NamedFailure(
+        "LOCALIZATION_LOST",
+        "Nav2 does not know where the robot is (no map→base transform, or outside the map)",
+        False,
+        ("ask an operator to re-localize the robot (set its initial pose), then retry",),
+    ),
+    NamedFailure(
+        "GOAL_OUTSIDE_MAP",
+        "the destination's pose is outside Nav2's map (the map file and the robot's map disagree)",
+        False,
+        ("ask an operator to fix the location's x/y in the navigation map file",),
+    ),
+    NamedFailure(
+        "NAV2_CONFIG_ERROR",
+        "Nav2 is misconfigured (behaviour tree, planner or controller plugin not loaded)",
+        False,
+        (_OPERATOR,),
+    ),
+    NamedFailure(
+        "NAV2_ERROR",
+        "Nav2 aborted the drive with an error code this server does not know",
+        False,
+        (_OPERATOR,),
+    ),
+)
 
 CODES: dict[int, str] = {
     0: "NAVIGATION_ABORTED",  # ABORTED with NONE: Nav2 set no code

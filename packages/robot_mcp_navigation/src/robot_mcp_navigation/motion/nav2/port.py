@@ -9,13 +9,11 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
 
 from robot_mcp_kit.motion_errors import UnavailableError
+from robot_mcp_kit.motion_goal import GoalStatus, MotionGoal
 from robot_mcp_navigation.motion.base import Pose
 from robot_mcp_navigation.motion.nav2.pose_watch import Relocation
-
-GoalStatus = Literal["succeeded", "aborted", "canceled", "unknown"]
 
 
 @dataclass(frozen=True)
@@ -50,17 +48,8 @@ class Nav2UnavailableError(UnavailableError):
     """No action server answered, or it rejected the goal: the goal is not running."""
 
 
-class Nav2Goal(abc.ABC):
-    """One goal the action server accepted."""
-
-    @abc.abstractmethod
-    async def outcome(self) -> Nav2Outcome:
-        """Wait for the server's terminal status (no deadline: the caller sets one)."""
-
-    @abc.abstractmethod
-    async def cancel(self, timeout_s: float) -> bool:
-        """Ask the server to cancel; True when it accepted the request within ``timeout_s``.
-        The goal is canceled once :meth:`outcome` reports ``canceled``."""
+class Nav2Goal(MotionGoal[Nav2Outcome]):
+    """One NavigateToPose goal the action server accepted."""
 
 
 class Nav2Action(abc.ABC):

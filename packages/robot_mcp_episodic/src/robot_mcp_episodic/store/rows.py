@@ -1,4 +1,5 @@
-"""Row <-> record conversions shared by the SQL adapters (column order matches the schemas)."""
+"""Row <-> record conversions shared by the SQL adapters (rows come back in the column order
+of :mod:`.schema`; parameters are named after the columns)."""
 
 from __future__ import annotations
 
@@ -8,21 +9,15 @@ from typing import Any
 
 from robot_mcp_episodic.store.base import Note, PoseSample, Sighting, Visit
 
-SIGHTING_COLUMNS = (
-    "id, robot_id, map, skill, label, first_seen, last_seen, count, best_score, box, "
-    "x, y, yaw, place, absent_since"
-)
-POSE_COLUMNS = "id, robot_id, map, t, x, y, yaw, place"
-NOTE_COLUMNS = "id, robot_id, map, t, kind, text, mission_id, place"
-VISIT_COLUMNS = "id, robot_id, map, place, arrived, departed"
 
-
-def sighting_params(s: Sighting) -> tuple[Any, ...]:
+def sighting_params(s: Sighting) -> dict[str, Any]:
     box = json.dumps(s.box, separators=(",", ":")) if s.box is not None else None
-    return (
-        s.id, s.robot_id, s.map, s.skill, s.label, s.first_seen, s.last_seen, s.count,
-        s.best_score, box, s.x, s.y, s.yaw, s.place, s.absent_since,
-    )  # fmt: skip
+    return {
+        "id": s.id, "robot_id": s.robot_id, "map": s.map, "skill": s.skill, "label": s.label,
+        "first_seen": s.first_seen, "last_seen": s.last_seen, "count": s.count,
+        "best_score": s.best_score, "box": box, "x": s.x, "y": s.y, "yaw": s.yaw,
+        "place": s.place, "absent_since": s.absent_since,
+    }  # fmt: skip
 
 
 def sighting_from_row(row: Sequence[Any]) -> Sighting:
@@ -35,8 +30,11 @@ def sighting_from_row(row: Sequence[Any]) -> Sighting:
     )  # fmt: skip
 
 
-def pose_params(p: PoseSample) -> tuple[Any, ...]:
-    return (p.robot_id, p.map, p.t, p.x, p.y, p.yaw, p.place)
+def pose_params(p: PoseSample) -> dict[str, Any]:
+    return {
+        "robot_id": p.robot_id, "map": p.map, "t": p.t, "x": p.x, "y": p.y, "yaw": p.yaw,
+        "place": p.place,
+    }  # fmt: skip
 
 
 def pose_from_row(row: Sequence[Any]) -> PoseSample:
@@ -46,16 +44,22 @@ def pose_from_row(row: Sequence[Any]) -> PoseSample:
     )  # fmt: skip
 
 
-def visit_params(v: Visit) -> tuple[Any, ...]:
-    return (v.id, v.robot_id, v.map, v.place, v.arrived, v.departed)
+def visit_params(v: Visit) -> dict[str, Any]:
+    return {
+        "id": v.id, "robot_id": v.robot_id, "map": v.map, "place": v.place,
+        "arrived": v.arrived, "departed": v.departed,
+    }  # fmt: skip
 
 
 def visit_from_row(row: Sequence[Any]) -> Visit:
     return Visit(row[0], row[1], row[2], row[3], float(row[4]), float(row[5]))
 
 
-def note_params(n: Note) -> tuple[Any, ...]:
-    return (n.id, n.robot_id, n.map, n.t, n.kind, n.text, n.mission_id, n.place)
+def note_params(n: Note) -> dict[str, Any]:
+    return {
+        "id": n.id, "robot_id": n.robot_id, "map": n.map, "t": n.t, "kind": n.kind,
+        "text": n.text, "mission_id": n.mission_id, "place": n.place,
+    }  # fmt: skip
 
 
 def note_from_row(row: Sequence[Any]) -> Note:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import re
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -46,6 +45,7 @@ from robot_mcp_kit.correlation import install_mission_correlation
 from robot_mcp_kit.http_serving import serve_http
 from robot_mcp_kit.service_auth import BearerAuthMiddleware, ServiceAuth, service_auth
 from robot_mcp_kit.startup import refuse_to_start
+from robot_mcp_kit.tool_errors import parse_tool_error as parse_tool_error
 
 Transport = Literal["stdio", "sse", "streamable-http"]
 TRANSPORTS: tuple[Transport, ...] = get_args(Transport)
@@ -53,7 +53,6 @@ DEFAULT_HOST = "127.0.0.1"
 GENERIC_TOOL_ERROR = "tool_error"
 
 logger = structlog.get_logger("robot_mcp_kit.mcp_runtime")
-_SDK_PREFIX = re.compile(r"^Error executing tool [^:]*: ", re.DOTALL)
 
 
 class KitToolError(ToolError):
@@ -68,23 +67,6 @@ class KitToolError(ToolError):
 def tool_error(code: str, detail: str) -> KitToolError:
     """The exception a tool raises for an anticipated failure: ``raise tool_error(...)``."""
     return KitToolError(code, detail)
-
-
-def parse_tool_error(text: str) -> dict[str, str] | None:
-    """``{"error", "detail"}`` from an isError tool result text (with or without the SDK's
-    ``Error executing tool ...:`` prefix), or None if the text is not such an error."""
-    body = _SDK_PREFIX.sub("", text.strip(), count=1)
-    try:
-        data = json.loads(body)
-    except ValueError:
-        return None
-    if (
-        isinstance(data, dict)
-        and isinstance(data.get("error"), str)
-        and isinstance(data.get("detail"), str)
-    ):
-        return {"error": data["error"], "detail": data["detail"]}
-    return None
 
 
 def _as_json_error(text: str) -> str:

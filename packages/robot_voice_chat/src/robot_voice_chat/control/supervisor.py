@@ -47,8 +47,8 @@ from typing import Any, Literal
 
 import structlog
 
-from robot_mcp_kit.mcp_runtime import parse_tool_error
 from robot_mcp_kit.supervision import SUPERVISE_TOOL
+from robot_mcp_kit.tool_errors import parse_tool_error
 from robot_voice_chat.control.alarms import (
     BY_SUPERVISION,
     NOT_PERMITTED,

@@ -265,3 +265,27 @@ class MotionTasks(Generic[T]):
             await self._events.emit(task.task_id, task.tool, type, payload)
         except Exception:  # an event-sink failure must never stop the robot's bookkeeping
             logger.exception("event_emit_failed", task_id=task.task_id, type=type)
+
+
+class OnMotionTasks(Generic[T]):
+    """A domain service's base: the queries and commands it answers straight from its
+    ``motion`` (``get_task``, ``list_tasks``, ``cancel_task``, ``close``, ``moving``)."""
+
+    motion: MotionTasks[T]
+
+    @property
+    def moving(self) -> bool:
+        """A motion is being taken or runs (what a lapsed lease must end)."""
+        return self.motion.moving
+
+    def get_task(self, task_id: str) -> TaskInfo:
+        return self.motion.get_task(task_id)
+
+    def list_tasks(self, states: Iterable[TaskState] | None = None) -> list[TaskInfo]:
+        return self.motion.list_tasks(states)
+
+    async def cancel_task(self, task_id: str) -> TaskInfo:
+        return await self.motion.cancel_task(task_id)
+
+    async def close(self) -> None:
+        await self.motion.close()

@@ -26,7 +26,13 @@ from typing import Any, Literal
 import structlog
 
 from robot_mcp_kit.models import TaskFailure, TaskInfo, TaskState
-from robot_mcp_kit.motion_tasks import MotionGate, MotionTask, MotionTasks, MotionWords
+from robot_mcp_kit.motion_tasks import (
+    MotionGate,
+    MotionTask,
+    MotionTasks,
+    MotionWords,
+    OnMotionTasks,
+)
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 from robot_mcp_manipulation.arm.error_codes import Action, named_failure
@@ -84,7 +90,7 @@ def _refused(code: str, detail: str) -> ManipulationError:
 WORDS = MotionWords[_Motion](log="manipulation", busy=_busy, refused=_refused)
 
 
-class Manipulator:
+class Manipulator(OnMotionTasks[_Motion]):
     def __init__(
         self,
         arm: ArmActions,
@@ -97,7 +103,7 @@ class Manipulator:
         self._arm = arm
         self._settings = settings or ManipulatorSettings()
         self._task_ids = task_ids
-        self._motion = MotionTasks[_Motion](
+        self.motion = MotionTasks[_Motion](
             events,
             tasks,
             WORDS,
@@ -105,23 +111,14 @@ class Manipulator:
             gate=gate,
             settle_timeout_s=self._settings.cancel_timeout_s,
         )
-        self.gate = self._motion.gate
-        self.get_task = self._motion.get_task
-        self.list_tasks = self._motion.list_tasks
-        self.cancel_task = self._motion.cancel_task
-        self.close = self._motion.close
+        self.gate = self.motion.gate
 
     # -- queries ---------------------------------------------------------------------------
-
-    @property
-    def moving(self) -> bool:
-        """A pick or place is being taken or runs (what a lapsed lease must end)."""
-        return self._motion.moving
 
     def held(self) -> dict[str, Any]:
         """What the gripper holds, as the robot last reported it (``known`` false before)."""
         held = self._arm.held()
-        active = self._motion.active
+        active = self.motion.active
         state: dict[str, Any] = (
             {"known": False, "holding": None, "label": None, "since": None}
             if held is None
@@ -156,14 +153,14 @@ class Manipulator:
 
     async def stop(self, reason: str = "stop_manipulation") -> TaskInfo | None:
         """Cancel the running pick/place (if any) and return its final state."""
-        return await self._motion.stop(reason)
+        return await self.motion.stop(reason)
 
     # -- the motion --------------------------------------------------------------------------
 
     def _claim(self, tool: Tool, label: str) -> _Motion:
-        self._motion.refuse_if_stopped(tool=tool)
+        self.motion.refuse_if_stopped(tool=tool)
         # held while the arm takes the goal: a parallel call is BUSY
-        return self._motion.claim(_Motion(task_id=self._task_ids(), tool=tool, label=label))
+        return self.motion.claim(_Motion(task_id=self._task_ids(), tool=tool, label=label))
 
     async def _start(
         self,
@@ -175,20 +172,20 @@ class Manipulator:
         try:
             goal: ArmGoal = await send(lambda fb: self._on_feedback(motion, fb))
         except ArmUnavailableError as exc:
-            self._motion.release(motion)
+            self.motion.release(motion)
             logger.warning("manipulation_unavailable", tool=motion.tool, detail=exc.detail)
             raise ArmUnavailableManipulationError(exc.detail) from exc
         except BaseException:
-            self._motion.release(motion)
+            self.motion.release(motion)
             raise
         motion.goal = goal
-        info = self._motion.register(motion, est_s, label=motion.label or None, **extra)
-        refused = self._motion.refusal()
+        info = self.motion.register(motion, est_s, label=motion.label or None, **extra)
+        refused = self.motion.refusal()
         if refused is not None and motion.cancel_reason is None:
             motion.cancel_reason = refused.code  # a stop came while the goal was being taken
         if motion.cancel_reason is not None:
             await self._cancel(goal)
-        self._motion.run(motion, self._run(motion, goal))
+        self.motion.run(motion, self._run(motion, goal))
         logger.info(
             "manipulation_started",
             task_id=motion.task_id,
@@ -220,7 +217,7 @@ class Manipulator:
         return await self._finish(motion, outcome)
 
     async def _finish(self, motion: _Motion, outcome: ArmOutcome) -> TaskInfo:
-        await self._motion.flush_live(motion)  # progress before the terminal event, in order
+        await self.motion.flush_live(motion)  # progress before the terminal event, in order
         held = outcome.held or self._arm.held()
         common = {
             "action": motion.tool,
@@ -232,19 +229,19 @@ class Manipulator:
             done = {**common, "duration_s": duration}
             if motion.tool != "pick":
                 done["placed_label"] = outcome.placed_label or motion.label or None
-            info = await self._motion.succeed(motion, done)
+            info = await self.motion.succeed(motion, done)
             logger.info("manipulation_finished", task_id=motion.task_id, state="succeeded")
             return info
         # the stop's cancel-all reached the arm before the watchdog's own cancel: the pick
         # ended because supervision ended, not "on its own"
-        self._motion.blame_supervision(
+        self.motion.blame_supervision(
             motion, ended=outcome.status == "canceled", reason=lambda refused: refused.code
         )
         state: TaskState = "failed"
         failure = self._failure(motion, outcome)
         if outcome.status == "canceled" and motion.cancel_reason is not None:
             state = "cancelled"
-        info = await self._motion.fail(motion, state, failure, common)
+        info = await self.motion.fail(motion, state, failure, common)
         logger.info(
             "manipulation_finished",
             task_id=motion.task_id,
@@ -307,4 +304,4 @@ class Manipulator:
         if motion.latest is not None and motion.latest["phase"] == feedback.phase:
             return
         motion.latest = snapshot
-        self._motion.emit_live_soon(motion, "progress", snapshot)
+        self.motion.emit_live_soon(motion, "progress", snapshot)

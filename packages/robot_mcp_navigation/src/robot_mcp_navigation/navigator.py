@@ -35,7 +35,7 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import TaskFailure, TaskInfo, TaskState
-from robot_mcp_kit.motion_tasks import MotionTask, MotionTasks, MotionWords
+from robot_mcp_kit.motion_tasks import MotionTask, MotionTasks, MotionWords, OnMotionTasks
 from robot_mcp_kit.supervision import Supervision
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
@@ -99,7 +99,7 @@ WORDS = MotionWords[_Drive](
 )
 
 
-class Navigator:
+class Navigator(OnMotionTasks[_Drive]):
     def __init__(
         self,
         nav_map: NavMap,
@@ -115,7 +115,7 @@ class Navigator:
         self._settings = settings or NavigatorSettings()
         self._task_ids = task_ids
         self.supervision = supervision
-        self._motion = MotionTasks[_Drive](
+        self.motion = MotionTasks[_Drive](
             events,
             tasks,
             WORDS,
@@ -123,10 +123,6 @@ class Navigator:
             gate=supervision,
             settle_timeout_s=self._settings.stop_timeout_s,
         )
-        self.get_task = self._motion.get_task
-        self.list_tasks = self._motion.list_tasks
-        self.cancel_task = self._motion.cancel_task
-        self.close = self._motion.close
 
     # -- queries -------------------------------------------------------------------------
 
@@ -150,11 +146,6 @@ class Navigator:
             ],
         }
 
-    @property
-    def moving(self) -> bool:
-        """A drive is under way (it may be being stopped)."""
-        return self._motion.moving
-
     def pose(self) -> dict[str, Any]:
         pose = self._base.current_pose()
         at = next(
@@ -165,7 +156,7 @@ class Navigator:
             ),
             None,
         )
-        active = self._motion.active
+        active = self.motion.active
         status = self._base.pose_status()
         return {
             **pose.as_dict(),
@@ -179,14 +170,14 @@ class Navigator:
 
     def drive_started_at(self) -> float | None:
         """When the running drive began (``time.monotonic()``), None when not driving."""
-        active = self._motion.active
+        active = self.motion.active
         return active.started if active is not None else None
 
     # -- commands ------------------------------------------------------------------------
 
     def refuse_unsupervised(self) -> None:
         """Raise MotionRefusedError while supervision refuses motion (latched, unsupervised)."""
-        self._motion.refuse_if_stopped()
+        self.motion.refuse_if_stopped()
 
     async def navigate_to(self, location: str, triggers: Iterable[Trigger] = ()) -> TaskInfo:
         self.refuse_unsupervised()
@@ -204,22 +195,22 @@ class Navigator:
             triggers=trigger_list,
             est_duration_s=est,
         )
-        self._motion.claim(drive)  # held while the base takes the goal: a parallel call is BUSY
+        self.motion.claim(drive)  # held while the base takes the goal: a parallel call is BUSY
         started = time.monotonic()
         try:
             outcome = await self._base.start_drive(goal, partial(self._on_progress, drive))
         except BaseUnavailableError as exc:
-            self._motion.release(drive)
+            self.motion.release(drive)
             logger.warning("navigation_refused", destination=name, detail=exc.detail)
             raise BaseUnavailableNavigationError(exc.detail) from exc
         except BaseException:
-            self._motion.release(drive)
+            self.motion.release(drive)
             raise
-        info = self._motion.register(
+        info = self.motion.register(
             drive, est, destination=name, triggers=[t.model_dump() for t in trigger_list]
         )
-        self._motion.run(drive, self._run(drive, outcome))
-        refused = self._motion.refusal()
+        self.motion.run(drive, self._run(drive, outcome))
+        refused = self.motion.refusal()
         if refused is not None:  # latched or lapsed while the base took the goal
             await self.stop(reason=refused.detail)
             raise MotionRefusedError(refused.code, refused.detail)
@@ -234,7 +225,7 @@ class Navigator:
 
     async def stop(self, reason: str = "stop_navigation") -> TaskInfo | None:
         """Halt at once; cancel the running navigation (if any) and return its final state."""
-        return await self._motion.stop(reason)
+        return await self.motion.stop(reason)
 
     # -- the drive -------------------------------------------------------------------------
 
@@ -283,9 +274,9 @@ class Navigator:
         common = {"destination": drive.goal.name, "pose": pose}
         # the lock stopped the base before the watchdog's cancel (robot-sim aborts its goal the
         # moment its lock engages): the drive ended because supervision ended
-        self._motion.blame_supervision(drive, ended=result is not None)
+        self.motion.blame_supervision(drive, ended=result is not None)
         if result is not None and result.status == "arrived":
-            return await self._motion.succeed(
+            return await self.motion.succeed(
                 drive, {**common, "duration_s": round(result.elapsed_s, 2)}
             )
         state: TaskState = "failed"
@@ -323,7 +314,7 @@ class Navigator:
             recoverable=failure.recoverable,
             suggestions=list(failure.suggestions),
         )
-        return await self._motion.fail(drive, state, task_failure, common)
+        return await self.motion.fail(drive, state, task_failure, common)
 
     async def _on_progress(self, drive: _Drive, progress: DriveProgress) -> None:
         if drive.cancel_reason is not None:
@@ -341,7 +332,7 @@ class Navigator:
         for index, trigger in enumerate(drive.triggers):
             if index not in drive.fired and trigger.is_met(progress):
                 drive.fired.add(index)
-                await self._motion.emit_live(
+                await self.motion.emit_live(
                     drive, "trigger_fired", {**snapshot, "trigger": trigger.model_dump()}
                 )
         s = self._settings
@@ -352,4 +343,4 @@ class Navigator:
         ):
             drive.last_pct = pct
             drive.last_progress_at = progress.elapsed_s
-            await self._motion.emit_live(drive, "progress", snapshot)
+            await self.motion.emit_live(drive, "progress", snapshot)

@@ -9,7 +9,13 @@ from dataclasses import dataclass
 
 from robot_mcp_kit.models import TaskFailure, TaskInfo
 from robot_mcp_kit.motion_errors import MotionError
-from robot_mcp_kit.motion_tasks import MotionGate, MotionTask, MotionTasks, MotionWords
+from robot_mcp_kit.motion_tasks import (
+    MotionGate,
+    MotionTask,
+    MotionTasks,
+    MotionWords,
+    OnMotionTasks,
+)
 from robot_mcp_kit.task_events import EventSink
 from robot_mcp_kit.tasks import TaskTable
 
@@ -40,7 +46,7 @@ WORDS = MotionWords[Docking](
 )
 
 
-class Docker:
+class Docker(OnMotionTasks[Docking]):
     def __init__(
         self, dock: FakeDock, events: EventSink, tasks: TaskTable, gate: MotionGate | None = None
     ) -> None:

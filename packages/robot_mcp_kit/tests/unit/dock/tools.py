@@ -28,7 +28,7 @@ def build_mcp_server(docker: Docker, supervision: Supervision | None = None) -> 
         "stop_docking",
         "Stop docking now.",
         docker.stop,
-        lambda: {"moving": docker.motion.moving},
+        lambda: {"moving": docker.moving},
     )
-    add_task_tools(server, docker.motion, "docking", "the robot stops")
+    add_task_tools(server, docker, "docking", "the robot stops")
     return server

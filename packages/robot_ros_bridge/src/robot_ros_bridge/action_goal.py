@@ -74,9 +74,10 @@ class ActionResult:
 
 
 class ActionGoal:
-    """One goal the action server accepted."""
+    """One goal the action server accepted (``goal_id``: its 16-byte id)."""
 
-    def __init__(self, bridge: RosBridge, handle: Any) -> None:
+    def __init__(self, bridge: RosBridge, handle: Any, goal_id: bytes = b"") -> None:
+        self.goal_id = goal_id
         self._bridge = bridge
         self._handle = handle
         self._result_future = handle.get_result_async()
@@ -162,7 +163,7 @@ class ActionGoals:
             raise ActionUnavailableError(
                 "rejected", f"the action server on {self.name} rejected the goal"
             )
-        return ActionGoal(self._bridge, handle)
+        return ActionGoal(self._bridge, handle, goal_id)
 
     def _cancel_if_accepted(self, future: Any) -> None:
         """A goal accepted after we stopped waiting for the answer is canceled at once."""

@@ -15,7 +15,7 @@ from rclpy.action.server import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 from robot_ros_bridge import RosBridge
-from robot_ros_bridge.action_goal import ActionGoals, ActionUnavailableError
+from robot_ros_bridge.action_goal import ActionGoal, ActionGoals, ActionUnavailableError
 
 pytestmark = pytest.mark.ros
 
@@ -117,34 +117,38 @@ async def test_an_aborted_goal_carries_the_servers_result(
     )
 
 
-async def test_a_canceled_goal_ends_canceled_and_the_goal_was_ours(
-    bridges: tuple[RosBridge, RosBridge],
-) -> None:
+async def running_goal(
+    bridges: tuple[RosBridge, RosBridge], prefix: str
+) -> tuple[str, ActionGoals, ActionGoal]:
+    """A goal the server runs until it is canceled: the action's name, its client, the goal."""
     client_bridge, server_bridge = bridges
-    name = _name("cancel")
+    name = _name(prefix)
     server = Server(server_bridge, name, ending="hold")
     goals = ActionGoals(client_bridge, NavigateToPose, name)
     goal = await goals.send(NavigateToPose.Goal(), lambda fb: None, 10.0)
     assert await asyncio.to_thread(server.executing.wait, 10.0)
+    return name, goals, goal
+
+
+async def test_a_canceled_goal_ends_canceled_and_the_goal_was_ours(
+    bridges: tuple[RosBridge, RosBridge],
+) -> None:
+    _, goals, goal = await running_goal(bridges, "cancel")
 
     assert await goal.cancel(5.0)
     ended = await goal.result()
 
     assert ended.status == "canceled"
+    assert goals.sent(goal.goal_id)
     assert not goals.sent(uuid.uuid4().bytes)
 
 
 async def test_cancel_all_reaches_a_goal_another_client_sent(
     bridges: tuple[RosBridge, RosBridge],
 ) -> None:
-    client_bridge, server_bridge = bridges
-    name = _name("all")
-    server = Server(server_bridge, name, ending="hold")
-    theirs = ActionGoals(client_bridge, NavigateToPose, name)
-    goal = await theirs.send(NavigateToPose.Goal(), lambda fb: None, 10.0)
-    assert await asyncio.to_thread(server.executing.wait, 10.0)
+    name, _, goal = await running_goal(bridges, "all")
 
-    canceling = await ActionGoals(client_bridge, NavigateToPose, name).cancel_all(5.0)
+    canceling = await ActionGoals(bridges[0], NavigateToPose, name).cancel_all(5.0)
 
     assert canceling == 1
     assert (await goal.result()).status == "canceled"

@@ -35,6 +35,12 @@ _SPAN: dict[Interval, tuple[str, str, str, str]] = {
 }
 
 
+# Constant limits written into the SQL: a bound one would leave PostgreSQL's generic plan of a
+# prepared statement guessing how many rows are wanted (measured: pose_near 0.5 -> 0.9 ms).
+_ONE: sa.ColumnElement[int] = sa.literal_column("1")
+_TWENTY: sa.ColumnElement[int] = sa.literal_column("20")
+
+
 @dataclass(frozen=True)
 class Statement:
     sql: str
@@ -161,7 +167,7 @@ class EpisodicStatements:
                 self._mine(sightings)
                 .where(sightings.c.skill == param("skill"), sightings.c.label == param("label"))
                 .order_by(sightings.c.last_seen.desc())
-                .limit(1)
+                .limit(_ONE)
             ),
         )
 
@@ -259,7 +265,7 @@ class EpisodicStatements:
         p = self.tables.poses
         return self.compiled(
             "pose_before",
-            lambda: self._mine(p).where(p.c.t <= param("t")).order_by(p.c.t.desc()).limit(1),
+            lambda: self._mine(p).where(p.c.t <= param("t")).order_by(p.c.t.desc()).limit(_ONE),
         )
 
     def pose_after(self) -> Statement:
@@ -267,7 +273,7 @@ class EpisodicStatements:
         p = self.tables.poses
         return self.compiled(
             "pose_after",
-            lambda: self._mine(p).where(p.c.t > param("t")).order_by(p.c.t).limit(1),
+            lambda: self._mine(p).where(p.c.t > param("t")).order_by(p.c.t).limit(_ONE),
         )
 
     def kind_stats(self, kind: Kind) -> Statement:
@@ -287,6 +293,6 @@ class EpisodicStatements:
                 sa.select(audit.c.t, audit.c.request, audit.c.result)
                 .where(audit.c.robot_id == param("robot_id"))
                 .order_by(audit.c.t.desc())
-                .limit(20)
+                .limit(_TWENTY)
             ),
         )

@@ -29,7 +29,8 @@ from robot_voice_chat.composition import assemble
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM
-from robot_voice_chat.services.speech.fake import FakeSpeechOutput, NoSpeechInput
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
+from robot_voice_chat.services.speech.none import NoSpeechInput
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
     ServerListener,

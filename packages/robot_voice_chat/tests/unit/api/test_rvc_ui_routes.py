@@ -19,7 +19,8 @@ from robot_voice_chat.services.camera.base import CameraFrame, CameraOfflineErro
 from robot_voice_chat.services.camera.http import HttpCameraFeed
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.fake import FakeLLM
-from robot_voice_chat.services.speech.fake import FakeSpeechOutput, NoSpeechInput
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
+from robot_voice_chat.services.speech.none import NoSpeechInput
 from robot_voice_chat.services.tools.base import ToolOutcome
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.settings import AppConfig

@@ -27,14 +27,3 @@ class FakeSpeechInput(SpeechInput):
     async def transcribe(self, audio: bytes, mime_type: str) -> str:
         self.received.append((audio, mime_type))
         return self.text
-
-
-class NoSpeechInput(SpeechInput):
-    """Selected when no transcription provider is configured; says so clearly."""
-
-    configured = False
-
-    async def transcribe(self, audio: bytes, mime_type: str) -> str:
-        from robot_voice_chat.services.speech.base import TranscriptionError
-
-        raise TranscriptionError("no speech input configured (speech_input: none)")

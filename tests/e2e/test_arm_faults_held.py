@@ -262,3 +262,31 @@ async def test_stop_then_abort_while_holding_names_the_package_and_where(stack: 
     assert summary.startswith("Stopped by the user; mission aborted."), summary
     assert f"I'm still holding the {PACKAGE}, {where_said(stack.watch)}." in summary, summary
     assert summary.endswith("Should I put it down here, or take it somewhere?")
+
+
+async def test_a_restarted_brain_says_what_the_gripper_holds_and_where(stack: Stack) -> None:
+    """kill -9 of the brain while the gripper holds the package: the restarted brain reads the
+    gripper when the arm's server connects and says what it holds, where, and asks."""
+    stack.ensure("manipulation")
+    if sim_world()["held"] != PACKAGE:
+        sim_world("reception", "blue folder")
+        sim_world("--held", PACKAGE)
+    stack.kill9("brain")
+    stack.restart("brain")
+
+    async with MissionDriver(stack.brain) as user:
+
+        async def told() -> list[str]:
+            lines = (await user.http.get("/api/chat/history")).json()["lines"]
+            return [str(line.get("text", "")) for line in lines if "holding" in str(line)]
+
+        said: list[str] = []
+
+        async def heard() -> bool:
+            said[:] = await told()
+            return bool(said)
+
+        await async_wait_until(heard, 90, "the held package told after the restart", 0.5)
+    assert sim_world()["held"] == PACKAGE  # the world agrees with the words
+    assert said[-1].startswith(f"I'm still holding the {PACKAGE}, {where_said(stack.watch)}.")
+    assert said[-1].endswith("Should I put it down here, or take it somewhere?")

@@ -15,7 +15,7 @@ from robot_voice_chat.agent.abort import abort_run, busy_note, is_abort
 from robot_voice_chat.agent.archive import MissionArchive
 from robot_voice_chat.agent.bargein import BargeIn
 from robot_voice_chat.agent.dispatch import TaskDispatcher
-from robot_voice_chat.agent.holding import tell_what_is_held
+from robot_voice_chat.agent.holding import HeldAtStart, tell_what_is_held
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import Mission, MissionStore
 from robot_voice_chat.agent.output import MissionOutput
@@ -101,6 +101,7 @@ class MissionExecutor:
         if approvals is not None:
             approvals.add_state_hook(self._awaiting_approval)
         self.output = MissionOutput(emitter, speech, trace, archive)
+        self.held_at_start = HeldAtStart(tools, speech, emitter, config.tool_timeout_s)
         self.plan_tools = PlanTools(
             on_plan=self.output.emit_plan,
             on_say=self.output.say,
@@ -547,6 +548,7 @@ class MissionExecutor:
 
     async def reconcile(self, server: str) -> None:
         await self.dispatcher.reconcile(server)
+        await self.held_at_start.on_connect(server, idle=self.run is None)
 
     async def on_server_lost(self, server: str) -> None:
         await self.dispatcher.on_server_lost(server)

@@ -10,8 +10,12 @@ nearest named place, from ``navigation.list_locations``' distances), in the word
 
 from __future__ import annotations
 
+import time
+import uuid
+
 import structlog
 
+from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.held_words import (
     Held,
     held_from,
@@ -20,7 +24,10 @@ from robot_voice_chat.held_words import (
     whereabouts_of,
     without_false_places,
 )
+from robot_voice_chat.services.emitter.base import EventEmitter
+from robot_voice_chat.services.speech.base import SpeechOutput
 from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.socket_events import ChatMessage
 
 logger = structlog.get_logger(__name__)
 
@@ -62,3 +69,49 @@ async def tell_what_is_held(
         return told
     where = await whereabouts(tools, timeout_s)
     return " ".join(s for s in (told, still_holding(held.label, where)) if s)
+
+
+class HeldAtStart:
+    """After a restart of the brain the robot says what its gripper holds (issue 39): the
+    first time the arm's server connects in this process life, with no mission running, the
+    gripper is read and, when it holds something, the operator is told where and asked what to
+    do with it. Nothing is said about an empty gripper or an arm that does not answer."""
+
+    def __init__(
+        self,
+        tools: ToolBackend,
+        speech: SpeechOutput,
+        emitter: EventEmitter,
+        timeout_s: float = READ_TIMEOUT_S,
+    ) -> None:
+        self._tools = tools
+        self._speech = speech
+        self._emitter = emitter
+        self._timeout_s = min(timeout_s, READ_TIMEOUT_S)
+        self._done = False
+
+    async def on_connect(self, server: str, idle: bool) -> str | None:
+        """What was told (None when nothing was): called on every (re)connect of a server."""
+        if self._done or not self._tools.has_tool(GET_HELD) or server != GET_HELD.split(".")[0]:
+            return None
+        self._done = True  # once per process life: a mission's end tells it from then on
+        if not idle:
+            return None
+        started = time.monotonic()
+        with dispatching(DispatchContext(may_ask=False, caller="the brain's start-up")):
+            held = await read_held(self._tools, self._timeout_s)
+            where = await whereabouts(self._tools, self._timeout_s) if held.label else None
+        logger.info(
+            "held_at_start",
+            known=held.known,
+            label=held.label,
+            duration_ms=round((time.monotonic() - started) * 1000, 1),
+        )
+        if held.label is None:
+            return None
+        told = still_holding(held.label, where)
+        await self._emitter.emit(
+            ChatMessage(turn_id=uuid.uuid4().hex[:8], role="assistant", text=told)
+        )
+        await self._speech.say(told)
+        return told

@@ -13,7 +13,7 @@ import pytest
 
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.office import Office, office
-from robot_voice_chat.agent.holding import tell_what_is_held
+from robot_voice_chat.agent.holding import HeldAtStart, tell_what_is_held
 from robot_voice_chat.agent.supervision_words import held_part, lost_motion_server
 from robot_voice_chat.held_words import (
     Held,
@@ -24,8 +24,11 @@ from robot_voice_chat.held_words import (
     without_false_places,
 )
 from robot_voice_chat.robot_words import check_robot_words
+from robot_voice_chat.services.emitter.base import FakeEventEmitter
 from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LOCATIONS
+from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
+from robot_voice_chat.socket_events import ChatMessage
 
 FETCH = "fetch the package from the mailroom and bring it to reception"
 QUESTION = "Should I put it down here, or take it somewhere?"
@@ -274,3 +277,40 @@ async def test_a_lost_arm_server_is_said_to_hold_the_arm_not_the_base() -> None:
     assert "the robot's base holds itself stopped" in nav
     assert held_part({"manipulation", "navigation"}) == "the robot's base and arm"
     assert not check_robot_words([said, nav])
+
+
+# --- a restart of the brain: the first look at the arm says what it holds ---------------------
+async def test_after_a_restart_the_brain_says_what_the_gripper_holds_once(tmp_path: Path) -> None:
+    o = arm_office(tmp_path)
+    o.world.arm.held = "yellow package"  # what the world holds: a carry a crash cut short
+    o.world.at = "mailroom"
+
+    await o.executor.reconcile("navigation")  # not the arm: nothing read yet
+    assert o.speech.spoken == []
+    await o.executor.reconcile("manipulation")
+    await o.executor.reconcile("manipulation")  # a reconnect later: told once per life
+
+    told = f"I'm still holding the yellow package, here in the mailroom. {QUESTION}"
+    assert " ".join(o.speech.spoken) == told  # said sentence by sentence
+    assert [e.text for e in o.emitter.of(ChatMessage)] == [told]  # type: ignore[attr-defined]
+    assert not check_robot_words([told])
+
+
+@pytest.mark.parametrize(
+    "held", [None, {"known": True, "holding": False, "label": None}, {"known": False}]
+)
+async def test_nothing_is_said_at_start_without_a_held_thing(held: dict[str, Any] | None) -> None:
+    speech, emitter = FakeSpeechOutput(), FakeEventEmitter()
+    at_start = HeldAtStart(backend(held, {"dock": 0.0}), speech, emitter)
+    assert await at_start.on_connect("manipulation", idle=True) is None
+    assert speech.spoken == []
+    assert emitter.events == []
+
+
+async def test_a_mission_running_at_the_arms_first_connect_tells_it_at_its_end_instead() -> None:
+    speech, emitter = FakeSpeechOutput(), FakeEventEmitter()
+    tools = backend({"known": True, "holding": True, "label": "red mug"}, {"dock": 0.0})
+    at_start = HeldAtStart(tools, speech, emitter)
+    assert await at_start.on_connect("manipulation", idle=False) is None
+    assert await at_start.on_connect("manipulation", idle=True) is None  # once per life
+    assert tools.called("manipulation.get_held") == []

@@ -48,7 +48,10 @@ _PATTERNS: list[tuple[Kind, re.Pattern[str]]] = [
         "release",
         re.compile(
             r"^(?:hand\s+(?:it|that|this|(?:the\s+)?\w+(?:\s+\w+)?)\s+over|hand\s+over\b.*|"
-            r"give\s+(?:it|that|this|me\s+.+|.+\s+to\s+me)|drop\s+(?:it|that|this|.+)|"
+            # "give me the mug" hands over what is held; "give me a description of the room"
+            # is not a hand-over (a thing of at most two words, no phrase after it)
+            r"give\s+(?:it|that|this|me\s+(?:the\s+|a\s+|an\s+|my\s+)?\w+(?:\s+\w+)?|.+\s+to\s+me)|"
+            r"drop\s+(?:it|that|this|.+)|"
             r"let\s+(?:it\s+|that\s+)?go)(?:\s+(?:here|now|to\s+me))?$"
         ),
     ),

@@ -26,6 +26,8 @@ class IntentFile(BaseModel):
 
     intents: dict[str, Intent] = Field(default_factory=dict)
     place_words: dict[str, list[str]] = Field(default_factory=dict)
+    # the site's known object labels: a sentence that names one must use it (the check)
+    objects: list[str] = Field(default_factory=list)
 
 
 class IntentsError(ValueError):
@@ -47,6 +49,7 @@ def load_intents(extra: list[Path] | None = None) -> IntentFile:
                 raise IntentsError(f"{path}: intent {name!r} is {known.kind}, not {intent.kind}")
             known.examples += [e for e in intent.examples if e not in known.examples]
             known.verbs += [v for v in intent.verbs if v not in known.verbs]
+        merged.objects += [o for o in site.objects if o not in merged.objects]
         for word, looks in site.place_words.items():
             merged.place_words[word] = [*merged.place_words.get(word, []), *looks]
     return merged

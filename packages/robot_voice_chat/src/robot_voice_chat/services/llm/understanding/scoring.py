@@ -76,7 +76,8 @@ OFFICE_LOCATIONS = [  # as robot_mcp_navigation/config/maps/office.yaml (x, y in
     },
 ]
 OFFICE_LIST_LOCATIONS = json.dumps({"map": "office", "locations": OFFICE_LOCATIONS})
-ACTING = ("goto:", "find:", "fetch:", "watch:", "see")
+# every code that moves the robot or its arm (issue 38: pick, put and release act too)
+ACTING = ("goto:", "find:", "fetch:", "watch:", "see", "pick", "put", "release")
 
 Reader = Callable[[str], list[str]]
 

@@ -22,6 +22,7 @@ from robot_voice_chat.services.llm.understanding import (
     saying,
     speech,
 )
+from robot_voice_chat.services.llm.understanding.check import check, check_answer
 from robot_voice_chat.services.llm.understanding.composing import (
     Leg,
     compose,
@@ -94,7 +95,10 @@ class Understanding:
     # --- one request ------------------------------------------------------------------------
     def understand(self, text: str, places: PlaceIndex | None = None) -> Reading:
         started = time.monotonic()
-        reading = self._understand(text, places)
+        heard = speech.normalise(text, places.owners() if places is not None else ())
+        reading, ruled_out = self._understand(heard, places)
+        # the CHECK stage: the one point every reading passes before anything acts on it
+        reading = check(heard, reading, places, ruled_out, self.intents.objects)
         logger.debug(
             "understanding_read",
             reading=reading.code(),
@@ -105,37 +109,37 @@ class Understanding:
         )
         return reading
 
-    def _understand(self, text: str, places: PlaceIndex | None) -> Reading:
-        text = speech.normalise(text, places.owners() if places is not None else ())
+    def _understand(self, text: str, places: PlaceIndex | None) -> tuple[Reading, set[str]]:
+        """The reading of ``text`` (normalised) and the places the person ruled out."""
         recall = read_recall(text)  # a question about the past: answered, never acted on
         if recall and recall.offer and places and recall.obj and spells_a_place(places, recall.obj):
             recall = None  # "where is the kitchen": a place, not a thing last seen
         if recall is not None:
-            return Reading("answer", topic="history", recall=recall, intent="history")
+            return Reading("answer", topic="history", recall=recall, intent="history"), set()
         if looks_like_recall(text):  # about the past, but not read: never an action from it
-            return Reading("refuse", text=NOT_READ_RECALL, intent="history")
+            return Reading("refuse", text=NOT_READ_RECALL, intent="history"), set()
         said = negation.read(text, lambda phrase: guards.names_a_place(places, phrase))
         negated = guards.negated_places(said.negated, places)
         if said.only_negative:
-            return self._declined(said.refused, places)
+            return self._declined(said.refused, places), set()
         if negation.still_negated(said.text):
-            return unclear(text)  # a "not" we could not place: nothing acted or proposed
+            return unclear(text), set()  # a "not" we could not place: nothing acted or proposed
         if places is not None and negated:
             places = places.excluding(negated)
         body, rounds = composites.rounds(said.text)
         parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
         parts = [p for p in parts if p]
         if not parts:
-            return unclear(text)
+            return unclear(text), set()
         wholes = [body, cl.tidy(body), *(parts[:1] if len(parts) == 1 else [])]
         for whole in dict.fromkeys(wholes):
             asked = self._question(whole, places)  # "thanks, that's all" is one sentence
             if asked is not None:
-                return asked
+                return asked, set()
         if len(parts) == 1 and parse(parts[0]).kind == "unknown":
             single = self._non_action(parts[0])
             if single is not None:
-                return single
+                return single, set()
         legs: list[Leg] = []
         for part in parts:
             legs.append(
@@ -145,7 +149,7 @@ class Understanding:
             )
         share_place(legs)
         reading = compose(text, legs, places)
-        return guards.respect(guards.repeated(reading, rounds, places), negated, places)
+        return guards.respect(guards.repeated(reading, rounds, places), negated, places), negated
 
     def _question(self, part: str, places: PlaceIndex | None) -> Reading | None:
         """How far / which way to a place, the time, what the robot is doing, small talk,
@@ -350,7 +354,8 @@ class Understanding:
     ) -> Reading | None:
         """The request completed by ``answer``; a cancel; or None (not an answer: read it as a
         new request)."""
-        return follow_up(question, answer, places)
+        reading = follow_up(question, answer, places)
+        return check_answer(reading, places) if reading is not None else None
 
 
 def _near_bare(places: PlaceIndex | None, bare: str) -> PlaceMatch | None:

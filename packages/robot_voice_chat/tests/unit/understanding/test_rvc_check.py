@@ -80,6 +80,15 @@ def test_a_condition_naming_a_place_is_not_dropped(
     assert "the kitchen" in _not_acted(reading)
 
 
+def test_a_question_saying_back_part_of_the_sentence_says_what_it_left_out(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("the mug in the kitchen needs to go to Alice's desk", places)
+    said = _not_acted(reading)  # was "Do you want me to look for the mug in the kitchen?"
+    assert said.startswith("You also said Alice's desk")
+    assert "Do you want me to just look for the mug in the kitchen?" in said
+
+
 def test_a_sentence_cut_off_after_to_asks_where_to(
     understanding: Understanding, places: PlaceIndex
 ) -> None:

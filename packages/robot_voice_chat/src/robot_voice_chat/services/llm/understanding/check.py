@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from robot_voice_chat.services.llm.understanding import saying
 from robot_voice_chat.services.llm.understanding.mentions import (
@@ -39,6 +39,7 @@ _HANDS_OFF = re.compile(
 # a question may end on its preposition ("what are you looking at", "who is it for")
 _WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
+_OFFER = "Do you want me to"
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -60,6 +61,8 @@ def check(
 ) -> Reading:
     """``reading`` when nothing ``text`` (normalised) says is dropped or garbled; else one
     question or a refusal. Only readings that act are checked."""
+    if reading.kind == "ask":
+        return _said_back_whole(text, reading, places, ruled_out, objects)
     if reading.kind != "act" or not reading.actions:
         return reading
     found = (
@@ -71,6 +74,25 @@ def check(
     if found is None:
         return reading
     return _reply(found, reading, places)
+
+
+def _said_back_whole(
+    text: str,
+    reading: Reading,
+    places: PlaceIndex | None,
+    ruled_out: Collection[str],
+    objects: Collection[str],
+) -> Reading:
+    """A yes/no question that says back only part of the sentence says what it left out (a
+    yes then does only that part, knowingly)."""
+    question = reading.question
+    if question is None or question.mode != "confirm" or not question.text.startswith(_OFFER):
+        return reading
+    found = _dropped(text, question.actions, places, ruled_out, objects)
+    if found is None:
+        return reading
+    text = f"{found.why} {_OFFER} just {question.text.removeprefix(_OFFER).lstrip()}"
+    return replace(reading, question=replace(question, text=text))
 
 
 def check_answer(reading: Reading, places: PlaceIndex | None) -> Reading:

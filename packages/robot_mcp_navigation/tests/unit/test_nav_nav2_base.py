@@ -3,6 +3,7 @@
 import asyncio
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
+from typing import Any
 
 import pytest
 
@@ -19,6 +20,7 @@ from robot_mcp_navigation.motion.base import (
 )
 from robot_mcp_navigation.motion.nav2.base import Nav2MotionBase
 from robot_mcp_navigation.motion.nav2.fake import FakeGoal, FakeNav2Action
+from robot_mcp_navigation.motion.nav2.port import Nav2Goal
 from robot_mcp_navigation.navigator import Navigator, NavigatorSettings
 from robot_mcp_navigation.triggers import EtaBelow
 from robot_stack_testing import async_wait_until
@@ -277,11 +279,47 @@ async def test_parallel_navigate_to_starts_one_goal_and_refuses_the_rest(rig: Ri
     assert len(rig.action.goals) == 1
 
 
-async def test_stop_while_the_goal_is_being_accepted_cancels_it_once_accepted(rig: Rig) -> None:
-    rig.action.accept_delay_s = 0.1
+def hold_send_goal(
+    rig: Rig, monkeypatch: pytest.MonkeyPatch
+) -> tuple[asyncio.Event, asyncio.Event]:
+    """The action's ``send_goal`` says when it was entered, then waits for the release (the
+    server is still deciding). Returns (entered, release)."""
+    entered, release = asyncio.Event(), asyncio.Event()
+    send_goal = rig.action.send_goal
+
+    async def held(*args: Any, **kwargs: Any) -> Nav2Goal:
+        entered.set()
+        await release.wait()
+        return await send_goal(*args, **kwargs)
+
+    monkeypatch.setattr(rig.action, "send_goal", held)
+    return entered, release
+
+
+def note_base_stop(rig: Rig, monkeypatch: pytest.MonkeyPatch) -> asyncio.Event:
+    """Set once the navigator's stop has reached the base (its stop runs on in that step)."""
+    reached = asyncio.Event()
+    stop = rig.base.stop
+
+    async def noted() -> None:
+        reached.set()
+        await stop()
+
+    monkeypatch.setattr(rig.base, "stop", noted)
+    return reached
+
+
+async def test_stop_while_the_goal_is_being_accepted_cancels_it_once_accepted(
+    rig: Rig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    accepting, accept = hold_send_goal(rig, monkeypatch)
+    stop_reached_base = note_base_stop(rig, monkeypatch)
     attempt = asyncio.create_task(rig.navigator.navigate_to("kitchen"))
-    await asyncio.sleep(0.02)
-    await rig.navigator.stop()
+    await asyncio.wait_for(accepting.wait(), 5)
+    stopping = asyncio.create_task(rig.navigator.stop())
+    await asyncio.wait_for(stop_reached_base.wait(), 5)
+    accept.set()  # the server accepts the goal only after the stop was asked for
+    await stopping
     info = await attempt
     assert goal(rig).cancel_requests == 1
     await until_finished(rig, info.task_id)
@@ -289,11 +327,15 @@ async def test_stop_while_the_goal_is_being_accepted_cancels_it_once_accepted(ri
     assert rig.events.types(info.task_id) == ["task_failed"]
 
 
-async def test_stop_while_no_server_answers_leaves_no_goal() -> None:
+async def test_stop_while_no_server_answers_leaves_no_goal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     rig = make_rig(server_timeout_s=0.3)
     rig.action.available = False
+    waiting_for_server, answer = hold_send_goal(rig, monkeypatch)
+    answer.set()  # the fake then waits out its 0.3 s server timeout
     attempt = asyncio.create_task(rig.navigator.navigate_to("kitchen"))
-    await asyncio.sleep(0.05)
+    await asyncio.wait_for(waiting_for_server.wait(), 5)
     await rig.navigator.stop()
     with pytest.raises(BaseUnavailableNavigationError):
         await attempt  # the goal never ran

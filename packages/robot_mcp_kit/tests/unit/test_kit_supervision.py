@@ -575,25 +575,16 @@ async def test_an_alarm_ends_running_motion_at_once_naming_it() -> None:
     clock = Clock()
     supervision = supervised(clock)
     supervision.renew("brain-1", 0.8, latched=False)
-    ended: list[str] = []
-
-    async def end_motion(reason: str) -> None:
-        ended.append(reason)
-
-    watchdog = asyncio.create_task(
-        watch_supervision(supervision, end_motion, lambda: not ended, period_s=0.005)
+    sleep = StarvedSleep(clock, ticks=6)  # 0.3 s on the fake clock: the lease holds throughout
+    sleep.then[3] = lambda: supervision.raise_alarm(
+        LOCK_TOPIC_SHARED, "another node publishes the lock topic"
     )
-    try:
-        await asyncio.sleep(0.02)
-        supervision.raise_alarm(LOCK_TOPIC_SHARED, "another node publishes the lock topic")
-        await async_wait(lambda: bool(ended))
-    finally:
-        watchdog.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await watchdog
 
-    assert ended[0].startswith("supervision raised an alarm")
-    assert "LOCK_TOPIC_SHARED" in ended[0]
+    ended = await run_watchdog(supervision, clock, sleep)
+
+    assert [e.sleeps for e in ended] == [3]  # the first look after the alarm, not before it
+    assert ended[0].reason.startswith("supervision raised an alarm")
+    assert "LOCK_TOPIC_SHARED" in ended[0].reason
 
 
 async def async_wait(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:

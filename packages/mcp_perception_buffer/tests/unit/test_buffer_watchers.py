@@ -1,5 +1,5 @@
-import asyncio
 import time
+from typing import Any
 
 from mcp_perception_buffer.buffer import RollingBuffer
 from mcp_perception_buffer.events import LoggingEventSink, RecordingEventSink
@@ -8,6 +8,21 @@ from robot_mcp_kit.models import TaskFailure
 from robot_stack_testing import async_wait_until
 
 WATCHED = [{"name": "door", "watch": {"output": "open", "equals": True}}]
+BELL = {"name": "bell", "watch": {"output": "rang", "equals": True}}
+
+
+async def ring_the_bell_and_hear_it(buffer: RollingBuffer, sink: RecordingEventSink) -> None:
+    """A write after the ones under test whose watch event must follow theirs (the service
+    evaluates writes and posts events in order): once it is posted, every earlier write has
+    been evaluated and its event, if any, posted before it."""
+    buffer.add_output("bell", "rang", True, 9.0)
+    await async_wait_until(
+        lambda: any(e[0] == "watch-bell" for e in sink.events), 5.0, "the bell's event"
+    )
+
+
+def door_events(sink: RecordingEventSink) -> list[tuple[Any, ...]]:
+    return [e for e in sink.events if e[0] == "watch-door"]
 
 
 def test_only_rising_edges_fire() -> None:
@@ -38,22 +53,20 @@ async def test_a_watcher_posts_exactly_once_per_rising_edge() -> None:
     service = WatcherService(buffer, sink)
     await service.start()
     try:
-        service.refresh(WATCHED)
+        service.refresh([*WATCHED, BELL])
         assert service.get("watch-door") is not None
         for value in (False, True, True, True):
             buffer.add_output("door", "open", value, 1.0)
         await async_wait_until(lambda: len(sink.events) >= 1, 5.0, "one event")
         buffer.add_output("door", "open", False, 2.0)
         buffer.add_output("door", "open", True, 3.0)
-        await async_wait_until(lambda: len(sink.events) >= 2, 5.0, "a second event")
-        await asyncio.sleep(0.05)
-        await service.drain()
-        assert [e[:3] for e in sink.events] == [
-            ("watch-door", "instantiate_skill", "watch_event")
-        ] * 2
-        assert sink.events[1][3]["stamp"] == 3.0
-        assert sink.events[1][3]["fired"] == 2
-        assert sink.events[0][3]["topic"] == "/vision/door/open"
+        buffer.add_output("door", "open", True, 4.0)
+        await ring_the_bell_and_hear_it(buffer, sink)
+        events = door_events(sink)
+        assert [e[:3] for e in events] == [("watch-door", "instantiate_skill", "watch_event")] * 2
+        assert events[1][3]["stamp"] == 3.0
+        assert events[1][3]["fired"] == 2
+        assert events[0][3]["topic"] == "/vision/door/open"
     finally:
         await service.close()
 
@@ -78,24 +91,24 @@ async def test_cancel_disarms_and_polling_does_not_re_arm_it() -> None:
     service = WatcherService(buffer, sink)
     await service.start()
     try:
-        service.refresh(WATCHED)
+        service.refresh([*WATCHED, BELL])
         cancelled = service.cancel("watch-door")
         assert cancelled is not None
         assert cancelled.state == "cancelled"
         again = service.cancel("watch-door")
         assert again is not None
         assert again.state == "cancelled"
-        service.refresh(WATCHED)
+        service.refresh([*WATCHED, BELL])
         buffer.add_output("door", "open", True, 1.0)
-        await asyncio.sleep(0.05)
-        await service.drain()
-        assert [e[:3] for e in sink.events] == [("watch-door", "instantiate_skill", "task_failed")]
-        assert sink.events[0][3]["reason"] == "cancelled_by_caller"
-        assert sink.events[0][3]["error_code"] == "CANCELLED"
-        assert sink.events[0][3]["state"] == "cancelled"
+        await ring_the_bell_and_hear_it(buffer, sink)
+        events = door_events(sink)
+        assert [e[:3] for e in events] == [("watch-door", "instantiate_skill", "task_failed")]
+        assert events[0][3]["reason"] == "cancelled_by_caller"
+        assert events[0][3]["error_code"] == "CANCELLED"
+        assert events[0][3]["state"] == "cancelled"
         assert service.cancel("watch-nobody") is None
         assert [t.task_id for t in service.list(["cancelled"])] == ["watch-door"]
-        assert service.list(["running"]) == []
+        assert [t.task_id for t in service.list(["running"])] == ["watch-bell"]
     finally:
         await service.close()
 

@@ -54,8 +54,12 @@ async def test_stop_word_cancels_motion_calls_safety_tool_pauses_and_asks(tmp_pa
     assert mission.steps[0].detail == "safety stop"
     assert STOP_QUESTION == "Stopped. Should I continue or abort?"
     assert h.speech.spoken[-2:] == ["Stopped.", "Should I continue or abort?"]
-    await asyncio.sleep(0.05)
-    assert len(planner.requests) == requests_before  # stays suspended while paused
+    run = h.executor.run
+    assert run is not None
+    run.post("[event] nav-1 task_failed: cancelled")  # a late note wakes the paused loop
+    await async_wait_until(lambda: not run.wakeup.is_set(), 5, "the loop looked at its inbox")
+    assert run.suspended  # stays suspended while paused: the note waits for the answer
+    assert len(planner.requests) == requests_before
 
     await h.latch.clear("operator", "checked")  # an operator clears the stop first
     await h.executor.on_user_turn("continue please")
@@ -130,6 +134,15 @@ async def test_a_stop_while_the_drive_call_is_in_flight_ends_the_drive_it_starte
     await h.executor.shutdown()
 
 
+async def drive_call_decided(h: Harness, mission_id: str) -> bool:
+    """The dispatcher has settled the planned drive: held back by the stop, or answered."""
+    records = await h.trace.read(mission_id)
+    return any(
+        r["kind"] in ("tool_held", "tool_result") and r.get("tool") == "navigation.navigate_to"
+        for r in records
+    )
+
+
 async def test_a_drive_planned_before_the_stop_is_never_sent(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -153,8 +166,7 @@ async def test_a_drive_planned_before_the_stop_is_never_sent(
 
     await h.executor.on_user_turn("stop")
     release.set()
-    await async_wait_until(lambda: len(planner.requests) >= 1 and h.executor.run, 5, "running")
-    await asyncio.sleep(0.05)
+    await async_wait_until(lambda: drive_call_decided(h, mission.id), 5, "the drive settled")
 
     assert h.tools.called("navigation.navigate_to") == []  # never sent
     assert h.tools.called("navigation.cancel_task") == []  # so nothing to cancel

@@ -3,13 +3,15 @@ budget, and no planner call while the awaited task still reports progress."""
 
 from __future__ import annotations
 
-import asyncio
 import time
 from pathlib import Path
+
+import pytest
 
 from robot_mcp_kit.models import TaskEvent
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.harness import make_harness
+from robot_voice_chat.agent import task_registry
 from robot_voice_chat.services.llm.base import LLMResponse, Usage
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 from robot_voice_chat.services.llm.pricing import Prices, priced
@@ -72,14 +74,38 @@ async def test_max_cost_usd_stops_the_mission_and_cancels_its_task(tmp_path: Pat
     assert h.tools.called("navigation.cancel_task") == [{"task_id": "nav-1"}]
 
 
+class RegistryClock:
+    """The task registry's ``time``: its monotonic clock stands still unless the test moves
+    it; the wall clock is the real one."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def time(self) -> float:
+        return time.time()
+
+
 async def test_no_planner_call_while_the_awaited_task_still_reports_progress(
-    tmp_path: Path,
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    clock = RegistryClock()
+    monkeypatch.setattr(task_registry, "time", clock)
     planner = FakeLLM([PLAN, WAIT, FINISH])
-    h = make_harness(tmp_path, planner, wakeup_timeout_s=0.2)
+    h = make_harness(tmp_path, planner, wakeup_timeout_s=0.05)
+    looks: list[bool] = []  # each wakeup timeout asks the registry whether progress came
+    progressed = h.executor.registry.progressed
+
+    def looked(mission_id: str, within_s: float) -> bool:
+        looks.append(progressed(mission_id, within_s))
+        return looks[-1]
+
+    monkeypatch.setattr(h.executor.registry, "progressed", looked)
     await h.executor.start("drive")
     await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "suspended")
-    for seq in range(8):  # 0.8 s of progress, four wakeup timeouts long
+    for seq in range(4):  # a progress report within every timeout window, four timeouts long
         event = TaskEvent(
             task_id="nav-1",
             server="navigation",
@@ -90,8 +116,12 @@ async def test_no_planner_call_while_the_awaited_task_still_reports_progress(
             payload={"eta_s": 10 - seq, "pct": 10 * seq},
         )
         await h.executor.on_task_event(event)
-        await asyncio.sleep(0.1)
+        before = len(looks)
+        await async_wait_until(lambda: len(looks) > before, 5, "a wakeup timeout")  # noqa: B023
+        clock.now += 0.03  # the next report comes within the 0.05 s window
+    assert all(looks)
     assert len(planner.requests) == 2  # progress kept the loop waiting: no timeout step
-    await h.executor.wait_idle(5)  # progress stopped → the timeout note wakes the planner
+    clock.now += 1.0  # progress stopped → the timeout note wakes the planner
+    await h.executor.wait_idle(5)
     assert len(planner.requests) == 3
     assert "[timeout] still waiting" in planner.requests[2][0][-1].content

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -10,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from robot_stack_testing import async_wait_until
 from robot_stack_testing.fake_api_server import serve_in_thread
 from robot_stack_testing.fake_openai import FakeOpenAIApi
 from robot_voice_chat.services.llm.base import Message, ToolCall, ToolDefinition, ToolResult
@@ -97,11 +97,12 @@ def test_empty_keys_are_refused_for_selected_adapters() -> None:
 async def test_espeak_speaks_sentences_in_order_and_interrupt_drops_the_queue(
     tmp_path: Path,
 ) -> None:
-    log = tmp_path / "spoken.txt"
+    log, started = tmp_path / "spoken.txt", tmp_path / "started.txt"
     engine = tmp_path / "engine.py"
     engine.write_text(
         "import sys, time, pathlib\n"
         "text = sys.argv[-1]\n"
+        f"pathlib.Path({str(started)!r}).open('a').write(text + '\\n')\n"
         "time.sleep(2 if text.startswith('slow') else 0)\n"
         f"pathlib.Path({str(log)!r}).open('a').write(text + '\\n')\n"
     )
@@ -111,7 +112,9 @@ async def test_espeak_speaks_sentences_in_order_and_interrupt_drops_the_queue(
     assert log.read_text().splitlines() == ["Hello there.", "I am a robot."]
 
     await speech.say("slow sentence. never spoken.")
-    await asyncio.sleep(0.3)
+    await async_wait_until(
+        lambda: "slow sentence." in started.read_text().splitlines(), 10, "the slow sentence"
+    )
     await speech.interrupt()
     await speech.drain(10)
     assert log.read_text().splitlines() == ["Hello there.", "I am a robot."]

@@ -1,7 +1,6 @@
 """The buffer against a fake vision node in real rclpy: discovery, subscriptions, drops,
 recovery after a vision node restart, and signed watch events at a real HTTP receiver."""
 
-import asyncio
 import json
 import uuid
 from collections.abc import Iterator
@@ -14,11 +13,11 @@ from mcp import Client
 from mcp_perception_buffer.composition import build_app
 from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import PosterEventSink
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
 from robot_ros_bridge import RosBridge
-from robot_ros_bridge.testing import FakeVisionNode
 from robot_ros_bridge.vision_tasks import RosVisionTasks
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver
+from robot_stack_testing.ros.fake_vision import FakeVisionNode
 
 pytestmark = pytest.mark.ros
 
@@ -123,7 +122,7 @@ async def test_a_new_skill_is_discovered_buffered_and_dropped_when_its_topics_go
 
 
 async def test_a_stopped_skill_whose_topics_another_node_still_reads_stays_dropped(
-    vision: FakeVisionNode, bridge: RosBridge
+    vision: FakeVisionNode, bridge: RosBridge, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The episodic recorder (any reader) keeps a stopped skill's topics in the graph with no
     publisher: the buffer drops the skill once and does not follow it again (it used to
@@ -132,6 +131,15 @@ async def test_a_stopped_skill_whose_topics_another_node_still_reads_stays_dropp
 
     app = build_app(_config(vision), bridge=bridge)
     tasks = RosVisionTasks(bridge, vision.name, wait_for_service_s=5.0)
+    following = lambda: app.perception.list_buffers()["following"]  # noqa: E731
+    polls: list[list[str]] = []  # what was followed right after each graph poll
+    sync_graph = app.perception.sync_graph
+
+    async def noted_sync_graph() -> None:
+        await sync_graph()
+        polls.append(following())
+
+    monkeypatch.setattr(app.perception, "sync_graph", noted_sync_graph)
     await app.perception.start()
     try:
         with RosBridge(_name("reader")) as reader:
@@ -142,14 +150,16 @@ async def test_a_stopped_skill_whose_topics_another_node_still_reads_stays_dropp
                 VisionDetectionArray, "/vision/ghost/detections_meta", lambda _m: None
             )
             await tasks.create({"name": "find", "mode": "ground_and_segment", "grounding": "mug"})
-            following = lambda: app.perception.list_buffers()["following"]  # noqa: E731
             await async_wait_until(lambda: "find" in following(), 10.0, "the skill followed")
             await tasks.manage("find", "delete")
             await async_wait_until(lambda: "find" not in following(), 10.0, "the skill dropped")
-            followed_again = []
-            for _ in range(20):  # 2 s: more than six grace periods (0.3 s) and graph polls
-                await asyncio.sleep(0.1)
-                followed_again += [s for s in following() if s in ("find", "ghost")]
+            dropped_at = len(polls)
+            await async_wait_until(  # polls 0.1 s apart: over two grace periods (0.3 s)
+                lambda: len(polls) >= dropped_at + 8, 20.0, "eight more graph polls"
+            )
+            followed_again = [
+                skill for seen in polls[dropped_at:] for skill in seen if skill in ("find", "ghost")
+            ]
             assert followed_again == []
     finally:
         await app.perception.close()

@@ -22,13 +22,9 @@ def _skipped(events: list[dict[str, Any]], reason: str | None = None) -> list[di
     ]
 
 
-def _push_frames(harness: Any, image: Any, count: int) -> None:
-    """Push ``count`` frames at the skill's rate (the engine is driven by frames)."""
-    import time
-
-    for _ in range(count):
-        harness.source.push(image)
-        time.sleep(0.06)
+def _skips(harness: Any, skill: str, reason: str) -> int:
+    """How many of the skill's ticks the engine decided to skip for ``reason``."""
+    return int(harness.node.registry.get(skill).skips[reason])
 
 
 WATCH = {
@@ -51,7 +47,11 @@ def test_identical_frames_suppress_grounder_calls_and_a_changed_frame_escalates(
     still = scene_factory(40)
 
     harness.pump(lambda: found, image=still, what="the first answer")
-    _push_frames(harness, still, 15)
+    harness.pump(  # ticks on the still scene, each one decided
+        lambda: _skips(harness, "door", "scene_unchanged") >= 5,
+        image=still,
+        what="five ticks on the still scene",
+    )
     calls_on_still_scene = harness.grounder.ground_calls
     harness.pump(
         lambda: harness.grounder.ground_calls > calls_on_still_scene,
@@ -309,7 +309,12 @@ def test_segment_all_tile_and_ground_requests_each_count_and_a_run_that_does_not
     )
 
     harness.pump(lambda: _skipped(log_events, "max_cloud_calls_per_min"), what="a budget skip")
-    _push_frames(harness, scene_factory(40), 5)
+    skipped = _skips(harness, "everything", "max_cloud_calls_per_min")
+    harness.pump(  # later ticks, each one decided: none may fit what is left of the budget
+        lambda: _skips(harness, "everything", "max_cloud_calls_per_min") >= skipped + 3,
+        image=scene_factory(40),
+        what="three more ticks",
+    )
 
     assert (harness.grounder.point_calls, harness.grounder.ground_calls) == (4, 1)  # 2x2 tiles
     assert harness.node.policy.budget.used() == 5

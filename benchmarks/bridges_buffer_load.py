@@ -101,7 +101,7 @@ def main() -> None:
             [
                 sys.executable,
                 "-m",
-                "robot_ros_bridge.testing",
+                "robot_stack_testing.ros.fake_vision",
                 "--name",
                 node,
                 "--hz",

@@ -122,7 +122,7 @@ def main() -> None:
             argv = [
                 sys.executable,
                 "-m",
-                "robot_ros_bridge.testing",
+                "robot_stack_testing.ros.fake_vision",
                 "--name",
                 node,
                 "--hz",

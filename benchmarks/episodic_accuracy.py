@@ -28,7 +28,7 @@ from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import Episode, ManualClock, play_office_day, questions
 from robot_mcp_episodic.store.base import EpisodicStore
 from robot_mcp_episodic.store.postgres import PostgresEpisodicStore
-from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.kit.tool_calls import tool_answer
 from robot_stack_testing.postgres import PostgresServer
 
 RESULTS = Path(__file__).parent / "results"

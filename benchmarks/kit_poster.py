@@ -25,8 +25,8 @@ from typing import Any
 
 from robot_mcp_kit.logging import configure_logging
 from robot_mcp_kit.poster import EventPoster
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver, order_violations
 from robot_stack_testing import free_tcp_port
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver, order_violations
 
 RESULTS = Path(__file__).parent / "results" / "kit_poster.json"
 SECRET = "bench-secret"

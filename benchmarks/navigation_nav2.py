@@ -1,5 +1,5 @@
 """Benchmark: the navigation server with NAV_MOTION=nav2 against a real rclpy NavigateToPose
-server in another process (robot_mcp_navigation.testing.nav2_server --trace), over ROS on
+server in another process (robot_stack_testing.navigation.nav2_server --trace), over ROS on
 loopback, events posted signed to a local receiver (the brain's place).
 
 Per round: navigate_to → a few feedback messages → stop_navigation. Reports p50/p99 of
@@ -31,8 +31,8 @@ from typing import Any
 from mcp import Client
 from mcp_types import CallToolResult, TextContent
 
-from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
 from robot_stack_testing import fresh_token, mcp_transport
+from robot_stack_testing.navigation.receiver import EventReceiver, running_receiver
 
 TOKEN = fresh_token()  # the servers' MCP_AUTH_TOKEN
 SECRET = "benchmark-secret"
@@ -143,7 +143,7 @@ def main() -> None:
                         [
                             sys.executable,
                             "-m",
-                            "robot_mcp_navigation.testing.nav2_server",
+                            "robot_stack_testing.navigation.nav2_server",
                             "--speed",
                             "0.3",
                             "--trace",

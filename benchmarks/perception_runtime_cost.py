@@ -17,11 +17,11 @@ from typing import Any
 
 from _perception_runtime_common import Bench, frames_640x480, write_result
 
-from robot_mcp_perception.fake_gemini import FakeGemini, serve_fake_gemini
 from robot_mcp_perception.models.base import GroundingResult
 from robot_mcp_perception.models.fakes import FakeGrounder
 from robot_mcp_perception.models.gemini_er import GeminiERGrounder
 from robot_mcp_perception.models.null import NullSegmenter
+from robot_stack_testing.perception.fake_gemini import FakeGemini, serve_fake_gemini
 
 POINTS = json.dumps(
     {

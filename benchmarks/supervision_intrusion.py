@@ -4,7 +4,7 @@ the intrusion reported, read from ROS (robot-sim's ``/amcl_pose``) and from the 
 Processes: robot-sim (honouring its supervisor lock, as twist_mux would), the navigation server
 (NAV_MOTION=nav2, supervision required, streamable-http with the brain's credential), this script
 as the supervising brain (renews its lease every 0.1 s, TTL 2 s, reads the ``alarms`` of each
-answer), and per run a fresh intruder process (``robot_mcp_navigation.testing.intruder``).
+answer), and per run a fresh intruder process (``robot_stack_testing.navigation.intruder``).
 
 Scenarios, each over ``--runs`` runs:
 
@@ -127,7 +127,7 @@ class Bench:
             [
                 sys.executable,
                 "-m",
-                "robot_mcp_navigation.testing.intruder",
+                "robot_stack_testing.navigation.intruder",
                 "--wait-for",
                 str(go),
                 *args,

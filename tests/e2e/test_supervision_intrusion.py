@@ -1,6 +1,6 @@
 """Issue 35 through the whole chain, on one start of the local stack (robot-sim honouring the
 supervisor lock, memory, navigation, the brain on the dev preset), with an intruder on the
-robot's ROS domain (``robot_mcp_navigation.testing.intruder``: a plain rclpy process, no
+robot's ROS domain (``robot_stack_testing.navigation.intruder``: a plain rclpy process, no
 credential):
 
 - latched, ``false`` published on ``/robot/supervisor_lock`` at 200 Hz and a NavigateToPose goal
@@ -107,7 +107,7 @@ async def alarm_codes(http: httpx.AsyncClient) -> set[str]:
 
 def start_intruder(launcher: ProcessLauncher, *args: str) -> LaunchedProcess:
     process = launcher.start(
-        "intruder", [sys.executable, "-m", "robot_mcp_navigation.testing.intruder", *args]
+        "intruder", [sys.executable, "-m", "robot_stack_testing.navigation.intruder", *args]
     )
     wait_until(lambda: "intruder_ready" in process.log(), 60, "the intruder")
     return process

@@ -33,7 +33,7 @@ from robot_mcp_navigation.map import parse_map
 from robot_mcp_navigation.motion.fake import FakeMotionBase
 from robot_mcp_navigation.navigator import Navigator
 from robot_mcp_navigation.tools import build_mcp_server as build_navigation
-from robot_ros_bridge.testing import FakeVisionTasks
+from robot_stack_testing.ros.fake_vision import FakeVisionTasks
 from robot_voice_chat.control.policy import ToolPolicy
 from robot_voice_chat.settings import CONFIG_DIR
 

@@ -24,7 +24,6 @@ from typing import Any
 import pytest
 from mcp import Client
 
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
 from robot_mcp_perception.sample_scenes import generate_scenes
 from robot_ros_bridge import RosBridge
 from robot_stack_testing import (
@@ -36,6 +35,7 @@ from robot_stack_testing import (
     mcp_transport,
     wait_for_tcp_port,
 )
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -13,11 +13,11 @@ from mcp import Client
 from mcp_perception_buffer.composition import PerceptionApp, build_app, event_sink
 from mcp_perception_buffer.config import PerceptionConfig
 from mcp_perception_buffer.events import LoggingEventSink, PosterEventSink, RecordingEventSink
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
-from robot_mcp_kit.testing_mcp import tool_answer
-from robot_ros_bridge.testing import FakeVisionTasks
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver
+from robot_stack_testing.kit.tool_calls import tool_answer
 from robot_stack_testing.ports import free_tcp_port
+from robot_stack_testing.ros.fake_vision import FakeVisionTasks
 
 DET = {
     "label": "mug",

@@ -14,8 +14,8 @@ from mcp import Client
 from mcp_skill_control.composition import SkillControlApp, build_app
 from mcp_skill_control.config import SkillControlConfig
 from robot_ros_bridge import RosBridge
-from robot_ros_bridge.testing import FakeVisionNode
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.ros.fake_vision import FakeVisionNode
 
 pytestmark = pytest.mark.ros
 

@@ -13,8 +13,8 @@ from mcp_skill_control.config import DEFAULT_CATALOG
 from mcp_skill_control.reconcile import CreateReconciler
 from mcp_skill_control.tools import SkillControl
 from robot_ros_bridge import ServiceTimeoutError, ServiceUnavailableError
-from robot_ros_bridge.testing import FakeVisionTasks
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.ros.fake_vision import FakeVisionTasks
 
 
 class LateNode(FakeVisionTasks):

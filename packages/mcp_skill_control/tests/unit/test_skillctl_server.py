@@ -8,9 +8,9 @@ from mcp import Client
 
 from mcp_skill_control.composition import build_app
 from mcp_skill_control.config import DEFAULT_CATALOG, SkillControlConfig
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_ros_bridge import ServiceTimeoutError
-from robot_ros_bridge.testing import FakeVisionTasks
+from robot_stack_testing.kit.tool_calls import tool_answer
+from robot_stack_testing.ros.fake_vision import FakeVisionTasks
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ from mcp_skill_control.catalog import Catalog, CatalogError
 from mcp_skill_control.config import DEFAULT_CATALOG
 from mcp_skill_control.tools import SkillControl
 from robot_ros_bridge import RemoteError, ServiceUnavailableError
-from robot_ros_bridge.testing import FakeVisionTasks
+from robot_stack_testing.ros.fake_vision import FakeVisionTasks
 
 
 @pytest.fixture

@@ -18,7 +18,6 @@ import pytest
 from mcp import Client
 from rosbags.highlevel import AnyReader
 
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_mcp_perception.composition import default_config_dir
 from robot_mcp_perception.sample_scenes import generate_scenes
 from robot_ros_bridge import RosBridge
@@ -32,6 +31,7 @@ from robot_stack_testing import (
     mcp_transport,
     wait_for_tcp_port,
 )
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -16,7 +16,6 @@ from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 
 from robot_mcp_kit.approvals import signed_approval
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -26,6 +25,7 @@ from robot_stack_testing import (
     mcp_transport,
     wait_for_tcp_port,
 )
+from robot_stack_testing.kit.tool_calls import tool_answer
 from robot_stack_testing.processes import start_refusal
 
 pytestmark = [pytest.mark.ros]

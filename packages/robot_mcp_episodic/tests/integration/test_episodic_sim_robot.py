@@ -24,7 +24,6 @@ from rosbags.highlevel import AnyReader
 from robot_mcp_episodic.config import default_map_file
 from robot_mcp_episodic.places import Places
 from robot_mcp_episodic.store.sqlite import SqliteEpisodicStore
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_ros_bridge import RosBridge
 from robot_ros_bridge.vision_tasks import RosVisionTasks
 from robot_sim.config import default_world_path
@@ -39,6 +38,7 @@ from robot_stack_testing import (
     wait_for_tcp_port,
     wait_until,
 )
+from robot_stack_testing.kit.tool_calls import tool_answer
 from robot_stack_testing.stack import stack_environment
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

@@ -22,7 +22,7 @@ from robot_mcp_episodic.episode import (
 )
 from robot_mcp_episodic.store.base import EpisodicStore
 from robot_mcp_episodic.store.postgres import PostgresEpisodicStore
-from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 START = 1_790_000_000.0
 Day = tuple[EpisodicApp, list[Question]]

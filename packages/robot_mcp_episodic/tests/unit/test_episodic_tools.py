@@ -17,7 +17,7 @@ from robot_mcp_episodic.episode import ManualClock
 from robot_mcp_episodic.timeparse import iso
 from robot_mcp_kit.approvals import ApprovalVerifier, signed_approval
 from robot_mcp_kit.caller import install_caller_context
-from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 T = 1_790_000_000.0
 APPROVAL_SECRET = "episodic-approval-secret-for-the-unit-tests"

@@ -15,7 +15,7 @@ from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import Episode, ManualClock
 from robot_mcp_episodic.matching import corrected_query, matching_labels
-from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 T = 1_790_000_000.0
 LABELS = ["charger", "red mug", "coffee machine", "scissors", "person", "laptop", "parcel"]

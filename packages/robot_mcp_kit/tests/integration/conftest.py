@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from robot_mcp_kit.poster import EventPoster
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver
 
 SECRET = "kit-test-secret-\u00e9"  # non-ASCII on purpose: the key is UTF-8 encoded
 SERVER = "navigation"

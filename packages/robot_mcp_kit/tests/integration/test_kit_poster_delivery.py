@@ -17,8 +17,13 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.outbox import OutboxFullError, OutboxLockedError
 from robot_mcp_kit.poster import PosterClosedError
 from robot_mcp_kit.signing import HEADER_SERVER
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver, Reply, order_violations
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.receiver import (
+    ReceiverServer,
+    RecordingReceiver,
+    Reply,
+    order_violations,
+)
 
 SECRET = "kit-test-secret-\u00e9"  # the fixtures' secret (conftest.py)
 

@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from robot_mcp_kit.testing import ReceiverServer, RecordingReceiver, order_violations
 from robot_stack_testing import ProcessLauncher, async_wait_until
+from robot_stack_testing.kit.receiver import ReceiverServer, RecordingReceiver, order_violations
 
 SECRET = "kit-test-secret-\u00e9"
 PROC = Path(__file__).parent / "procs" / "kit_poster_proc.py"

@@ -13,7 +13,7 @@ from robot_mcp_kit.mcp_runtime import (
     tool_error,
     transport_settings,
 )
-from robot_mcp_kit.testing_mcp import tool_answer
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 
 def build_server() -> MCPServer:

@@ -18,11 +18,11 @@ from mcp import Client
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_mcp_manipulation.composition import ManipulationApp, build_app
 from robot_mcp_manipulation.config import load_settings
 from robot_ros_bridge import RosBridge
 from robot_stack_testing import ProcessLauncher, async_wait_until, wait_until
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -11,11 +11,11 @@ import pytest
 from mcp import Client
 
 from robot_mcp_kit.task_events.fake import FakeEventSink
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_mcp_manipulation.arm.fake import FakeArm, FakeArmGoal
 from robot_mcp_manipulation.composition import ManipulationApp, build_app
 from robot_mcp_manipulation.config import load_settings
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 REF = {"topic": "/vision/find_object/detections", "stamp": 1_700_000_000.25, "index": 0}
 PICK = {"label": "mug", "mask_ref": REF}

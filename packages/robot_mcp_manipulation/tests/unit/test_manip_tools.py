@@ -14,12 +14,12 @@ from mcp.server.mcpserver import MCPServer
 
 from robot_mcp_kit.task_events.fake import FakeEventSink
 from robot_mcp_kit.tasks import TaskTable
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_mcp_manipulation.arm.fake import FakeArm, FakeArmGoal
 from robot_mcp_manipulation.arm.port import DetectionTarget, Held
 from robot_mcp_manipulation.manipulator import Manipulator, ManipulatorSettings
 from robot_mcp_manipulation.tools import build_mcp_server
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 REF = {
     "topic": "/vision/find_object/detections",

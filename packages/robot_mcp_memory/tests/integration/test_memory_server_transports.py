@@ -11,7 +11,6 @@ from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 from mcp.types import RequestParamsMeta
 
-from robot_mcp_kit.testing_mcp import approved
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -20,6 +19,7 @@ from robot_stack_testing import (
     mcp_transport,
     wait_for_tcp_port,
 )
+from robot_stack_testing.kit.tool_calls import approved
 
 TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 APPROVALS = fresh_token()  # the server's MCP_APPROVAL_SECRET (the brain signs with it)

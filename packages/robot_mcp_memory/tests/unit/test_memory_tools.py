@@ -8,7 +8,6 @@ from mcp.server.mcpserver import MCPServer
 from mcp.types import RequestParamsMeta
 
 from robot_mcp_kit.approvals import ApprovalVerifier
-from robot_mcp_kit.testing_mcp import approved
 from robot_mcp_memory.composition import build_memory
 from robot_mcp_memory.config import MemoryConfig
 from robot_mcp_memory.documents import FORMAT_SPEC
@@ -16,6 +15,7 @@ from robot_mcp_memory.service import ProcessMemory
 from robot_mcp_memory.store.base import StoreError
 from robot_mcp_memory.store.fake import FakeProcessStore
 from robot_mcp_memory.tools import build_server as build_bare_server
+from robot_stack_testing.kit.tool_calls import approved
 
 APPROVALS = "memory-approval-secret-of-the-unit-tests"
 

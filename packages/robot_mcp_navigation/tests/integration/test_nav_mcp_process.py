@@ -17,7 +17,6 @@ import pytest
 from mcp import Client
 from mcp_types import CallToolResult, TextContent
 
-from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -28,6 +27,7 @@ from robot_stack_testing import (
     mcp_transport,
     wait_for_tcp_port,
 )
+from robot_stack_testing.navigation.receiver import EventReceiver, running_receiver
 
 TOKEN = fresh_token()  # the server's MCP_AUTH_TOKEN
 SECRET = "integration-test-secret"

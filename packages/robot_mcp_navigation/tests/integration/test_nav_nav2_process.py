@@ -1,5 +1,5 @@
 """The navigation server with NAV_MOTION=nav2 as a real process, against a real rclpy
-NavigateToPose action server in another process (robot_mcp_navigation.testing.nav2_server),
+NavigateToPose action server in another process (robot_stack_testing.navigation.nav2_server),
 over ROS on loopback; events are posted signed to a local receiver."""
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ import pytest
 from mcp import Client
 from mcp_types import CallToolResult, TextContent
 
-from robot_mcp_navigation.testing.receiver import EventReceiver, running_receiver
 from robot_stack_testing import (
     LaunchedProcess,
     ProcessLauncher,
@@ -26,6 +25,7 @@ from robot_stack_testing import (
     wait_for_tcp_port,
     wait_until,
 )
+from robot_stack_testing.navigation.receiver import EventReceiver, running_receiver
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -43,7 +43,7 @@ def receiver() -> Iterator[EventReceiver]:
 
 def start_nav2(launcher: ProcessLauncher, *args: str) -> LaunchedProcess:
     process = launcher.start(
-        "fake-nav2", [sys.executable, "-m", "robot_mcp_navigation.testing.nav2_server", *args]
+        "fake-nav2", [sys.executable, "-m", "robot_stack_testing.navigation.nav2_server", *args]
     )
     wait_until(lambda: "fake_nav2_ready" in process.log(), 30, "the fake Nav2 to start")
     return process

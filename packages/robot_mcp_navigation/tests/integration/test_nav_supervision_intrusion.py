@@ -1,7 +1,7 @@
 """Issue 35 with real processes: robot-sim (honouring its supervisor lock, as twist_mux would),
 the navigation server (NAV_MOTION=nav2, supervision required, the brain's and the operator's
 credentials over streamable-http), this test as the brain renewing its lease, and the intruder
-(``robot_mcp_navigation.testing.intruder``: a plain rclpy process with no credential).
+(``robot_stack_testing.navigation.intruder``: a plain rclpy process with no credential).
 
 Each test checks the world — robot-sim's ``/amcl_pose`` read from ROS — not the server's words:
 - only the brain's credential renews the lease: the operator's ``supervise(latched=false)`` is
@@ -166,7 +166,7 @@ async def supervising(url: str) -> AsyncIterator[Brain]:
 def start_intruder(launcher: ProcessLauncher, *args: str) -> LaunchedProcess:
     process = launcher.start(
         "intruder",
-        [sys.executable, "-m", "robot_mcp_navigation.testing.intruder", *args],
+        [sys.executable, "-m", "robot_stack_testing.navigation.intruder", *args],
     )
     wait_until(lambda: "intruder_ready" in process.log(), 30, "the intruder")
     return process

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from pydantic import SecretStr
 
-from robot_mcp_perception.fake_gemini import FakeGemini, serve_fake_gemini
 from robot_mcp_perception.models.base import ModelError, ModelUnavailableError, SemanticRequest
 from robot_mcp_perception.models.gemini_er import (
     DEFAULT_MODEL,
@@ -22,6 +21,7 @@ from robot_mcp_perception.models.gemini_er import (
 from robot_mcp_perception.models.metering import CloudBudgetExhaustedError, metered
 from robot_mcp_perception.pipelines.common import call_grounder
 from robot_mcp_perception.prompt_builder import BadModelAnswerError
+from robot_stack_testing.perception.fake_gemini import FakeGemini, serve_fake_gemini
 
 IMAGE = np.zeros((100, 200, 3), np.uint8)
 IMAGE[20:60, 40:120] = (200, 30, 30)

@@ -13,8 +13,8 @@ from mcp import Client
 
 from robot_mcp_kit.motion_serving import MotionSide
 from robot_mcp_kit.supervision import Supervision
-from robot_mcp_kit.testing_mcp import tool_answer
 from robot_stack_testing import async_wait_until
+from robot_stack_testing.kit.tool_calls import tool_answer
 
 from .composition import DockApp, DockSettings, build_app, main
 from .docking import DockingError

@@ -340,7 +340,7 @@ def _default_value(output: dict[str, Any]) -> Any:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m robot_ros_bridge.testing [--name N] [--hz R]``: run a fake vision node
+    """``python -m robot_stack_testing.ros.fake_vision [--name N] [--hz R]``: run a fake vision node
     until SIGINT/SIGTERM (for cross-process tests and benchmarks)."""
     import argparse
     import signal

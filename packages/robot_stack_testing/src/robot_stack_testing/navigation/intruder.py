@@ -13,7 +13,7 @@ It runs ``--seconds`` (or until SIGTERM) and prints one JSON object per line on 
 ``{"event": "intruder_ready"}``, ``goal_accepted`` / ``goal_rejected``, ``goal_ended`` with
 ``status`` (``canceled``, ``succeeded``, ``aborted``) — what tests and benchmarks read.
 
-Run: ``python -m robot_mcp_navigation.testing.intruder --lock-topic /robot/supervisor_lock
+Run: ``python -m robot_stack_testing.navigation.intruder --lock-topic /robot/supervisor_lock
 --goal 17,3 --seconds 30``
 """
 

@@ -10,7 +10,7 @@ from typing import Any
 import httpx
 import pytest
 
-from robot_mcp_perception.fake_gemini import FakeGemini, serve_fake_gemini
+from robot_stack_testing.perception.fake_gemini import FakeGemini, serve_fake_gemini
 
 MODEL_PATH = "/v1beta/models/gemini-robotics-er-2-preview:generateContent"
 JPEG_B64 = base64.b64encode(b"\xff\xd8\xff\xe0 not really a jpeg").decode()

@@ -11,7 +11,8 @@ bt_navigator looks like from outside, and nothing more.
 - publishes the pose on ``/amcl_pose`` (PoseWithCovarianceStamped, reliable + transient local,
   depth 1, as AMCL does) at 10 Hz.
 
-Run: ``python nav2_action_server.py --start 0,0 --speed 2.0 [--abort 17,3,208,"door closed"]``
+Run: ``python -m robot_stack_testing.navigation.nav2_server --start 0,0 --speed 2.0
+[--abort 17,3,208,"door closed"]``
 """
 
 from __future__ import annotations

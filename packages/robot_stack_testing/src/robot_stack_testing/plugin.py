@@ -13,12 +13,12 @@ a test that wants the local stack's profile takes it from the stack file
 from __future__ import annotations
 
 import os
-import random
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from robot_stack_testing.domains import claim_domain_id
 from robot_stack_testing.ports import free_tcp_port
 from robot_stack_testing.postgres import PostgresServer
 from robot_stack_testing.processes import ProcessLauncher
@@ -31,7 +31,8 @@ differently and is left on its defaults."""
 
 
 def pick_ros_domain_id() -> int:
-    """A domain id for this run: the override if given, else a random one (1..100).
+    """A domain id for this run: the override if given, else a random one (1..100) that no
+    other test run on this machine holds (``robot_stack_testing.domains``).
 
     The environment's own ROS_DOMAIN_ID is ignored on purpose: on a robot it is the live
     robot's domain, which tests must never join.
@@ -39,7 +40,7 @@ def pick_ros_domain_id() -> int:
     override = os.environ.get(_DOMAIN_OVERRIDE)
     if override:
         return int(override)
-    return random.SystemRandom().randint(1, 100)
+    return claim_domain_id()
 
 
 def pytest_configure(config: pytest.Config) -> None:

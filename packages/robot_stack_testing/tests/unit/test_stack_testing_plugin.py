@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import asyncio
 import os
+import random
 import socket
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -18,6 +20,13 @@ from robot_stack_testing import (
     free_tcp_port,
     wait_for_tcp_port,
     wait_until,
+)
+from robot_stack_testing.domains import (
+    FIRST_ID,
+    LAST_ID,
+    NoFreeDomainError,
+    claim_domain_id,
+    release_domain_id,
 )
 from robot_stack_testing.plugin import TEST_PROFILE, pick_ros_domain_id, pytest_configure
 
@@ -65,7 +74,48 @@ def test_domain_override_wins_over_random_choice(monkeypatch: pytest.MonkeyPatch
 def test_random_domain_ignores_the_robots_own_domain(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("ROBOT_TEST_ROS_DOMAIN_ID", raising=False)
     monkeypatch.setenv("ROS_DOMAIN_ID", "0")
-    assert all(1 <= pick_ros_domain_id() <= 100 for _ in range(50))
+    picked = [pick_ros_domain_id() for _ in range(5)]
+    for domain in picked:
+        release_domain_id(domain)  # claimed for this process: given back for other runs
+    assert all(1 <= domain <= 100 for domain in picked)
+    assert len(set(picked)) == len(picked)
+
+
+def test_a_claimed_domain_is_never_handed_to_another_run(tmp_path: Path) -> None:
+    """Two runs that pick at the same time never share a domain (they would see each other's
+    nodes); a released id is free again."""
+    claimed = [claim_domain_id(tmp_path) for _ in range(FIRST_ID, LAST_ID + 1)]
+    try:
+        assert sorted(claimed) == list(range(FIRST_ID, LAST_ID + 1))  # each id once
+        with pytest.raises(NoFreeDomainError, match="held by other test runs"):
+            claim_domain_id(tmp_path)
+        release_domain_id(claimed[0])
+        assert claim_domain_id(tmp_path) == claimed[0]
+    finally:
+        for domain in claimed:
+            release_domain_id(domain)
+
+
+def test_a_domain_held_by_another_process_is_skipped(tmp_path: Path) -> None:
+    """The claim is the kernel's lock on a file: another process's claim counts too."""
+    holder = subprocess.Popen(
+        [sys.executable, "-c",
+         "import sys, time; from pathlib import Path; "
+         "from robot_stack_testing.domains import claim_domain_id; "
+         "import random; d = claim_domain_id(Path(sys.argv[1]), random.Random(1)); "
+         "print(d, flush=True); time.sleep(60)", str(tmp_path)],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout is not None
+        theirs = int(holder.stdout.readline())
+        ours = [claim_domain_id(tmp_path, random.Random(1)) for _ in range(3)]
+        assert theirs not in ours
+        for domain in ours:
+            release_domain_id(domain)
+    finally:
+        holder.kill()
+        holder.communicate(timeout=10)  # reaped, its pipe closed
 
 
 def test_wait_until_returns_the_first_truthy_value() -> None:

@@ -15,7 +15,13 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_stack_testing.mission_driver import MissionDriver, fresh_secret, sim_world, stack_env
+from robot_stack_testing.mission_driver import (
+    MissionDriver,
+    fresh_secret,
+    say_on_microphone,
+    sim_world,
+    stack_env,
+)
 from robot_stack_testing.stack import LocalStack, free_port_overrides, local_stack, stack_defaults
 
 pytestmark = [
@@ -43,20 +49,6 @@ def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[LocalStack
         yield services, f"http://127.0.0.1:{placeholders['brain_port']}"
 
 
-async def say(text: str) -> None:
-    """robot-sim-say: a person in the office says ``text`` on the robot's microphone topic."""
-    process = await asyncio.create_subprocess_exec(
-        shutil.which("robot-sim-say") or "robot-sim-say",
-        text,
-        "--wait-s",
-        "20",
-        stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.STDOUT,
-    )
-    output, _ = await asyncio.wait_for(process.communicate(), 60)
-    assert process.returncode == 0, output.decode(errors="replace")
-
-
 async def test_a_spoken_fetch_request_brings_the_package(
     stack: tuple[LocalStack, str],
 ) -> None:
@@ -76,10 +68,10 @@ async def test_a_spoken_fetch_request_brings_the_package(
         def sent() -> int:
             return listener.log().count('"event": "utterance_sent"')
 
-        await say(REQUEST)
+        await say_on_microphone(REQUEST)
         await async_wait_until(lambda: sent() >= 1, 60, "the request at the brain", 0.2)
         if '"mission_id": "m-' not in listener.log():  # read back: the person says it again
-            await say(REQUEST)
+            await say_on_microphone(REQUEST)
             await async_wait_until(lambda: sent() >= 2, 60, "the repeat at the brain", 0.2)
 
         async def arrived() -> bool:

@@ -6,7 +6,6 @@ report)."""
 
 from __future__ import annotations
 
-import asyncio
 import math
 import shutil
 from collections.abc import Iterator
@@ -16,7 +15,12 @@ from pathlib import Path
 import pytest
 
 from robot_stack_testing import async_wait_until
-from robot_stack_testing.mission_driver import MissionDriver, fresh_secret, stack_env
+from robot_stack_testing.mission_driver import (
+    MissionDriver,
+    fresh_secret,
+    say_on_microphone,
+    stack_env,
+)
 from robot_stack_testing.pose_watch import AmclWatch
 from robot_stack_testing.stack import LocalStack, free_port_overrides, local_stack, stack_defaults
 
@@ -61,21 +65,6 @@ def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
         watch.close()
 
 
-async def say(text: str, *options: str) -> None:
-    """robot-sim-say: a person in the office says ``text`` on the robot's microphone topic."""
-    process = await asyncio.create_subprocess_exec(
-        shutil.which("robot-sim-say") or "robot-sim-say",
-        text,
-        *options,
-        "--wait-s",
-        "20",
-        stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.STDOUT,
-    )
-    output, _ = await asyncio.wait_for(process.communicate(), 60)
-    assert process.returncode == 0, output.decode(errors="replace")
-
-
 async def test_a_spoken_stop_on_the_microphone_halts_the_drive(stack: Stack) -> None:
     async with MissionDriver(stack.brain) as user:
         await async_wait_until(lambda: navigation_connected(user), 90, "navigation connected", 0.2)
@@ -85,7 +74,7 @@ async def test_a_spoken_stop_on_the_microphone_halts_the_drive(stack: Stack) -> 
 
         # espeak-ng's en-us at 180 wpm: at its default 160 the on-board recognizer itself hears
         # a bare "stop" as "drop it" (also on the uncut recording; issue 36, the grammar's side)
-        await say("stop", "--speed", "180")
+        await say_on_microphone("stop", "--speed", "180")
 
         # the world: robot-sim's base halted, short of the kitchen
         await async_wait_until(

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import json
 import secrets
+import shutil
 import subprocess
 import sys
 import time
@@ -66,6 +67,23 @@ def sim_world(*change: str) -> dict[str, Any]:
     )
     world: dict[str, Any] = json.loads(shown.stdout)
     return world
+
+
+async def say_on_microphone(text: str, *options: str) -> None:
+    """robot-sim-say: a person in the office says ``text`` on the robot's microphone topic
+    (``options``: espeak-ng's, e.g. ``--speed 180``)."""
+    process = await asyncio.create_subprocess_exec(
+        shutil.which("robot-sim-say") or "robot-sim-say",
+        text,
+        *options,
+        "--wait-s",
+        "20",
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.STDOUT,
+    )
+    async with asyncio.timeout(60):
+        output, _ = await process.communicate()
+    assert process.returncode == 0, output.decode(errors="replace")
 
 
 def fresh_secret() -> str:

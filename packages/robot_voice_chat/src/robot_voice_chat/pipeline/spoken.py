@@ -46,6 +46,13 @@ class SpokenResult:
     reply: str
     read_back: bool = False
 
+    @property
+    def outcome(self) -> str:
+        """What came of the turn: acted (a turn was made), read_back or not_acted."""
+        if self.turn is not None:
+            return "acted"
+        return "read_back" if self.read_back else "not_acted"
+
 
 @dataclass
 class _Pending:
@@ -94,9 +101,16 @@ class SpokenTurns:
 
     async def hear(self, utterance: Utterance) -> SpokenResult:
         async with self._lock:  # one utterance at a time: a read-back belongs to its answer
+            started = time.perf_counter()
             await self.refresh_vocabulary()
             heard = await self._input.hear(utterance)
-            return await self._act(heard)
+            result = await self._act(heard)
+            logger.info(
+                "speech_turn_answered",
+                outcome=result.outcome,
+                duration_ms=round((time.perf_counter() - started) * 1000, 1),
+            )
+            return result
 
     async def _act(self, heard: Heard) -> SpokenResult:
         if heard.notice:

@@ -79,6 +79,7 @@ async def test_a_rejected_utterance_is_no_turn() -> None:
     result = await turns.hear(UTTERANCE)
     assert result.turn is None
     assert result.reply == NOT_CAUGHT
+    assert result.outcome == "not_acted"
     assert pipeline.turns == []
     assert said(emitter) == [NOT_CAUGHT]
 
@@ -89,11 +90,13 @@ async def test_a_middling_motion_is_read_back_and_yes_carries_it_out() -> None:
     )
     asked = await turns.hear(UTTERANCE)
     assert asked.read_back
+    assert asked.outcome == "read_back"
     assert asked.reply == "Did you say: go to the kitchen? (yes or no)"
     assert pipeline.turns == []  # nothing moved before the answer
     confirmed = await turns.hear(UTTERANCE)
     assert pipeline.turns == ["go to the kitchen"]
     assert confirmed.turn is not None
+    assert confirmed.outcome == "acted"
     assert said(emitter) == ["go to the kitchen", "Did you say: go to the kitchen? (yes or no)"]
 
 

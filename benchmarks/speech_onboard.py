@@ -30,12 +30,12 @@ from pathlib import Path
 
 import yaml
 
-from robot_voice_chat.services.llm.understanding.scoring import (
+from robot_language.scoring import (
     OFFICE_LIST_LOCATIONS,
     acts,
     is_wrong,
 )
-from robot_voice_chat.services.llm.understanding.understand import Understanding
+from robot_language.understand import Understanding
 from robot_voice_chat.services.speech.onboard import PocketsphinxSpeechInput
 from robot_voice_chat.services.speech.synth import say, with_noise
 from robot_voice_chat.services.speech.vocabulary import places_from_listing

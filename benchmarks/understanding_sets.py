@@ -19,7 +19,7 @@ import statistics
 import time
 from pathlib import Path
 
-from robot_voice_chat.services.llm.understanding.scoring import (
+from robot_language.scoring import (
     OFFICE_LIST_LOCATIONS,
     acts,
     grammar_reader,
@@ -27,7 +27,7 @@ from robot_voice_chat.services.llm.understanding.scoring import (
     score,
 )
 
-DATA = Path(__file__).parents[1] / "packages/robot_voice_chat/tests/unit/understanding/data"
+DATA = Path(__file__).parents[1] / "packages/robot_language/tests/unit/data"
 RESULTS = Path(__file__).parent / "results" / "understanding_sets.json"
 SETS = ("set_a", "set_b", "set_speech", "set_speech_tuning", "set_c")
 
@@ -54,7 +54,7 @@ def _shares(got: list[list[str]]) -> dict[str, float]:
 def main() -> None:
     rss_before = _rss_mb()
     started = time.perf_counter()
-    from robot_voice_chat.services.llm.understanding.understand import Understanding
+    from robot_language.understand import Understanding
 
     understanding = Understanding()
     load_s = time.perf_counter() - started

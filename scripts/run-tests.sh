@@ -6,7 +6,7 @@ set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-PACKAGES=(${TEST_PACKAGES:-robot_stack_testing robot_mcp_kit robot_skill_schema robot_site_map robot_ros_bridge robot_mcp_perception mcp_skill_control mcp_perception_buffer robot_mcp_memory robot_mcp_navigation robot_mcp_manipulation robot_sim robot_mcp_episodic robot_voice_chat})
+PACKAGES=(${TEST_PACKAGES:-robot_stack_testing robot_mcp_kit robot_skill_schema robot_site_map robot_ros_bridge robot_mcp_perception mcp_skill_control mcp_perception_buffer robot_mcp_memory robot_mcp_navigation robot_mcp_manipulation robot_sim robot_mcp_episodic robot_language robot_voice_chat})
 COV_MIN="${COV_MIN:-80}"
 failed=()
 summary=()

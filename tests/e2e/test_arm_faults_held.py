@@ -32,12 +32,12 @@ from typing import Any
 import pytest
 import yaml
 
+from robot_language.places import Place, located
 from robot_ros_bridge import RosBridge
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.mission_driver import MissionDriver, fresh_secret, sim_world, stack_env
 from robot_stack_testing.pose_watch import AmclWatch
 from robot_stack_testing.stack import LocalStack, free_port_overrides, local_stack, stack_defaults
-from robot_voice_chat.services.llm.understanding.places import Place, located
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.timeout(420)]
 

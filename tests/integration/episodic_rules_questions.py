@@ -22,6 +22,8 @@ from typing import Any
 
 from mcp import Client
 
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
+from robot_language.understand import Understanding
 from robot_mcp_episodic.composition import EpisodicApp, build_app
 from robot_mcp_episodic.config import EpisodicConfig
 from robot_mcp_episodic.episode import DAY_S, Episode, ManualClock, play_office_day
@@ -31,8 +33,6 @@ from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
-from robot_voice_chat.services.llm.understanding.understand import Understanding
 from robot_voice_chat.services.tools.base import (
     ConnectionState,
     ServerListener,

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from robot_language.recall import WHAT_HAPPENED
 from robot_stack_testing.brain.episodic_chat import recall_turn
 from robot_stack_testing.brain.harness import NAV_SECRET, harness_tools, make_harness, task_info
 from robot_stack_testing.brain.life import brain_life, fake_servers
@@ -14,7 +15,6 @@ from robot_stack_testing.brain.office_world import DOOR_SUGGESTIONS
 from robot_voice_chat.control.guard import GuardedToolBackend
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat
-from robot_voice_chat.services.llm.understanding.recall import WHAT_HAPPENED
 
 
 async def test_the_office_fetches_the_package_past_the_closed_door_and_puts_it_down(

@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
+from robot_language.places import PlaceIndex, located
 
 AT_PLACE_M = 1.0
 """Within this of a named place the robot is "in the mailroom"; farther, "near" it."""

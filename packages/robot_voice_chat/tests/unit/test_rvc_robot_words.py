@@ -17,6 +17,9 @@ from typing import Any
 
 import pytest
 
+from robot_language.places import PlaceIndex
+from robot_language.recall import LAST_SEEN, read_recall
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_stack_testing.brain.office import Office, office
 from robot_stack_testing.brain.office_world import DOOR_SUGGESTIONS
 from robot_voice_chat.agent.abort import aborted_summary, aborting_note, busy_note
@@ -42,9 +45,6 @@ from robot_voice_chat.services.llm.rules.recollection import (
     last_sightings_sentence,
     recollection,
 )
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
-from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN, read_recall
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.settings import ChatConfig
 

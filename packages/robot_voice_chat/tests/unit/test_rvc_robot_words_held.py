@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
+from robot_language.places import PlaceIndex
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_stack_testing.brain.office import Office, office
 from robot_voice_chat.agent.supervision_words import lost_motion_server, unconfirmed_stop
 from robot_voice_chat.held_words import holding_answer, still_holding, whereabouts_of
 from robot_voice_chat.robot_words import check_robot_words, leaks, witnessing
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 
 OFFICE_PLACES = PlaceIndex.from_result(OFFICE_LIST_LOCATIONS)
 

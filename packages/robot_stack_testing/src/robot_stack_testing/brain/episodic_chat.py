@@ -4,10 +4,10 @@ the chat's ``list_locations`` with the office map before it reaches its episodic
 
 from __future__ import annotations
 
+from robot_language.recall import LAST_SEEN, POSE_AT, WHAT_HAPPENED
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.llm.base import LLMResponse, Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.chat import LIST_LOCATIONS, RulesChat
-from robot_voice_chat.services.llm.understanding.recall import LAST_SEEN, POSE_AT, WHAT_HAPPENED
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
 
 RECALL_TOOLS = [
     ToolDefinition(name=n)

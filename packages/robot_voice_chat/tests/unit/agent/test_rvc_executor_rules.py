@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
+from robot_language.commands import parse
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.harness import task_info
 from robot_stack_testing.brain.office import Office, office
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.program import MissionProgram
 from robot_voice_chat.services.llm.rules.steps import Observation, Program
 from robot_voice_chat.socket_events import MissionEventLine, MissionPlan

@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 
+from robot_language.scoring import OFFICE_LOCATIONS
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.office import Office, office
 from robot_voice_chat.agent.holding import HeldAtStart, tell_what_is_held
@@ -25,7 +26,6 @@ from robot_voice_chat.held_words import (
 )
 from robot_voice_chat.robot_words import check_robot_words
 from robot_voice_chat.services.emitter.base import FakeEventEmitter
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LOCATIONS
 from robot_voice_chat.services.speech.fake import FakeSpeechOutput
 from robot_voice_chat.services.tools.fake import FakeToolBackend
 from robot_voice_chat.socket_events import ChatMessage

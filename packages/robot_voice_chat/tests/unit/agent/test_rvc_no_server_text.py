@@ -7,10 +7,10 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from robot_language.commands import parse
 from robot_stack_testing.brain.harness import task_info
 from robot_voice_chat.robot_words import check_robot_words
 from robot_voice_chat.services.llm.base import ToolDefinition, ToolResult
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.plain import suggestion_of
 from robot_voice_chat.services.llm.rules.program import MissionProgram
 from robot_voice_chat.services.llm.rules.steps import Observation

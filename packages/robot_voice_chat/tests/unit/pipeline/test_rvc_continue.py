@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
+from robot_language.understand import Understanding
 from robot_stack_testing.brain.harness import make_harness
 from robot_voice_chat.pipeline.chat import ChatPipeline
 from robot_voice_chat.services.llm.fake import FakeLLM
 from robot_voice_chat.services.llm.rules.chat import RulesChat
-from robot_voice_chat.services.llm.understanding.understand import Understanding
 from robot_voice_chat.settings import ChatConfig
 
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import pytest
 
+from robot_language.commands import parse
 from robot_mcp_memory.documents import parse_process
 from robot_voice_chat.agent.teaching import render_transcript
 from robot_voice_chat.pipeline.fast_tools import FAST_LOCAL_TOOLS
 from robot_voice_chat.services.llm.base import Message, ToolDefinition, ToolResult
 from robot_voice_chat.services.llm.rules.chat import RulesChat
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.planner import RulesPlanner
 

@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.speech.base import Heard
 from robot_voice_chat.services.speech.onboard import PocketsphinxSpeechInput
 from robot_voice_chat.services.speech.synth import espeak_available, noise_only, say, with_noise

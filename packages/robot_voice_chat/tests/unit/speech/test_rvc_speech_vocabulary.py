@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from robot_voice_chat.services.llm.understanding.scoring import OFFICE_LIST_LOCATIONS
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_voice_chat.services.speech.vocabulary import Vocabulary, kind_of, places_from_listing
 
 OFFICE = Vocabulary.build(places_from_listing(OFFICE_LIST_LOCATIONS))

@@ -10,9 +10,9 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
+from robot_language.places import Place
 from robot_voice_chat.api.deps import ContainerDep
 from robot_voice_chat.api.tool_json import ToolUnavailableError, call_json
-from robot_voice_chat.services.llm.understanding.places import Place
 
 router = APIRouter(prefix="/api/map", tags=["map"])
 

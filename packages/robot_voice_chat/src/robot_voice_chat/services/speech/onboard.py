@@ -125,7 +125,7 @@ class PocketsphinxSpeechInput(SpeechInput):
         logger.info("speech_onboard_loaded", load_ms=round(self.load_s * 1000, 1), model=str(root))
 
     def _initial_vocabulary(self) -> Vocabulary:
-        from robot_voice_chat.services.llm.understanding.intents import load_intents
+        from robot_language.intents import load_intents
 
         return Vocabulary.build([], self._objects, load_intents(self._intents_files))
 

@@ -21,7 +21,7 @@ import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from robot_voice_chat.services.llm.understanding.intents import IntentFile, load_intents
+from robot_language.intents import IntentFile, load_intents
 from robot_voice_chat.services.speech.base import HeardKind
 
 _WORD = re.compile(r"[a-z][a-z']*")

@@ -8,8 +8,8 @@ import math
 from datetime import datetime
 from typing import Any
 
+from robot_language.places import Place, PlaceIndex, located
 from robot_voice_chat.services.llm.rules.recollection import names_of
-from robot_voice_chat.services.llm.understanding.places import Place, PlaceIndex, located
 
 NOTHING_TO_CONTINUE = "There's nothing to continue: no mission is paused. Tell me what to do next."
 _SIDES = [  # (largest |bearing| in degrees, how it is said); left is positive (ROS REP 103)

@@ -14,6 +14,24 @@ from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from typing import Any
 
+from robot_language import saying
+from robot_language.commands import Command, normalise
+from robot_language.places import PlaceIndex, located
+from robot_language.reading import (
+    Action,
+    Question,
+    Reading,
+    instruction_of,
+)
+from robot_language.recall import (
+    LAST_SEEN,
+    POSE_AT,
+    WHAT_HAPPENED,
+    Recall,
+    follow_up_recall,
+    read_recall,
+)
+from robot_language.understand import Understanding
 from robot_voice_chat.services.llm.base import (
     LLMProvider,
     LLMResponse,
@@ -24,7 +42,6 @@ from robot_voice_chat.services.llm.base import (
     ToolResult,
 )
 from robot_voice_chat.services.llm.rules import answers
-from robot_voice_chat.services.llm.rules.commands import Command, normalise
 from robot_voice_chat.services.llm.rules.plain import reason_of
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
@@ -33,23 +50,6 @@ from robot_voice_chat.services.llm.rules.recollection import (
     names_of,
     recollection,
 )
-from robot_voice_chat.services.llm.understanding import saying
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
-from robot_voice_chat.services.llm.understanding.reading import (
-    Action,
-    Question,
-    Reading,
-    instruction_of,
-)
-from robot_voice_chat.services.llm.understanding.recall import (
-    LAST_SEEN,
-    POSE_AT,
-    WHAT_HAPPENED,
-    Recall,
-    follow_up_recall,
-    read_recall,
-)
-from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 LIST_LOCATIONS = "navigation.list_locations"
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns

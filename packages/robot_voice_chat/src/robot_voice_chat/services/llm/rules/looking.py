@@ -12,12 +12,12 @@ import json
 import re
 from typing import Any
 
+from robot_language.places import PlaceIndex
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.rules.plain import down_sentence, part_down, server_part
 from robot_voice_chat.services.llm.rules.recollection import last_sightings_sentence, names_of
 from robot_voice_chat.services.llm.rules.steps import Call, Finished, PlanStep, Steps
 from robot_voice_chat.services.llm.rules.surface import as_json, has_tool, task_id_of
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
 
 INSTANTIATE = "skill_control.instantiate_skill"
 PREWARM = "skill_control.prewarm_skill"

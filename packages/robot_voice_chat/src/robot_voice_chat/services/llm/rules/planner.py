@@ -19,6 +19,10 @@ from dataclasses import dataclass, field, replace
 
 import structlog
 
+from robot_language.commands import parse
+from robot_language.places import PlaceIndex
+from robot_language.recall import Recall
+from robot_language.understand import Understanding
 from robot_voice_chat.services.llm.base import (
     LLMProvider,
     LLMResponse,
@@ -28,9 +32,9 @@ from robot_voice_chat.services.llm.base import (
     ToolDefinition,
     ToolResult,
 )
-from robot_voice_chat.services.llm.rules.commands import parse
 from robot_voice_chat.services.llm.rules.distiller import TRANSCRIPT_HEADER, distill
 from robot_voice_chat.services.llm.rules.driving import NAVIGATE
+from robot_voice_chat.services.llm.rules.legs import legs_of
 from robot_voice_chat.services.llm.rules.program import (
     LIST_LOCATIONS,
     TASK_EVENT,
@@ -41,10 +45,6 @@ from robot_voice_chat.services.llm.rules.recall_program import recall_program
 from robot_voice_chat.services.llm.rules.recollection import names_of
 from robot_voice_chat.services.llm.rules.steps import Act, Call, Observation, Program
 from robot_voice_chat.services.llm.rules.surface import has_tool, task_id_of
-from robot_voice_chat.services.llm.understanding.legs import legs_of
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex
-from robot_voice_chat.services.llm.understanding.recall import Recall
-from robot_voice_chat.services.llm.understanding.understand import Understanding
 
 logger = structlog.get_logger(__name__)
 PAUSED_MARK = "mission is paused"

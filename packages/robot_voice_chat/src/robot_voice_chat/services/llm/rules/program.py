@@ -13,6 +13,9 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from robot_language.commands import Command
+from robot_language.listing import Locations
+from robot_language.places import PlaceIndex, located
 from robot_voice_chat.held_words import holding_answer, names_it
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import USER_TURN_PREFIX, ToolDefinition
@@ -24,7 +27,6 @@ from robot_voice_chat.services.llm.rules.carry import (
     RELEASE,
     Carrying,
 )
-from robot_voice_chat.services.llm.rules.commands import Command
 from robot_voice_chat.services.llm.rules.driving import NAVIGATE, Driving
 from robot_voice_chat.services.llm.rules.looking import (
     INSTANTIATE,
@@ -48,11 +50,7 @@ from robot_voice_chat.services.llm.rules.steps import (
     Program,
     Steps,
 )
-from robot_voice_chat.services.llm.rules.surface import (
-    Locations,
-    has_tool,
-)
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
+from robot_voice_chat.services.llm.rules.surface import has_tool
 
 LIST_LOCATIONS = "navigation.list_locations"
 # the historical mode of "what do you see" (seed 000 §8): the newest sightings of the last day

@@ -3,6 +3,7 @@ one episodic call, then the answer as the mission's summary. Never a motion."""
 
 from __future__ import annotations
 
+from robot_language.recall import Recall
 from robot_voice_chat.services.llm.base import ToolDefinition
 from robot_voice_chat.services.llm.rules.recollection import (
     NOT_CONNECTED,
@@ -12,7 +13,6 @@ from robot_voice_chat.services.llm.rules.recollection import (
 )
 from robot_voice_chat.services.llm.rules.steps import Act, Call, Program
 from robot_voice_chat.services.llm.rules.surface import has_tool
-from robot_voice_chat.services.llm.understanding.recall import Recall
 
 
 def recall_program(

@@ -8,14 +8,14 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from robot_voice_chat.services.llm.rules.plain import reason_of
-from robot_voice_chat.services.llm.understanding.places import PlaceIndex, located
-from robot_voice_chat.services.llm.understanding.recall import (
+from robot_language.places import PlaceIndex, located
+from robot_language.recall import (
     LAST_SEEN,
     POSE_AT,
     WHAT_HAPPENED,
     Recall,
 )
+from robot_voice_chat.services.llm.rules.plain import reason_of
 
 NOT_CONNECTED = (
     "I can't answer questions about the past right now: my episodic memory (the episodic "

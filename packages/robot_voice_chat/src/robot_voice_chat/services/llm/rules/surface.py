@@ -1,11 +1,11 @@
-"""Reading the live tool surface and what the real servers answered: tool presence,
-navigation locations (names + aliases), task ids, failures and their suggestions."""
+"""Reading the live tool surface and what the real servers answered: tool presence, task ids,
+failures and their suggestions (navigation's locations: ``robot_language.listing``)."""
 
 from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from robot_voice_chat.services.llm.base import ToolDefinition
@@ -24,41 +24,6 @@ def as_json(text: str) -> Any:
         return json.loads(text)
     except ValueError:
         return None
-
-
-@dataclass
-class Locations:
-    """Names and aliases from ``navigation.list_locations``."""
-
-    names: dict[str, str] = field(default_factory=dict)  # spelling → canonical name
-
-    @classmethod
-    def from_result(cls, text: str) -> Locations:
-        data = as_json(text)
-        items = data.get("locations", []) if isinstance(data, dict) else []
-        found = cls()
-        for item in items if isinstance(items, list) else []:
-            if not isinstance(item, dict) or not isinstance(item.get("name"), str):
-                continue
-            name = item["name"]
-            for spelling in [name, *[a for a in item.get("aliases", []) if isinstance(a, str)]]:
-                found.names[_key(spelling)] = name
-        return found
-
-    def resolve(self, phrase: str) -> str | None:
-        key = _key(phrase)
-        if key in self.names:
-            return self.names[key]
-        # "the kitchen area" / "kitchen please": a known name inside the phrase
-        hits = [name for spelling, name in self.names.items() if spelling and spelling in key]
-        return max(hits, key=len) if hits else None
-
-    def known(self) -> list[str]:
-        return sorted(set(self.names.values()))
-
-
-def _key(text: str) -> str:
-    return re.sub(r"[\s_\-]+", " ", text.lower()).strip()
 
 
 def task_id_of(text: str) -> str | None:

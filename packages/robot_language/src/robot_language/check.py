@@ -1,0 +1,197 @@
+"""The CHECK stage (issue 38, "nothing said is dropped"): the last look at a reading the robot
+would act on. Every known place and object the sentence names must be used by the reading (as
+its object, source, destination or a leg) or ruled out by the person; an object is a thing, not
+a thing and a place together nor a phrase cut off at a preposition; a place is a place on the
+map, never a piece of sentence; a sentence that stops at "... to" or "... and" is not finished;
+a thing the person said to leave alone is never handled.
+
+When the check fails the robot does not act: it asks one question saying what it understood
+and what it did not follow, or says what it will not do. It never narrows the request on a
+guess."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Collection
+from dataclasses import dataclass, replace
+
+from robot_language import saying
+from robot_language.mentions import (
+    Mention,
+    object_mentions,
+    place_mentions,
+)
+from robot_language.places import PlaceIndex, words
+from robot_language.reading import Action, Question, Reading
+
+# a sentence that ends on one of these was cut off ("bring the mug from the kitchen to")
+_CUT_OFF = {
+    "to", "from", "and", "or", "at", "into", "onto", "of", "with", "for", "by", "the", "a",
+    "an", "via", "towards", "toward", "but", "if", "before", "after", "until", "because",
+    "unless", "my", "your",
+}  # fmt: skip
+# "leave the box alone / where it is / as it is", "don't touch the box": hands off it
+_HANDS_OFF = re.compile(
+    r"\b(?:leave|let)\s+(?P<left>.+?)\s+(?:alone|be|where\s+(?:it|they)\s+(?:is|are)|"
+    r"as\s+(?:it|they)\s+(?:is|are)|in\s+peace)\b"
+    r"|\b(?:don't|do not|never)\s+(?:touch|move|pick up|take|handle)\s+(?P<touch>[^,.;]+)"
+)
+# a question may end on its preposition ("what are you looking at", "who is it for")
+_WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
+_HANDLING = ("pick", "put", "release", "fetch")
+_OFFER = "Do you want me to"
+_MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
+
+
+@dataclass(frozen=True)
+class _Found:
+    """What the check found wrong with a reading, said in the robot's words."""
+
+    why: str
+    keep: list[Action]  # the sound part that may be offered as it is (yes / no)
+    fill_to: int | None = None  # a fetch whose destination was cut off: asked for
+
+
+def check(
+    text: str,
+    reading: Reading,
+    places: PlaceIndex | None,
+    ruled_out: Collection[str] = (),
+    objects: Collection[str] = (),
+) -> Reading:
+    """``reading`` when nothing ``text`` (normalised) says is dropped or garbled; else one
+    question or a refusal. Only readings that act are checked."""
+    if reading.kind == "ask":
+        return _said_back_whole(text, reading, places, ruled_out, objects)
+    if reading.kind != "act" or not reading.actions:
+        return reading
+    found = (
+        _hands_off(text, reading.actions, places)
+        or _unsound(reading.actions, places)
+        or _cut_off(text, reading.actions, places)
+        or _dropped(text, reading.actions, places, ruled_out, objects)
+    )
+    if found is None:
+        return reading
+    return _reply(found, reading, places)
+
+
+def _said_back_whole(
+    text: str,
+    reading: Reading,
+    places: PlaceIndex | None,
+    ruled_out: Collection[str],
+    objects: Collection[str],
+) -> Reading:
+    """A yes/no question that says back only part of the sentence says what it left out (a
+    yes then does only that part, knowingly)."""
+    question = reading.question
+    if question is None or question.mode != "confirm" or not question.text.startswith(_OFFER):
+        return reading
+    found = _dropped(text, question.actions, places, ruled_out, objects)
+    if found is None:
+        return reading
+    text = f"{found.why} {_OFFER} just {question.text.removeprefix(_OFFER).lstrip()}"
+    return replace(reading, question=replace(question, text=text))
+
+
+def check_answer(reading: Reading, places: PlaceIndex | None) -> Reading:
+    """The reading an answer to a question completed: its slots are checked again (the answer
+    "the kitchen" to "Where should I get the mug to Bob's desk from?" does not make a thing of
+    "mug to Bob's desk")."""
+    if reading.kind != "act" or not reading.actions:
+        return reading
+    found = _unsound(reading.actions, places)
+    return reading if found is None else _reply(found, reading, places)
+
+
+def _hands_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
+    """A thing said to be left alone is handled by the reading."""
+    match = _HANDS_OFF.search(text)
+    if match is None:
+        return None
+    left = set(words(match["left"] or match["touch"] or "")) - {"the", "a", "an", "my", "it"}
+    handled = [
+        a for a in actions if a.kind in _HANDLING and (not a.obj or left & set(words(a.obj)))
+    ]
+    if not left or not handled:
+        return None
+    thing = saying.thing(handled[0].obj)
+    keep = [a for a in actions if a not in handled]
+    return _Found(f"You said to leave {thing} alone, so I won't move it.", keep)
+
+
+def _unsound(actions: list[Action], places: PlaceIndex | None) -> _Found | None:
+    """An object that holds a place or stops at a preposition; a place that is a sentence."""
+    for action in actions:
+        obj = action.obj or ""
+        inside = place_mentions(obj, places)
+        if inside:
+            where = saying.place_of(inside[0].name, places)
+            return _Found(
+                f"I won't guess: I heard {obj!r} as one thing, but {where} is a place. Please "
+                "tell me again what to do with the thing and with the place.",
+                [],
+            )
+        if obj and obj.split()[-1] in _CUT_OFF:
+            return _Found(f"I didn't catch the end of {obj!r}.", [])
+        for slot in (action.place, action.to):
+            if slot and not _a_place(slot, places):
+                return _Found(f"I don't know {slot!r} as a place.", [])
+    return None
+
+
+def _a_place(slot: str, places: PlaceIndex | None) -> bool:
+    if places is not None and places.places:
+        return places.get(slot) is not None
+    return len(slot.split()) <= _MAX_PLACE_WORDS and slot.split()[-1] not in _CUT_OFF
+
+
+def _cut_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
+    """The sentence stops at a word that needs more after it."""
+    said = re.findall(r"[\w']+", text)
+    if not said or said[-1] not in _CUT_OFF or _WH_QUESTION.match(text):
+        return None
+    last = actions[-1]
+    if said[-1] == "to" and last.kind == "fetch" and last.to is None:
+        return _Found(f"You stopped after {said[-1]!r}.", actions, fill_to=len(actions) - 1)
+    return _Found(f"You stopped after {said[-1]!r}, so I may have missed the rest.", actions)
+
+
+def _dropped(
+    text: str,
+    actions: list[Action],
+    places: PlaceIndex | None,
+    ruled_out: Collection[str],
+    objects: Collection[str],
+) -> _Found | None:
+    """Known places and objects the sentence names that the reading does not use."""
+    used = {p for a in actions for p in (a.place, a.to) if p} | set(ruled_out)
+    left = [m for m in place_mentions(text, places) if m.name not in used]
+    said_objects = " ".join(a.obj or "" for a in actions)
+    left += [m for m in object_mentions(text, objects) if not _in(m, said_objects)]
+    if not left:
+        return None
+    said = [saying.thing(m.name) if m.label else saying.place_of(m.name, places) for m in left]
+    names = list(dict.fromkeys(said))
+    listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+    return _Found(f"You also said {listed}, and I didn't follow what to do with that.", actions)
+
+
+def _in(mention: Mention, said: str) -> bool:
+    return set(mention.said.split()) <= set(words(said))
+
+
+def _reply(found: _Found, reading: Reading, places: PlaceIndex | None) -> Reading:
+    """One question naming what was understood and what was not; or what won't be done."""
+    if found.fill_to is not None:
+        last = found.keep[found.fill_to]
+        text = f"{found.why} Where should I bring {saying.thing(last.obj)}?"
+        question = Question(text, "fill", found.keep, index=found.fill_to, slot="to")
+        return Reading("ask", question=question, intent=reading.intent, stage=reading.stage)
+    if not found.keep:
+        return Reading("refuse", text=found.why, intent="unchecked", stage=reading.stage)
+    plan = saying.plan(found.keep, places)
+    text = f"{found.why} Do you want me to just {plan}? (yes or no)"
+    question = Question(text, "confirm", found.keep)
+    return Reading("ask", question=question, intent=reading.intent, stage=reading.stage)

@@ -1,0 +1,197 @@
+"""Negations and corrections (issue 32): what the person said *not* to do is taken out of the
+request and remembered, so that place is never driven to, proposed or offered as a choice.
+
+- corrections: "go to the kitchen no wait the mailroom", "drive to reception, actually make
+  that Bob's desk", "go to the kitchen, sorry, I mean the mailroom": the part after the marker
+  replaces the place of the last leg (or the whole leg when it has a verb of its own);
+- negations: "don't go to the kitchen, go to reception instead", "not the kitchen, the
+  mailroom", "go to the meeting room not the kitchen", "X instead of / rather than Y";
+- "don't go to the kitchen" alone leaves nothing to do (``only_negative``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from robot_language import clauses as cl
+
+_LEADING = re.compile(
+    r"^(?:(?:no|nope|no no|actually|wait,|wait no|no wait|sorry|oh|i mean|i said|instead,)"
+    r"[\s,]+)+(?=\w)"
+)
+_VERB = (
+    r"(?:go|drive|head|come|move|walk|travel|return|navigate|visit|find|look|search|locate|"
+    r"check|bring|fetch|get|take|grab|carry|deliver|watch|patrol|swing|pop)"
+)
+_DONT = re.compile(
+    r"^(?:please |you )?(?:don't|do not|never|no need to|you don't need to|you shouldn't|"
+    r"shouldn't|mustn't|must not)\s+(?P<neg>.+?)"
+    rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
+    r"(?P<rest>.*)$"
+)
+_NOT_FIRST = re.compile(
+    r"^not (?P<neg>.+?)(?:,\s*|\s+but\s+|\s+(?=(?:the|a|an|to|at|in|go|drive|head)\b))"
+    r"(?P<rest>.+)$"
+)
+_NOT_ALONE = re.compile(
+    r"^(?:not|never|no)\s+(?P<neg>(?:to\s+|in\s+|at\s+)?(?:the|a|an)\s+.+)(?P<rest>)$"
+)
+_NOT_LAST = re.compile(r"^(?P<rest>.+?)(?:,\s*|\s+)(?:and |but )?not (?P<neg>.+)$")
+_INSTEAD_OF = re.compile(r"^(?P<rest>.+?)\s+(?:instead of|rather than|in place of)\s+(?P<neg>.+)$")
+_INSTEAD_OF_FIRST = re.compile(r"^(?:instead of|rather than) (?P<neg>.+?),\s*(?P<rest>.+)$")
+_INSTEAD = re.compile(r"\s+instead$|^instead\s+")
+# a correction marker: a run of these words, with at least one strong one
+_MARKS = {"oh", "uh", "well", "no", "wait", "sorry", "actually", "correction", "nope"}
+_PAIRS = {"i mean", "i meant", "make that", "make it", "scratch that", "or rather", "i said"}
+_STRONG = {"sorry", "actually", "correction", "no", "i mean", "i meant", "make that",
+           "make it", "scratch that", "or rather"}  # fmt: skip
+_NOT_AFTER_NO = {
+    "one", "body", "more", "longer", "matter", "problem", "need", "idea", "thanks", "way",
+    "thing", "where", "doubt", "rush", "worries", "further", "other",
+}  # fmt: skip
+_NO_AFTER = {"is", "there's", "there", "are", "with", "have", "has", "had", "say", "said"}
+_PLACE_TAIL = re.compile(r"^(?P<head>.*\b(?:to|into|in|at|by|from|towards|near)\s+)(?P<place>.+)$")
+_OBJ_VERB = re.compile(
+    r"^(?P<verb>(?:find|look for|search for|locate|get|fetch|bring me|bring|grab|watch for)\s+)"
+)
+_FIRST_PREP = re.compile(r"^.*?\b(?:to|into|in|at|by|from|towards|near)\s+(?P<place>.+)$")
+
+
+@dataclass(frozen=True)
+class Said:
+    """The request with its corrections made and its negations taken out."""
+
+    text: str
+    negated: list[str] = field(default_factory=list)  # phrases the person said not to use
+    refused: str = ""  # the negated leg as said ("go to the kitchen"), when only that was said
+
+    @property
+    def only_negative(self) -> bool:
+        return not self.text and bool(self.refused)
+
+
+def read(text: str, is_place: Callable[[str], bool]) -> Said:
+    """``text`` (normalised) → what to do and what not to; ``is_place``: whether a phrase
+    names a place on the live map (a correction that is a place replaces a place)."""
+    text = _LEADING.sub("", text).strip(" ,")
+    negated: list[str] = []
+    text = _correct(text, is_place, negated)
+    for pattern in (_DONT, _NOT_FIRST, _INSTEAD_OF_FIRST, _NOT_ALONE):
+        match = pattern.match(text)
+        if match is not None:
+            leg = _trim(match["neg"])
+            negated.append(_place_of(leg))
+            rest = _trim(_INSTEAD.sub("", match["rest"]))
+            if not rest:
+                return Said("", negated, leg)
+            text = rest
+            break
+    for pattern in (_INSTEAD_OF, _NOT_LAST):
+        match = pattern.match(text)
+        if match is not None and not _QUESTION.match(match["rest"]):
+            negated.append(_place_of(_trim(match["neg"])))
+            text = _trim(match["rest"])
+            break
+    return Said(_trim(_INSTEAD.sub("", text)), [n for n in negated if n])
+
+
+def _correct(text: str, is_place: Callable[[str], bool], negated: list[str]) -> str:
+    """The last correction in ``text`` made: "A <marker> B" → A with B in place."""
+    found = _last_mark(text)
+    if found is None:
+        return text
+    before, after = found
+    after = _trim(_INSTEAD.sub("", after))
+    legs = cl.clauses(before)
+    if not legs or not after:
+        return text
+    *kept, last = legs
+    if is_place(after) and not re.match(rf"^{_VERB}\b", after):
+        if is_place(last) and not _PLACE_TAIL.match(last):
+            negated.append(cl.strip_article(last))
+            last = after
+        elif (tail := _PLACE_TAIL.match(last)) is not None:
+            negated.append(cl.strip_article(tail["place"]))
+            last = tail["head"] + after
+        else:
+            negated.append(_place_of(last))
+            last = after
+    elif re.match(rf"^{_VERB}\b", after):
+        negated.append(_place_of(last))
+        last = after
+    elif (verb := _OBJ_VERB.match(last)) is not None and not _PLACE_TAIL.match(last):
+        last = verb["verb"] + after  # "find the mug, no wait, the scissors"
+    else:
+        return text
+    return ", then ".join([*kept, last])
+
+
+def _last_mark(text: str) -> tuple[str, str] | None:
+    """(before, after) around the last run of correction words that is not at the start."""
+    tokens = re.findall(r"[\w']+|,", text)
+    best: tuple[int, int] | None = None
+    i = 1
+    while i < len(tokens):
+        j, strong = i, False
+        while j < len(tokens):
+            pair = " ".join(tokens[j : j + 2])
+            if pair in _PAIRS:
+                strong, j = strong or pair in _STRONG, j + 2
+            elif tokens[j] == "," or (tokens[j] in _MARKS and _marks(tokens, j)):
+                strong = strong or tokens[j] in _STRONG
+                j += 1
+            else:
+                break
+        if j > i and strong and j < len(tokens) and any(t != "," for t in tokens[i:j]):
+            best = (i, j)
+            i = j
+        else:
+            i += 1
+    if best is None:
+        return None
+    before = _join(tokens[: best[0]])
+    after = _join(tokens[best[1] :])
+    return (before, after) if before and after else None
+
+
+def _marks(tokens: list[str], j: int) -> bool:
+    """Whether ``tokens[j]`` is a correction word here (not "no one", "wait for", "there's no
+    parcel")."""
+    word = tokens[j]
+    after = tokens[j + 1] if j + 1 < len(tokens) else ""
+    before = tokens[j - 1] if j > 0 else ""
+    if word == "wait":
+        return after in (",", "no") or before in ("no", ",")
+    if word == "no":
+        return after not in _NOT_AFTER_NO and before not in _NO_AFTER
+    if word in ("oh", "uh", "well"):
+        return after in _MARKS or after in ("i", ",")
+    return True
+
+
+def _join(tokens: list[str]) -> str:
+    return re.sub(r"\s+,", ",", " ".join(tokens)).strip(" ,")
+
+
+def _trim(text: str) -> str:
+    text = text.strip(" ,.!?")
+    return re.sub(r"\s+(?:and|then|but|please)$", "", text).strip(" ,")
+
+
+def _place_of(leg: str) -> str:
+    """The place phrase of a negated leg ("go to the kitchen" → "the kitchen"; a bare place is
+    itself)."""
+    match = _FIRST_PREP.match(leg)
+    return cl.strip_article(match["place"]) if match is not None else cl.strip_article(leg)
+
+
+_QUESTION = re.compile(r"^(?:is|are|was|were|do|does|did|why|where|what|how|can|could|have|has)\b")
+_STILL_NEGATED = re.compile(r"\b(?:not|don't|do not|never|mustn't|shouldn't|instead of)\b")
+
+
+def still_negated(text: str) -> bool:
+    """A negation this module could not take apart is left in ``text``: nothing in it may be
+    acted on or proposed (it might be the very place the person ruled out)."""
+    return _STILL_NEGATED.search(text) is not None

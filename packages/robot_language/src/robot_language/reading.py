@@ -1,0 +1,154 @@
+"""What the understanding layer made of a request: actions to take, or one question to ask, or
+a refusal, or a question the robot answers from its tools."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+from robot_language.places import located
+from robot_language.recall import Recall
+
+ActionKind = Literal["goto", "find", "fetch", "watch", "see", "pick", "put", "release"]
+ReadingKind = Literal["act", "ask", "refuse", "answer", "stop", "greet", "cancel"]
+
+
+@dataclass(frozen=True)
+class Action:
+    kind: ActionKind
+    place: str | None = None  # goto's destination; find/fetch's place to go first
+    obj: str | None = None
+    to: str | None = None  # fetch: where to bring it
+
+    def instruction(self) -> str:
+        """The action in the exact grammar's words (the rules planner parses it back)."""
+        if self.kind == "goto":
+            return f"go to {self.place}"
+        if self.kind == "find":
+            return f"find {self.obj}" + (f" in {self.place}" if self.place else "")
+        if self.kind == "fetch":
+            return f"fetch {self.obj} from {self.place}" + (
+                f", then bring it to {self.to}" if self.to else ""
+            )
+        if self.kind == "watch":
+            return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_instruction(self)
+        return "what do you see"
+
+    def spoken(self, names: Callable[[str], str] | None = None) -> str:
+        """The action as the robot says it back; ``names`` says a map id by its human name
+        ("Alice's desk"), else the id with spaces."""
+        say = names or _by_id
+        place, to = say(self.place or ""), say(self.to or "")
+        if self.kind == "goto":
+            return f"go to {place}"
+        if self.kind == "find":
+            return f"look for the {self.obj}" + (f" {located(place)}" if self.place else "")
+        if self.kind == "fetch":
+            return f"get the {self.obj} from {place}" + (
+                f" and bring it to {to}" if self.to else ""
+            )
+        if self.kind == "watch":
+            return f"watch for {self.obj}"
+        if self.kind in ("pick", "put", "release"):
+            return _hands_spoken(self)
+        return "tell you what I see"
+
+    def code(self) -> str:
+        """Compact form used by the phrasing sets: goto:kitchen, fetch:mug@kitchen>dock."""
+        if self.kind == "see":
+            return "see"
+        if self.kind == "goto":
+            return f"goto:{self.place}"
+        text = f"{self.kind}:{self.obj}" if self.obj else self.kind
+        if self.place:
+            text += f"@{self.place}"
+        if self.to:
+            text += f">{self.to}"
+        return text
+
+
+def _hands_instruction(action: Action) -> str:
+    """pick / put / release in the exact grammar's words (commands.py parses them back)."""
+    if action.kind == "pick":
+        return f"pick up {action.obj}"
+    if action.kind == "put":
+        what = action.obj or "it"
+        return f"put {what} down" + (f" at {action.place}" if action.place else "")
+    return "hand it over"
+
+
+def _hands_spoken(action: Action) -> str:
+    place = (action.place or "").replace("_", " ")
+    if action.kind == "pick":
+        return f"pick up the {action.obj}"
+    if action.kind == "put":
+        what = f"the {action.obj}" if action.obj else "it"
+        return f"put {what} down" + (f" at the {place}" if action.place else "")
+    return "hand it over"
+
+
+def instruction_of(actions: list[Action]) -> str:
+    return ", then ".join(a.instruction() for a in actions)
+
+
+def _by_id(place: str) -> str:
+    return f"the {place.replace('_', ' ')}"
+
+
+def spoken_of(actions: list[Action], names: Callable[[str], str] | None = None) -> str:
+    said = [a.spoken(names) for a in actions]
+    return said[0] if len(said) == 1 else ", then ".join(said[:-1]) + ", then " + said[-1]
+
+
+@dataclass(frozen=True)
+class Question:
+    """One clarifying question and how its answer completes the request.
+
+    ``choose``: the answer picks one of ``options`` (place names) for ``slot`` of action
+    ``index``; ``confirm``: yes acts ``actions`` as they are; ``fill``: the answer is the
+    missing ``slot`` (place or object) of action ``index``."""
+
+    text: str
+    mode: Literal["choose", "confirm", "fill"]
+    actions: list[Action] = field(default_factory=list)
+    options: list[str] = field(default_factory=list)
+    index: int = 0
+    slot: Literal["place", "obj", "to"] = "place"
+
+    def complete(self, value: str) -> list[Action]:
+        actions = list(self.actions)
+        actions[self.index] = _with(actions[self.index], self.slot, value)
+        return actions
+
+
+@dataclass(frozen=True)
+class Reading:
+    kind: ReadingKind
+    actions: list[Action] = field(default_factory=list)
+    question: Question | None = None
+    text: str = ""  # a refusal's sentence; an answer that needs no tool (small talk, thanks)
+    topic: str = ""  # answer: where | places | abilities | history | greet | distance | time |
+    # doing | smalltalk | thanks | resume | <site intent>
+    recall: Recall | None = None  # topic history: the episodic call that answers it
+    intent: str = ""
+    score: float = 1.0
+    stage: Literal["grammar", "semantic", "answer"] = "grammar"
+    about: str | None = None  # answer: the place a question is about (a map id)
+
+    def code(self) -> list[str]:
+        if self.kind == "act":
+            return [a.code() for a in self.actions]
+        if self.kind == "answer":
+            return [f"answer:{self.recall.code() if self.recall else self.topic}"]
+        return [self.kind]
+
+
+def _with(action: Action, slot: str, value: str) -> Action:
+    if slot == "obj":
+        return replace(action, obj=value)
+    if slot == "to":
+        return replace(action, to=value)
+    return replace(action, place=value)

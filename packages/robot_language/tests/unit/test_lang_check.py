@@ -1,0 +1,178 @@
+"""The CHECK stage (issue 38, "nothing said is dropped"): a reading that would leave part of the
+sentence unused, or read a place into a thing, or act on a sentence that was cut off, is not
+acted on; the robot asks one question naming what it understood and what it did not follow,
+or says what it will not do. Sentences written from the principle (none is from a phrasing set),
+each read wrongly before the check."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from robot_language.places import PlaceIndex
+from robot_language.reading import Reading
+from robot_language.scoring import (
+    OFFICE_LIST_LOCATIONS,
+    acts,
+    is_wrong,
+)
+from robot_language.understand import Understanding
+
+
+@pytest.fixture(scope="module")
+def places(understanding: Understanding) -> PlaceIndex:
+    return understanding.places(OFFICE_LIST_LOCATIONS)
+
+
+def _said(reading: Reading) -> str:
+    return reading.question.text if reading.question is not None else reading.text
+
+
+def _not_acted(reading: Reading) -> str:
+    """The reading did not act; what the robot says is in its plain words."""
+    assert reading.kind in ("ask", "refuse"), reading.code()
+    said = _said(reading)
+    assert said
+    # plain words: no tool names, error codes or ids (they all carry an underscore or a digit run)
+    assert not re.search(r"_|\d{3,}", said), said
+    return said
+
+
+def test_a_carrying_request_is_not_read_as_a_drive_to_its_source(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand(
+        "could you move the charger from the mailroom to Bob's desk", places
+    )  # was goto:mailroom: the charger and Bob's desk dropped
+    said = _not_acted(reading)
+    assert reading.kind == "ask"
+    assert "Bob's desk" in said
+    assert "go to the mailroom" in said
+
+
+def test_an_object_never_holds_a_known_place(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("find the stapler beside reception", places)
+    said = _not_acted(reading)  # was find:"stapler beside reception"
+    assert "stapler beside reception" in said
+    assert "the reception desk" in said
+
+
+def test_a_leg_said_after_the_verb_is_not_dropped(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    for text in (
+        "go to the mailroom once you have been to the kitchen",  # was goto:mailroom
+        "go to reception but stop by the kitchen first",  # was goto:reception
+    ):
+        reading = understanding.understand(text, places)
+        assert "the kitchen" in _not_acted(reading), text
+
+
+def test_a_condition_naming_a_place_is_not_dropped(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand(
+        "go to the kitchen if nobody is in the meeting room", places
+    )  # was goto:meeting_room, the opposite of the request
+    assert "the kitchen" in _not_acted(reading)
+
+
+def test_a_question_saying_back_part_of_the_sentence_says_what_it_left_out(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("the mug in the kitchen needs to go to Alice's desk", places)
+    said = _not_acted(reading)  # was "Do you want me to look for the mug in the kitchen?"
+    assert said.startswith("You also said Alice's desk")
+    assert "Do you want me to just look for the mug in the kitchen?" in said
+
+
+def test_a_sentence_cut_off_after_to_asks_where_to(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("take the mug from the kitchen to", places)
+    said = _not_acted(reading)  # was fetch:mug@kitchen
+    assert reading.question is not None
+    assert "Where should I bring the mug?" in said
+    answered = understanding.follow_up(reading.question, "Bob's desk", places)
+    assert answered is not None
+    assert answered.code() == ["fetch:mug@kitchen>desk_bob"]
+
+
+def test_a_sentence_cut_off_after_and_is_not_acted_on(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("drive over to the mailroom and", places)
+    assert "'and'" in _not_acted(reading)  # was goto:mailroom
+
+
+def test_an_object_cut_off_at_a_preposition_is_not_acted_on(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("find the umbrella with", places)
+    assert "umbrella with" in _not_acted(reading)  # was find:"umbrella with"
+
+
+def test_a_thing_to_leave_alone_is_never_handled(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("leave the umbrella at reception alone", places)
+    said = _not_acted(reading)  # was put:umbrella@reception
+    assert reading.kind == "refuse"
+    assert "leave the umbrella alone" in said
+
+
+def test_a_place_slot_is_never_a_piece_of_sentence(understanding: Understanding) -> None:
+    reading = understanding.understand("head to the big room where we had lunch yesterday")
+    _not_acted(reading)  # without the map: was goto:"big room where we had lunch yesterday"
+
+
+def test_an_answer_does_not_make_a_thing_of_a_place(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("take the stapler to the kitchen", places)
+    assert reading.question is not None  # where from? (the stapler's slot holds the kitchen)
+    answered = understanding.follow_up(reading.question, "reception", places)
+    assert answered is not None
+    assert not acts(answered.code()), answered.code()
+
+
+def test_a_known_object_named_is_not_dropped(tmp_path: Path) -> None:
+    site = tmp_path / "site.yaml"
+    site.write_text("objects: [stapler]\n")
+    understanding = Understanding(intents_files=[site])
+    places = understanding.places(OFFICE_LIST_LOCATIONS)
+    reading = understanding.understand("head to the kitchen for the stapler", places)
+    assert "the stapler" in _not_acted(reading)  # was goto:kitchen
+    found = understanding.understand("find the stapler in the kitchen", places)
+    assert found.code() == ["find:stapler@kitchen"]
+
+
+@pytest.mark.parametrize(
+    ("text", "code"),
+    [
+        ("go to the mailroom, not the kitchen", ["goto:mailroom"]),  # ruled out: accounted
+        ("go to reception then", ["goto:reception"]),  # "then" closes a sentence too
+        (
+            "fetch the stapler from the kitchen and bring it to Alice's desk",
+            ["fetch:stapler@kitchen>desk_alice"],
+        ),
+        ("patrol between the kitchen and the mailroom", ["goto:kitchen", "goto:mailroom"]),
+        ("go home", ["goto:dock"]),
+    ],
+)
+def test_a_reading_that_uses_everything_said_still_acts(
+    understanding: Understanding, places: PlaceIndex, text: str, code: list[str]
+) -> None:
+    assert understanding.understand(text, places).code() == code
+
+
+def test_the_arm_acts_too_in_the_scoring() -> None:
+    assert acts(["put:box@kitchen"])
+    assert acts(["pick:mug"])
+    assert acts(["release"])
+    assert is_wrong(["put:box@kitchen"], ["ask"])
+    assert is_wrong(["release"], ["see"])

@@ -1,1 +1,0 @@
-"""The embedded understanding layer (intents as data, semantic matching, live slots)."""

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 DEFAULT_INTENTS = Path(__file__).parent / "config" / "intents.yaml"
 IntentKind = Literal["action", "answer", "stop", "refuse"]
@@ -57,9 +57,35 @@ def load_intents(extra: list[Path] | None = None) -> IntentFile:
 
 def _read(path: Path) -> IntentFile:
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        return IntentFile.model_validate(data or {})
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise IntentsError(f"can't read intents file {path}: {exc}") from exc
-    except (yaml.YAMLError, ValueError) as exc:
-        raise IntentsError(f"bad intents file {path}: {exc}") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        raise IntentsError(f"bad intents file {where}: {exc}") from exc
+    try:
+        return IntentFile.model_validate(data or {})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = ".".join(str(part) for part in first["loc"])
+        line = _line_of(text, first["loc"])
+        raise IntentsError(f"bad intents file {path}:{line}: {field}: {first['msg']}") from exc
+
+
+def _line_of(text: str, loc: tuple[int | str, ...]) -> int:
+    """The 1-based line of the YAML node at ``loc`` (or of the deepest part of it that exists)."""
+    node = yaml.compose(text)
+    for part in loc:
+        if isinstance(node, yaml.MappingNode):
+            found = [value for key, value in node.value if key.value == part]
+        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int):
+            found = node.value[part : part + 1]
+        else:
+            found = []
+        if not found:
+            break
+        node = found[0]
+    return node.start_mark.line + 1 if node is not None else 1

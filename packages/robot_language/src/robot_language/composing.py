@@ -24,7 +24,7 @@ class Leg:
     intent: str = ""
     score: float = 1.0
     sure: bool = True
-    stage: Literal["grammar", "semantic"] = "grammar"
+    stage: Literal["grammar", "roles", "semantic"] = "grammar"
     slot: Literal["place", "obj", "to"] = "place"
     options: list[str] = field(default_factory=list)
     phrase: str = ""
@@ -76,7 +76,7 @@ def compose(text: str, legs: list[Leg], places: PlaceIndex | None) -> Reading:
             problems.append((len(actions), leg))
     score = min((leg.score for leg in legs), default=1.0)
     stage: Literal["grammar", "semantic"] = (
-        "grammar" if all(leg.stage == "grammar" for leg in legs) else "semantic"
+        "grammar" if all(leg.stage in ("grammar", "roles") for leg in legs) else "semantic"
     )
     intent = "+".join(leg.intent or "?" for leg in legs)
     base = Reading("act", actions, intent=intent, score=score, stage=stage)

@@ -5,10 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-DEFAULT_INTENTS = Path(__file__).parent / "config" / "intents.yaml"
+from robot_language.config_file import CONFIG, PhrasingsError, read_model
+
+DEFAULT_INTENTS = CONFIG / "intents.yaml"
 IntentKind = Literal["action", "answer", "stop", "refuse"]
 
 
@@ -30,10 +31,6 @@ class IntentFile(BaseModel):
     objects: list[str] = Field(default_factory=list)
 
 
-class IntentsError(ValueError):
-    """An intents file is missing or malformed (named, with the reason)."""
-
-
 def load_intents(extra: list[Path] | None = None) -> IntentFile:
     """The shipped intents, extended by ``extra`` files in order: a new intent is added, an
     existing one gets the extra examples and verbs (its kind and tool can't change)."""
@@ -46,7 +43,7 @@ def load_intents(extra: list[Path] | None = None) -> IntentFile:
                 merged.intents[name] = intent
                 continue
             if intent.kind != known.kind:
-                raise IntentsError(f"{path}: intent {name!r} is {known.kind}, not {intent.kind}")
+                raise PhrasingsError(f"{path}: intent {name!r} is {known.kind}, not {intent.kind}")
             known.examples += [e for e in intent.examples if e not in known.examples]
             known.verbs += [v for v in intent.verbs if v not in known.verbs]
         merged.objects += [o for o in site.objects if o not in merged.objects]
@@ -56,36 +53,4 @@ def load_intents(extra: list[Path] | None = None) -> IntentFile:
 
 
 def _read(path: Path) -> IntentFile:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise IntentsError(f"can't read intents file {path}: {exc}") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
-        raise IntentsError(f"bad intents file {where}: {exc}") from exc
-    try:
-        return IntentFile.model_validate(data or {})
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        field = ".".join(str(part) for part in first["loc"])
-        line = _line_of(text, first["loc"])
-        raise IntentsError(f"bad intents file {path}:{line}: {field}: {first['msg']}") from exc
-
-
-def _line_of(text: str, loc: tuple[int | str, ...]) -> int:
-    """The 1-based line of the YAML node at ``loc`` (or of the deepest part of it that exists)."""
-    node = yaml.compose(text)
-    for part in loc:
-        if isinstance(node, yaml.MappingNode):
-            found = [value for key, value in node.value if key.value == part]
-        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int):
-            found = node.value[part : part + 1]
-        else:
-            found = []
-        if not found:
-            break
-        node = found[0]
-    return node.start_mark.line + 1 if node is not None else 1
+    return read_model(path, IntentFile, "intents")

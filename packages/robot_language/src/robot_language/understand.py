@@ -48,6 +48,7 @@ from robot_language.recall import (
     looks_like_recall,
     read_recall,
 )
+from robot_language.roles import DEFAULT_ROLES, read_roles, role_words
 
 logger = structlog.get_logger(__name__)
 NOT_READ_RECALL = (
@@ -74,11 +75,18 @@ class Understanding:
         self,
         embedder: Embedder | None = None,
         intents_files: list[Path] | None = None,
+        roles_file: Path | None = None,
         act_threshold: float = 0.55,
         ask_threshold: float = 0.35,
         margin: float = 0.03,
     ) -> None:
         self.intents = load_intents(intents_files)
+        words = role_words(roles_file or DEFAULT_ROLES)
+        carrying = {"fetch", "deliver"}
+        own = [v for n in carrying for v in self.intents.intents[n].verbs]
+        other = [v for n, i in self.intents.intents.items() if n not in carrying for v in i.verbs]
+        verbs = list(dict.fromkeys([*words.carry_verbs, *own]))
+        self.roles = words.model_copy(update={"carry_verbs": verbs, "other_verbs": other})
         self.embedder = embedder or default_embedder()
         self.act_threshold, self.ask_threshold, self.margin = act_threshold, ask_threshold, margin
         self._labels = [n for n, i in self.intents.intents.items() for _ in i.examples]
@@ -260,6 +268,15 @@ class Understanding:
         return best
 
     def _leg(self, part: str, places: PlaceIndex | None) -> Leg:
+        carried = read_roles(
+            part,
+            self.roles,
+            lambda phrase: guards.names_a_place(places, phrase),
+            lambda phrase: places is not None and places.only_place(phrase),
+        )
+        if carried is not None:
+            action = Action("fetch", carried.source, carried.thing, carried.destination)
+            return self._resolve(Leg(part, action=action, intent="fetch", stage="roles"), places)
         command = parse(part)
         if command.kind != "unknown":
             kind: ActionKind = command.kind

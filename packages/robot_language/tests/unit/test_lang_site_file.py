@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_language.intents import IntentsError, load_intents
+from robot_language.config_file import PhrasingsError
+from robot_language.intents import load_intents
 from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_language.understand import Understanding
 
@@ -52,11 +53,11 @@ def test_a_site_verb_and_place_word_are_understood_without_code(
 def test_a_broken_site_file_names_its_file_and_line(tmp_path: Path, text: str, where: str) -> None:
     site = tmp_path / "site.yaml"
     site.write_text(text, encoding="utf-8")
-    with pytest.raises(IntentsError) as caught:
+    with pytest.raises(PhrasingsError) as caught:
         load_intents([site])
     assert f"{site}{where}:" in str(caught.value)
 
 
 def test_a_missing_site_file_is_named(tmp_path: Path) -> None:
-    with pytest.raises(IntentsError, match=r"can't read intents file .*absent\.yaml"):
+    with pytest.raises(PhrasingsError, match=r"can't read intents file .*absent\.yaml"):
         load_intents([tmp_path / "absent.yaml"])

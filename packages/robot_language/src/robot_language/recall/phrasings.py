@@ -1,0 +1,40 @@
+"""The phrasings the grammar of questions about the past reads as data (``config/recall.yaml``):
+plain lower-case words, validated once on import; a broken file is refused with its line."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, PositiveInt, StringConstraints
+
+from robot_language.config_file import CONFIG, read_model
+
+RECALL_PHRASINGS = CONFIG / "recall.yaml"
+# the text is read lower case with single spaces: anything else would never be matched
+Words = Annotated[str, StringConstraints(pattern=r"^[a-z']+(?: [a-z']+)*$")]
+WordList = Annotated[list[Words], Field(min_length=1)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SeeingForms(_Strict):
+    base: WordList
+    both: WordList
+    past: WordList
+
+
+class RecallPhrasings(_Strict):
+    shorthand: dict[Words, Words]
+    run_together: dict[Words, Words]
+    opening_words: WordList
+    verbs: WordList
+    seeing_forms: SeeingForms
+    same_thing: dict[Words, Words]
+    nothing: WordList
+    hedges: WordList
+    amounts: dict[Words, PositiveInt]
+
+
+PHRASINGS = read_model(RECALL_PHRASINGS, RecallPhrasings, "recall phrasings")

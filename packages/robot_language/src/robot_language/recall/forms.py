@@ -11,16 +11,7 @@ from typing import Any
 
 from robot_language.recall.cleaning import clean, typos_fixed
 from robot_language.recall.phrasings import PHRASINGS
-from robot_language.recall.question import (
-    AROUND,
-    DEFAULT_AWAY,
-    FIRST_OF,
-    LAST_SEEN,
-    POSE_AT,
-    WHAT_HAPPENED,
-    Recall,
-    RecallKind,
-)
+from robot_language.recall.question import LAST_SEEN, POSE_AT, WHAT_HAPPENED, Recall, RecallKind
 from robot_language.recall.slots import object_of, place_of
 from robot_language.recall.times import (
     BETWEEN,
@@ -33,6 +24,9 @@ from robot_language.recall.times import (
     span,
 )
 
+FIRST_OF = 20  # "when did you first see X": the earliest of its last this-many sightings
+AROUND = "5m"  # "what did you see at 3 pm": the server's "3pm -5m" to "3pm +5m"
+DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
 AWAY = re.compile(
     r"\b(?:while|when|whilst) i (?:was|were) (?:away|gone|out|out of the office|not here|"
     r"not around|at lunch|in a meeting|in the meeting)"

@@ -8,9 +8,6 @@ from typing import Any, Literal
 WHAT_HAPPENED = "episodic.what_happened"
 LAST_SEEN = "episodic.last_seen"
 POSE_AT = "episodic.pose_at"
-FIRST_OF = 20  # "when did you first see X": the earliest of its last this-many sightings
-AROUND = "5m"  # "what did you see at 3 pm": the server's "3pm -5m" to "3pm +5m"
-DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
 RecallKind = Literal["seen", "digest", "away", "last_seen", "pose_at", "visits"]
 
 

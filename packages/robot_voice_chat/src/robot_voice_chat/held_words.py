@@ -66,6 +66,13 @@ def still_holding(label: str, where: str | None) -> str:
     return f"I'm still holding the {label}{place}. {QUESTION}"
 
 
+def held_sentence(held: Held) -> str:
+    """The answer to "what are you holding", from ``get_held``."""
+    if not held.known:
+        return "I can't tell what I'm holding right now: my arm doesn't say."
+    return holding_answer(held.label) if held.label else "I'm not holding anything."
+
+
 def holding_answer(label: str) -> str:
     """A search for something the gripper holds is answered from the gripper."""
     return f"I'm holding the {label}."

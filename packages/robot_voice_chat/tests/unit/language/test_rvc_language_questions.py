@@ -155,3 +155,56 @@ async def test_continue_without_the_brains_tool_says_there_is_nothing_to_continu
     reply = await chat.chat(messages, tools)
     assert not reply.tool_calls
     assert reply.text.startswith("There's nothing to continue")
+
+
+@pytest.mark.parametrize(
+    ("said", "code"),
+    [
+        ("what are you holding", "answer:holding"),
+        ("what have you got in your gripper", "answer:holding"),
+        ("are you carrying anything right now", "answer:holding"),
+        ("how is your battery", "answer:battery"),
+        ("how much charge have you got left", "answer:battery"),
+    ],
+)
+def test_questions_about_itself_are_read_as_such(
+    understanding: Understanding, said: str, code: str
+) -> None:
+    reading = understanding.understand(said, understanding.places(OFFICE_LIST_LOCATIONS))
+    assert reading.code() == [code]
+
+
+@pytest.mark.parametrize(
+    ("held", "said"),
+    [
+        ('{"known": true, "holding": true, "label": "yellow package"}',
+         "I'm holding the yellow package."),
+        ('{"known": true, "holding": false, "label": null}', "I'm not holding anything."),
+        ('{"known": false}', "I can't tell what I'm holding right now: my arm doesn't say."),
+    ],
+)  # fmt: skip
+async def test_what_it_holds_is_read_from_the_gripper(
+    understanding: Understanding, held: str, said: str
+) -> None:
+    tools = [*TOOLS, ToolDefinition(name="manipulation.get_held")]
+    chat = RulesChat(understanding)
+    messages = [Message(role="user", content="what are you holding")]
+    first = await chat.chat(messages, tools)
+    messages += [first.as_message(), Message(role="user", tool_results=[ToolResult(
+        tool_call_id=first.tool_calls[0].id, content=OFFICE_LIST_LOCATIONS)])]  # fmt: skip
+    asked = await chat.chat(messages, tools)
+    assert [c.name for c in asked.tool_calls] == ["manipulation.get_held"]
+    messages += [asked.as_message(), Message(role="user", tool_results=[ToolResult(
+        tool_call_id=asked.tool_calls[0].id, content=held)])]  # fmt: skip
+    assert (await chat.chat(messages, tools)).text == said
+
+
+async def test_without_the_arm_or_a_battery_reading_it_says_so(
+    understanding: Understanding,
+) -> None:
+    chat = RulesChat(understanding)
+    holding = await _answer(chat, "what are you holding")
+    assert holding.text == "I can't tell what I'm holding: my arm is not connected."
+    battery = await _answer(chat, "how is your battery")
+    assert not battery.tool_calls
+    assert battery.text.startswith("I can't read my battery level")

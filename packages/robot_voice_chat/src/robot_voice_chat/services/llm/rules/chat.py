@@ -32,6 +32,7 @@ from robot_language.recall import (
     read_recall,
 )
 from robot_language.understand import Understanding
+from robot_voice_chat.held_words import held_from, held_sentence
 from robot_voice_chat.services.llm.base import (
     LLMProvider,
     LLMResponse,
@@ -54,6 +55,11 @@ from robot_voice_chat.services.llm.rules.recollection import (
 LIST_LOCATIONS = "navigation.list_locations"
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
+GET_HELD = "manipulation.get_held"
+NO_BATTERY = (
+    "I can't read my battery level: no battery reading reaches me here. "
+    "Say go to the dock if I should charge."
+)
 RESUME = "resume_mission"  # the fast path's own tool: is there a paused mission, a latched stop
 _TOLD = ("time", "doing", "distance", "smalltalk", "thanks", "resume")  # issue 32's answers
 _STOP = re.compile(r"^(?:stop|halt|freeze|stopp|arrête|fermati)\b")
@@ -147,6 +153,8 @@ class RulesChat(LLMProvider):
             return self._reply(request, places, messages, names)
         if purpose == "pose":
             return LLMResponse(text=_where(result, names_of(sent.places)))
+        if purpose == "held":
+            return LLMResponse(text=held_sentence(held_from(result.content, result.is_error)))
         if purpose in ("doing", "distance", "resume"):
             return LLMResponse(text=_told(sent, result))
         if purpose == "history":
@@ -224,6 +232,12 @@ class RulesChat(LLMProvider):
                 )
             listed = ", ".join(p.spoken() for p in places.places)
             return LLMResponse(text=f"I know {len(places.places)} places: {listed}.")
+        if topic == "holding":
+            if GET_HELD in names:
+                return self._call(GET_HELD, {}, "held")
+            return LLMResponse(text="I can't tell what I'm holding: my arm is not connected.")
+        if topic == "battery":
+            return LLMResponse(text=NO_BATTERY)
         return LLMResponse(text=INTRO)
 
     def _tell(self, reading: Reading, places: PlaceIndex | None, names: set[str]) -> LLMResponse:
@@ -363,6 +377,7 @@ def _where(result: ToolResult, names: Names = by_id) -> str:
 _PURPOSE_OF_TOOL = {
     LIST_LOCATIONS: "places",
     GET_POSE: "pose",
+    GET_HELD: "held",
     RESUME: "resume",
     "start_mission": "mission",
     "stop_mission": "stop",

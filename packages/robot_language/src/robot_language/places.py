@@ -253,3 +253,20 @@ class PlaceIndex:
 
 def _number(value: object) -> float | None:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+
+
+# Words a place's name does not hold: a phrase with one of them is a sentence not understood,
+# never said back as "a place called '...'".
+# fmt: off
+_NOT_IN_PLACE_NAMES = frozenset({
+    "how", "what", "why", "when", "who", "which", "whether", "is", "are", "was", "were", "am",
+    "do", "does", "did", "can", "could", "would", "will", "should", "you", "your", "i", "it", "if",
+})
+# fmt: on
+_LONGEST_PLACE_NAME = 6  # words, articles not counted
+
+
+def could_name_a_place(phrase: str) -> bool:
+    """Whether ``phrase`` (not found on the map) could still be the name of a place."""
+    said = [w for w in words(phrase) if w not in ("the", "a", "an")]
+    return 0 < len(said) <= _LONGEST_PLACE_NAME and not _NOT_IN_PLACE_NAMES & set(said)

@@ -34,7 +34,7 @@ from robot_language.composing import (
 from robot_language.embedder import Embedder, default_embedder
 from robot_language.followup import follow_up
 from robot_language.intents import load_intents
-from robot_language.places import PlaceIndex, PlaceMatch
+from robot_language.places import PlaceIndex, PlaceMatch, could_name_a_place
 from robot_language.questions import read_question
 from robot_language.reading import (
     Action,
@@ -359,7 +359,10 @@ class Understanding:
                 continue
             leg.slot = "place" if slot == "place" else "to"
             leg.phrase = cl.strip_article(phrase)
-            leg.status = "ambiguous" if match.names else "unknown_place"
+            if match.names:
+                leg.status = "ambiguous"
+            else:  # a place name is never a whole unparsed sentence ("how is your battery")
+                leg.status = "unknown_place" if could_name_a_place(leg.phrase) else "unclear"
             leg.options = match.names
             break
         leg.action = action

@@ -88,6 +88,9 @@ def _said_back_whole(
     question = reading.question
     if question is None or question.mode != "confirm" or not question.text.startswith(_OFFER):
         return reading
+    hands_off = _hands_off(text, question.actions, places)
+    if hands_off is not None:  # never offer to handle what is to be left alone
+        return _reply(hands_off, reading, places)
     found = _dropped(text, question.actions, places, ruled_out, objects)
     if found is None:
         return reading
@@ -116,7 +119,8 @@ def _hands_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _
     ]
     if not left or not handled:
         return None
-    thing = saying.thing(handled[0].obj)
+    said = match["left"] or match["touch"] or ""
+    thing = saying.thing(said.strip()) if said.strip() else saying.thing(handled[0].obj)
     keep = [a for a in actions if a not in handled]
     return _Found(f"You said to leave {thing} alone, so I won't move it.", keep)
 

@@ -6,6 +6,7 @@ request and remembered, so that place is never driven to, proposed or offered as
   replaces the place of the last leg (or the whole leg when it has a verb of its own);
 - negations: "don't go to the kitchen, go to reception instead", "not the kitchen, the
   mailroom", "go to the meeting room not the kitchen", "X instead of / rather than Y";
+- "skip the kitchen and go straight to reception", "avoid the mailroom", "stay away from X";
 - "don't go to the kitchen" alone leaves nothing to do (``only_negative``).
 """
 
@@ -27,7 +28,8 @@ _VERB = (
 )
 _DONT = re.compile(
     r"^(?:please |you )?(?:don't|do not|never|no need to|you don't need to|you shouldn't|"
-    r"shouldn't|mustn't|must not)\s+(?P<neg>.+?)"
+    r"shouldn't|mustn't|must not|skip(?! to\b)|avoid|stay away from|"
+    r"keep away from)\s+(?P<neg>.+?)"
     rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
     r"(?P<rest>.*)$"
 )

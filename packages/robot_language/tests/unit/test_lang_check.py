@@ -122,7 +122,7 @@ def test_a_thing_to_leave_alone_is_never_handled(
     reading = understanding.understand("leave the umbrella at reception alone", places)
     said = _not_acted(reading)  # was put:umbrella@reception
     assert reading.kind == "refuse"
-    assert "leave the umbrella alone" in said
+    assert "leave the umbrella at reception alone" in said  # the words the person used
 
 
 def test_a_place_slot_is_never_a_piece_of_sentence(understanding: Understanding) -> None:

@@ -102,3 +102,33 @@ def test_no_and_a_place_answers_a_question_with_that_place(understanding: Unders
     cancelled = understanding.follow_up(question, "no", places)
     assert cancelled is not None
     assert cancelled.kind == "cancel"
+
+
+@pytest.mark.parametrize(
+    ("said", "codes", "never"),
+    [
+        # before: "go to the kitchen, then the reception desk?" (a yes drove to the kitchen)
+        ("skip the kitchen and go straight to reception", ["goto:reception"], "kitchen"),
+        ("avoid the mailroom and head to the dock", ["goto:dock"], "mailroom"),
+        ("stay away from the kitchen", ["cancel"], "kitchen"),
+    ],
+)
+def test_skip_and_avoid_rule_a_place_out(
+    understanding: Understanding, said: str, codes: list[str], never: str
+) -> None:
+    reading = understanding.understand(said, _places(understanding))
+    assert reading.code() == codes
+    assert not _mentions(reading, never)
+
+
+def test_a_thing_to_be_left_alone_is_never_handled(understanding: Understanding) -> None:
+    # before: "put the red mug alone down, then go to the kitchen?"
+    said = "leave the red mug alone, just tell me whether it's in the kitchen"
+    reading = understanding.understand(said, _places(understanding))
+    assert not any(code.startswith(("put", "pick", "fetch")) for code in reading.code())
+    proposed = reading.question.actions if reading.question is not None else reading.actions
+    assert not any(a.kind in ("put", "pick", "fetch") for a in proposed)
+
+
+def test_skip_to_a_place_is_not_a_negation() -> None:
+    assert negation.read("skip to the mailroom", _is_place).negated == []

@@ -171,7 +171,7 @@ def _fill(actions: list[Action], index: int, leg: Leg, places: PlaceIndex | None
     ask = (
         "Where should I go?"
         if action.kind == "goto"
-        else f"Where should I get the {action.obj} from?"
+        else f"Where should I get {saying.thing(action.obj)} from?"
     )
     return Question(ask + known, "fill", actions, index=index, slot="place")
 

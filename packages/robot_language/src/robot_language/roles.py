@@ -11,7 +11,7 @@ RESOLVE step then asks when one is ambiguous). Anything else is left to the othe
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -35,6 +35,8 @@ class RoleWords(BaseModel):
     # understanding layer adds every other action intent's verbs
     other_verbs: list[str] = Field(default_factory=list)
     not_things: list[str] = Field(default_factory=list)
+    done_to: list[str] = Field(default_factory=list)
+    conditions: list[str] = Field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -49,15 +51,39 @@ def role_words(path: Path = DEFAULT_ROLES) -> RoleWords:
     return read_model(path, RoleWords, "roles")
 
 
+def said_plainly(text: str, words: RoleWords) -> str:
+    """A carrying request said as a condition or with its verb after the thing, as a plain one:
+    "if the mug is in the kitchen, bring it to reception" → "bring the mug from the kitchen to
+    reception"; "the mug from the kitchen brought to reception" → "bring the mug from ...";
+    anything else unchanged."""
+    verbs = _alternatives(words.carry_verbs)
+    condition = re.match(
+        rf"^(?:{_alternatives(words.conditions)}) (?P<thing>.+?) (?:is|are) (?:at|in|on|by) "
+        rf"(?P<source>.+?),? (?:then )?(?P<verb>{verbs}) (?:it|them) (?P<rest>.+)$",
+        text,
+    )
+    if condition is not None:
+        return (
+            f"{condition['verb']} {condition['thing']} from {condition['source']} "
+            f"{condition['rest']}"
+        )
+    done = re.match(rf"^(?P<thing>.+?) (?:{_alternatives(words.done_to)}) (?P<rest>.+)$", text)
+    if done is not None and _after(text, words.carry_verbs) is None:
+        return f"bring {done['thing']} {done['rest']}"
+    return text
+
+
 def read_roles(
     text: str,
     words: RoleWords,
     names_a_place: Callable[[str], bool],
     only_a_place: Callable[[str], bool] | None = None,
+    people: Collection[str] = (),
 ) -> Roles | None:
     """The roles of a carrying request, or None when ``text`` is not one whole.
     ``names_a_place``: the phrase names (or nearly names) a place; ``only_a_place``: it is a place
-    and nothing else (a thing may share a word with a place: "the parcel", "the kitchen roll")."""
+    and nothing else (a thing may share a word with a place: "the parcel", "the kitchen roll");
+    ``people``: whose things are theirs, not a place's ("Bob's mug" is not "from Bob's desk")."""
     is_place = only_a_place or names_a_place
     rest = _after(text, words.carry_verbs)
     other = _after(text, words.other_verbs)
@@ -65,13 +91,14 @@ def read_roles(
         return None  # "take a trip to the kitchen": a longer verb of another action
     rest = _skip(rest, words.after_verb)
     marks = _marks(rest, words.source, "source") + _marks(rest, words.destination, "destination")
-    if not marks:
-        return None
     marks.sort()
-    thing = _article_off(rest[: marks[0][0]])
-    if not thing or thing in words.not_things or is_place(thing):
-        return None
+    thing = _article_off(rest[: marks[0][0]] if marks else rest)
     found: dict[str, str] = {}
+    owner, _, owned = thing.partition("'s ")
+    if owned and owner not in people and is_place(owner):  # "reception's package": from there
+        thing, found["source"] = owned, owner
+    if not thing or thing in words.not_things or is_place(thing) or not (marks or found):
+        return None
     for index, (_, end, role) in enumerate(marks):
         stop = marks[index + 1][0] if index + 1 < len(marks) else len(rest)
         phrase = rest[end:stop].strip()
@@ -80,6 +107,10 @@ def read_roles(
             return None  # a role said twice, or a phrase that is no place: not this structure
         found[role] = "" if to_the_person else phrase
     return Roles(thing, found.get("source"), found.get("destination") or None)
+
+
+def _alternatives(phrases: list[str]) -> str:
+    return "|".join(re.escape(p) for p in sorted(phrases, key=len, reverse=True))
 
 
 def _after(text: str, verbs: list[str]) -> str | None:
@@ -96,7 +127,7 @@ def _skip(text: str, words: list[str]) -> str:
 
 def _marks(text: str, prepositions: list[str], role: str) -> list[tuple[int, int, str]]:
     """Where each preposition of ``role`` stands in ``text`` (the longest wins at one spot)."""
-    pattern = "|".join(re.escape(p) for p in sorted(prepositions, key=len, reverse=True))
+    pattern = _alternatives(prepositions)
     return [(m.start(), m.end(), role) for m in re.finditer(rf"\b(?:{pattern})\b", text)]
 
 

@@ -24,6 +24,8 @@ def thing(obj: str | None) -> str:
     first = obj.split(" ", 1)[0]
     if first in ("the", "a", "an", "my", "your", "someone", "somebody", "anyone", "people"):
         return obj
+    if first.endswith("'s"):  # "bob's mug": whose it is says which
+        return obj
     return f"the {obj}"
 
 

@@ -48,7 +48,7 @@ from robot_language.recall import (
     looks_like_recall,
     read_recall,
 )
-from robot_language.roles import DEFAULT_ROLES, read_roles, role_words
+from robot_language.roles import DEFAULT_ROLES, read_roles, role_words, said_plainly
 
 logger = structlog.get_logger(__name__)
 NOT_READ_RECALL = (
@@ -134,7 +134,7 @@ class Understanding:
             return unclear(text), set()  # a "not" we could not place: nothing acted or proposed
         if places is not None and negated:
             places = places.excluding(negated)
-        body, rounds = composites.rounds(said.text)
+        body, rounds = composites.rounds(said_plainly(said.text, self.roles))
         parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
         parts = [p for p in parts if p]
         if not parts:
@@ -273,6 +273,7 @@ class Understanding:
             self.roles,
             lambda phrase: guards.names_a_place(places, phrase),
             lambda phrase: places is not None and places.only_place(phrase),
+            _people(places),
         )
         if carried is not None:
             action = Action("fetch", carried.source, carried.thing, carried.destination)
@@ -376,6 +377,11 @@ class Understanding:
         new request)."""
         reading = follow_up(question, answer, places)
         return check_answer(reading, places) if reading is not None else None
+
+
+def _people(places: PlaceIndex | None) -> set[str]:
+    """Whose places the map names ("Alice's desk" → alice), not places themselves."""
+    return {o for o in places.owners() if places.get(o) is None} if places is not None else set()
 
 
 def _near_bare(places: PlaceIndex | None, bare: str) -> PlaceMatch | None:

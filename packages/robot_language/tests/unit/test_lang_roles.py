@@ -119,3 +119,33 @@ def test_a_broken_roles_file_names_its_line(tmp_path: Path) -> None:
     site.write_text("carry_verbs: [move]\nsource: [from]\ndestination: to\n", encoding="utf-8")
     with pytest.raises(PhrasingsError, match=rf"{site}:3: destination"):
         role_words(site)
+
+
+@pytest.mark.parametrize(
+    ("said", "read"),
+    [
+        # before: "I didn't understand ..." for each
+        ("if the package is at reception bring it to the kitchen",
+         "fetch:package@reception>kitchen"),
+        ("if the red mug is in the kitchen, take it to the dock", "fetch:red mug@kitchen>dock"),
+        ("when the box is in the mailroom then carry it over to bob's desk",
+         "fetch:box@mailroom>desk_bob"),
+        ("the package from the mailroom brought to reception", "fetch:package@mailroom>reception"),
+        ("reception's package brought to the kitchen", "fetch:package@reception>kitchen"),
+        ("take the mailroom's box over to bob's desk", "fetch:box@mailroom>desk_bob"),
+        ("grab reception's package", "fetch:package@reception"),
+    ],
+)  # fmt: skip
+def test_conditions_possessives_and_the_verb_after_the_thing(
+    understanding: Understanding, said: str, read: str
+) -> None:
+    assert _codes(understanding, said) == [read]
+
+
+def test_a_persons_thing_is_not_read_as_from_their_place(understanding: Understanding) -> None:
+    reading = understanding.understand(
+        "bring bob's mug to the kitchen", understanding.places(OFFICE_LIST_LOCATIONS)
+    )
+    assert reading.code() == ["ask"]
+    assert reading.question is not None
+    assert reading.question.text.startswith("Where should I get bob's mug from?")

@@ -111,12 +111,18 @@ def main(argv: list[str] | None = None) -> None:
     )
     spinner.start()
     say("intruder_ready", node=args.node_name)
+    client: Any = ActionClient(node, NavigateToPose, args.action) if args.goal is not None else None
     try:
-        if args.goal is not None:
-            _send_goal(node, ActionClient(node, NavigateToPose, args.action), args.goal, stop)
+        if client is not None:
+            _send_goal(node, client, args.goal, stop)
         stop.wait(max(0.0, args.seconds))
     finally:
+        # Nothing is destroyed while a callback may still run: the spin thread ends first (a
+        # node destroyed under a running action-client callback segfaulted on a busy machine).
         executor.shutdown(timeout_sec=5)
+        spinner.join(timeout=5)
+        if client is not None:
+            client.destroy()
         node.destroy_node()
         rclpy.try_shutdown()
         say("intruder_stopped")

@@ -25,7 +25,9 @@ FLOORS_A = {"answer": 1.0, "fetch": 0.92, "find": 0.81, "goto": 0.92, "greet": 1
             "see": 0.9, "sequence": 1.0, "stop": 1.0, "watch": 0.9, "ask": 0.9}  # fmt: skip
 TOTAL_FLOOR = {"set_a.yaml": 0.92, "set_b.yaml": 0.77,
                # issue 32: the speech-style sets (set_speech is held out: never tuned on)
-               "set_speech_tuning.yaml": 0.95, "set_speech.yaml": SPEECH_FLOOR}  # fmt: skip
+               "set_speech_tuning.yaml": 0.95, "set_speech.yaml": SPEECH_FLOOR,
+               # issue 38 (held out, now spent): 40/79 with the ROLES stage, 0 wrong
+               "set_c.yaml": 0.5}  # fmt: skip
 
 
 def _reader(understanding: Understanding):  # type: ignore[no-untyped-def]

@@ -8,7 +8,8 @@ Sets: set_a (tuning), set_b (held out, issue 22), set_speech (held out, issue 32
 sentences written before the layer was changed for them and never tuned on), set_speech_tuning
 (the issue's own examples and sentences written to tune on), set_c (held out, issue 38: carrying
 said many ways, possessives, conditions, negated handling, indirect requests; scored before the
-reading was changed for it and never tuned on).
+reading was changed for it and never tuned on), set_d (held out, written blind 2026-11-29
+for the next change; never tuned on).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from robot_language.scoring import (
 
 DATA = Path(__file__).parents[1] / "packages/robot_language/tests/unit/data"
 RESULTS = Path(__file__).parent / "results" / "understanding_sets.json"
-SETS = ("set_a", "set_b", "set_speech", "set_speech_tuning", "set_c")
+SETS = ("set_a", "set_b", "set_speech", "set_speech_tuning", "set_c", "set_d")
 
 
 def _rss_mb() -> float:

@@ -59,6 +59,20 @@ def test_in_vocabulary_speech_is_heard(
         assert result.confidence >= recognizer.reject_below
 
 
+@pytest.mark.parametrize("voice", ["en-us", "en-us+f3", "en-029"])
+@pytest.mark.parametrize("speed", [160, 170, 180, 190, 200])
+def test_a_bare_stop_said_fast_is_a_stop_never_drop_it(
+    recognizer: PocketsphinxSpeechInput, voice: str, speed: int
+) -> None:
+    """The grammar alone heard espeak-ng's "stop" at 160-170 wpm as "drop it" (sure enough to
+    be read back as an arm command, never a halt); the stop words now get the last say over a
+    hypothesis of a word or two."""
+    for noisy in (False, True):
+        result = hear(recognizer, "stop", voice, speed, noisy)
+        assert result.usable, (noisy, result)
+        assert result.kind == "stop", (noisy, result)
+
+
 def test_negation_and_correction_are_heard_as_said(recognizer: PocketsphinxSpeechInput) -> None:
     negated = hear(recognizer, "don't go to the kitchen", "en-us", 160, False)
     assert negated.text == "don't go to the kitchen"

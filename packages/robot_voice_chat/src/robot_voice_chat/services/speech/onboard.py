@@ -59,6 +59,10 @@ STOP_WORDS = ("stop", "halt", "freeze", "stop right now", "stop stop")
 STOP_MAX_S = 1.2  # an utterance this short is also tried against the stop words alone
 STOP_FIT = -3.0  # ... and is a stop when they fit it this well (per frame, vs the phone loop)
 STOP_MARGIN = 0.5  # ... and this much better than the full grammar's hypothesis
+# ... but over a sure hypothesis only these win ("halt" is what the stop words fit to "no",
+# "hello", "go home" ...)
+SURE_STOP_WORDS = ("stop", "stop stop", "stop right now", "freeze")
+STOP_GUESS_WORDS = 2  # a hypothesis this short ("drop it") is checked against them even if sure
 # log-likelihood per frame (grammar − phone loop) mapped onto 0..1: (low, high)
 FRAME_SPAN = (-4.5, -2.0)
 # the worst word's log-likelihood per frame against the phone loop, mapped onto 0..1
@@ -220,27 +224,24 @@ class PocketsphinxSpeechInput(SpeechInput):
             frames = max(int(self._decoder.n_frames()), 1)
             sentence = text is not None and is_sentence(text, self._matcher)
             vocabulary = self._vocabulary
+            frame_fit = (grammar_ll - phone_ll) / frames
+            worst = min((self._word_fit(w, phones) for w in words), default=-99.0)
+            confidence = min(_span(frame_fit, FRAME_SPAN), _span(worst, WORD_SPAN))
+            kind = kind_of(text, vocabulary) if text else "other"
             stop: tuple[str, float] | None = None
-            main_fit = (grammar_ll - phone_ll) / frames
-            unsure = not sentence or _span(main_fit, FRAME_SPAN) < self.reject_below
-            if unsure and samples.size <= STOP_MAX_S * RATE and (text or "") not in STOP_WORDS:
-                # the stop words alone, when the full grammar heard no sentence it is sure of:
-                # a short "stop" it may have heard as "drop it" (a false stop is safe, but it
-                # must fit clearly better than anything the grammar found)
-                said, stop_ll, _ = self._decode(STOP, prepared)
-                fit = (stop_ll - phone_ll) / frames
-                if said in STOP_WORDS and fit >= STOP_FIT and fit >= main_fit + STOP_MARGIN:
-                    stop = (said, _span(fit, FRAME_SPAN))
+            if samples.size <= STOP_MAX_S * RATE and kind != "stop":
+                unsure = not sentence or confidence < self.reject_below
+                few = len(words_of(text or "")) <= STOP_GUESS_WORDS and kind != "answer"
+                if unsure or few:
+                    beat = frame_fit + STOP_MARGIN if sentence else -math.inf
+                    allowed = STOP_WORDS if unsure else SURE_STOP_WORDS
+                    stop = self._stop_instead(prepared, phone_ll, frames, beat, allowed)
         if stop is not None:
             logger.info(
                 "speech_heard", engine="onboard", text=stop[0], kind="stop", by="stop_words"
             )
             return Heard(stop[0], round(stop[1], 3), self.name, "stop")
         text = " ".join(w for w in words_of(text or ""))
-        frame_fit = (grammar_ll - phone_ll) / frames
-        worst = min((self._word_fit(w, phones) for w in words), default=-99.0)
-        confidence = min(_span(frame_fit, FRAME_SPAN), _span(worst, WORD_SPAN))
-        kind = kind_of(text, vocabulary) if text else "other"
         rejected: Rejection | None = None
         if not sentence:
             rejected, confidence = "out_of_vocabulary", 0.0
@@ -268,6 +269,20 @@ class PocketsphinxSpeechInput(SpeechInput):
             audio_s=round(samples.size / RATE, 2),
         )
         return heard
+
+    def _stop_instead(
+        self, prepared: bytes, phone_ll: float, frames: int, beat: float, allowed: tuple[str, ...]
+    ) -> tuple[str, float] | None:
+        """The stop words alone, for a short utterance the grammar heard no sure sentence in,
+        or only a word or two that are neither a stop nor a yes/no: a fast "stop" it may have
+        heard as "drop it". A false stop is safe, but the stop words must fit well and better
+        than ``beat`` (the grammar's sentence, by a margin; -inf when it found none: the other
+        answer is then a rejection)."""
+        said, stop_ll, _ = self._decode(STOP, prepared)
+        fit = (stop_ll - phone_ll) / frames
+        if said in allowed and fit >= max(STOP_FIT, beat):
+            return said, _span(fit, FRAME_SPAN)
+        return None
 
     def _prepare(self, samples: np.ndarray) -> bytes:
         pad = np.zeros(int(PAD_S * RATE), dtype=np.float64)

@@ -3,7 +3,8 @@ with pink noise (10 dB SNR) → the on-board recognizer (pocketsphinx + the live
 grammar, the office's places) → the spoken layer's decision → the understanding layer's
 reading of what was heard, compared with what the typed sentence means.
 
-    uv run --frozen python benchmarks/speech_onboard.py [--split tuning,held_out] [--voices a,b,c,d]
+    uv run --frozen python benchmarks/speech_onboard.py [--split tuning,held_out,held_out_c]
+        [--voices a,b,c,d] [--limit N]
 
 Outcomes per utterance: ``done`` (heard, acted on at once, and it does what the typed sentence
 does), ``asked`` (read back "Did you say: …?"; ``asked_right`` when the read-back is what was
@@ -15,8 +16,10 @@ model load time, grammar build time.
 The set: ``speech_onboard_set.yaml``, written before any tuning, in two splits — ``tuning``
 (every third sentence of the understanding layer's ``set_a.yaml``, the first 16: helper V's
 first run scored these, so changes are tuned on them only) and ``held_out`` (every fifth of
-``set_b.yaml``, the first 10: never tuned on). Each sentence is said by every voice, clean and
-noisy; the JSON reports each split apart.
+``set_b.yaml``, the first 10: never tuned on), and ``held_out_c`` (added 2026-11-29 before the
+recall work, never tuned on: every third of ``set_c.yaml``'s sentences whose objects the
+recognizer knows). Each sentence is said by every voice, clean and noisy; the JSON reports each
+split apart. ``--limit N``: the first N sentences of each split (to iterate quickly).
 """
 
 from __future__ import annotations
@@ -58,7 +61,8 @@ def percentile(values: list[float], q: float) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--split", default="tuning,held_out", help="splits of the set")
+    parser.add_argument("--split", default="tuning,held_out,held_out_c", help="splits")
+    parser.add_argument("--limit", type=int, default=0, help="first N sentences per split")
     parser.add_argument("--voices", default=",".join(VOICES))
     parser.add_argument("--out", type=Path, default=RESULTS, help="the JSON written")
     args = parser.parse_args()
@@ -79,7 +83,7 @@ def main() -> None:
     for split in args.split.split(","):
         counts = dict.fromkeys(OUTCOMES, 0)
         latencies: list[float] = []
-        for text, expected in spoken_set(split):
+        for text, expected in spoken_set(split)[: args.limit or None]:
             for voice in voices:
                 for noisy in (False, True):
                     pcm = say(text, voice)
@@ -133,7 +137,7 @@ def main() -> None:
         "utterances": len(rows),
         "voices": voices,
         "tuned_on": "tuning",
-        "held_out": "held_out (never tuned on)",
+        "held_out": "held_out, held_out_c (never tuned on)",
         "splits": splits,
         "wrong": sum(int(str(s["wrong"])) for s in splits.values()),
         "latency_ms_p50": round(1000 * statistics.median(all_latencies), 1),

@@ -15,7 +15,7 @@ from robot_voice_chat.agent.abort import abort_run, busy_note, is_abort
 from robot_voice_chat.agent.archive import MissionArchive
 from robot_voice_chat.agent.bargein import BargeIn
 from robot_voice_chat.agent.dispatch import TaskDispatcher
-from robot_voice_chat.agent.holding import HeldAtStart, tell_what_is_held
+from robot_voice_chat.agent.holding import HeldAtStart, picked_last, tell_what_is_held
 from robot_voice_chat.agent.memory import MemoryClient
 from robot_voice_chat.agent.mission import Mission, MissionStore
 from robot_voice_chat.agent.output import MissionOutput
@@ -464,7 +464,9 @@ class MissionExecutor:
         for handle in self.registry.live(mission.id):
             await self.dispatcher.end_task(handle)
         if outcome != "succeeded":  # issue 39: what the gripper holds, read before it is told
-            summary = await tell_what_is_held(self.tools, summary, self.config.tool_timeout_s)
+            summary = await tell_what_is_held(
+                self.tools, summary, self.config.tool_timeout_s, picked_last(mission.steps)
+            )
             run.finished = (outcome, summary)
         for step in mission.steps:
             if step.status == "pending":

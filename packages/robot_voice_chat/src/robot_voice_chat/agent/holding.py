@@ -10,11 +10,14 @@ nearest named place, from ``navigation.list_locations``' distances), in the word
 
 from __future__ import annotations
 
+import asyncio
 import time
 import uuid
+from collections.abc import Iterable
 
 import structlog
 
+from robot_voice_chat.agent.mission import PlanStep
 from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.held_words import (
     Held,
@@ -35,6 +38,18 @@ GET_HELD = "manipulation.get_held"
 LIST_LOCATIONS = "navigation.list_locations"
 READ_TIMEOUT_S = 3.0
 """At most this long for each read at a mission's end (a lost server answers an error sooner)."""
+ARM_BACK_WAIT_S = 20.0
+"""After a pick, at most this long for an arm server that does not answer (a restart takes
+5–15 s on a busy robot) before the robot says it cannot tell what it holds."""
+ARM_POLL_S = 0.5
+CANT_TELL = "My arm isn't answering, so I can't tell whether I'm still holding what I picked up."
+HANDS = ("manipulation.pick", "manipulation.place", "manipulation.release")
+
+
+def picked_last(steps: Iterable[PlanStep]) -> bool:
+    """The last hand action that succeeded was a pick: the thing may be in the gripper."""
+    done = [s.tool for s in steps if s.tool in HANDS and s.status == "succeeded"]
+    return bool(done) and done[-1] == HANDS[0]
 
 
 async def read_held(tools: ToolBackend, timeout_s: float = READ_TIMEOUT_S) -> Held:
@@ -54,14 +69,32 @@ async def whereabouts(tools: ToolBackend, timeout_s: float = READ_TIMEOUT_S) -> 
 
 
 async def tell_what_is_held(
-    tools: ToolBackend, summary: str, timeout_s: float = READ_TIMEOUT_S
+    tools: ToolBackend,
+    summary: str,
+    timeout_s: float = READ_TIMEOUT_S,
+    picked: bool = False,
+    arm_back_s: float = ARM_BACK_WAIT_S,
 ) -> str:
     """The end of a mission that did not succeed, told with what the gripper holds now: the
     held thing and where the robot is added (once), a claim that it is elsewhere dropped.
-    Unchanged when the gripper is empty or the arm does not answer."""
+    Unchanged when the gripper is empty. ``picked``: the mission's last hand action was a
+    pick, so the thing may still be held — an arm that does not answer (its server
+    restarting) is waited for, at most ``arm_back_s``, and if it stays silent the robot says
+    it cannot tell."""
     timeout_s = min(timeout_s, READ_TIMEOUT_S)
+    started = time.monotonic()
     held = await read_held(tools, timeout_s)
-    logger.info("mission_end_held_read", known=held.known, label=held.label)
+    while picked and not held.known and time.monotonic() - started < arm_back_s:
+        await asyncio.sleep(ARM_POLL_S)  # polled: the tool list changes when it reconnects
+        held = await read_held(tools, timeout_s)
+    logger.info(
+        "mission_end_held_read",
+        known=held.known,
+        label=held.label,
+        duration_ms=round((time.monotonic() - started) * 1000, 1),
+    )
+    if picked and not held.known:
+        return f"{summary} {CANT_TELL}".strip()
     if held.label is None:
         return summary
     told = without_false_places(summary, held.label)

@@ -14,7 +14,9 @@ import pytest
 from robot_language.scoring import OFFICE_LOCATIONS
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.office import Office, office
-from robot_voice_chat.agent.holding import HeldAtStart, tell_what_is_held
+from robot_voice_chat.agent import holding
+from robot_voice_chat.agent.holding import CANT_TELL, HeldAtStart, picked_last, tell_what_is_held
+from robot_voice_chat.agent.mission import PlanStep
 from robot_voice_chat.agent.supervision_words import held_part, lost_motion_server
 from robot_voice_chat.held_words import (
     Held,
@@ -314,3 +316,44 @@ async def test_a_mission_running_at_the_arms_first_connect_tells_it_at_its_end_i
     assert await at_start.on_connect("manipulation", idle=False) is None
     assert await at_start.on_connect("manipulation", idle=True) is None  # once per life
     assert tools.called("manipulation.get_held") == []
+
+
+def test_the_last_hand_action_tells_whether_something_may_be_held() -> None:
+    def step(tool: str, status: str = "succeeded") -> PlanStep:
+        return PlanStep(id=tool, title=tool, tool=tool, status=status)  # type: ignore[arg-type]
+
+    drive = step("navigation.navigate_to")
+    assert picked_last([drive, step("manipulation.pick"), drive])
+    assert not picked_last([step("manipulation.pick"), step("manipulation.place")])
+    assert not picked_last([drive, step("manipulation.pick", "failed")])
+    assert not picked_last([drive])
+
+
+async def test_after_a_pick_an_arm_that_comes_back_is_waited_for(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The arm's server restarting at a mission's end (its carry failed meanwhile): the
+    gripper is read once it answers again, not taken as empty."""
+    monkeypatch.setattr(holding, "ARM_POLL_S", 0.01)
+    answers = iter([None, None])
+
+    def restarting(args: dict[str, Any]) -> Any:
+        if next(answers, "back") is None:
+            raise ValueError("error: server 'manipulation' is not connected")
+        return {"known": True, "holding": True, "label": "yellow package"}
+
+    tools = backend(None, {"mailroom": 1.0})
+    tools.add("manipulation.get_held", restarting)
+    told = await tell_what_is_held(tools, "I couldn't reach the mailroom.", picked=True)
+    assert told.startswith("I couldn't reach the mailroom. I'm still holding the yellow package")
+
+
+async def test_after_a_pick_a_silent_arm_is_said_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(holding, "ARM_POLL_S", 0.01)
+    tools = FakeToolBackend()
+    tools.add("manipulation.get_held", gone)
+    told = await tell_what_is_held(
+        tools, "I couldn't reach the mailroom.", picked=True, arm_back_s=0.05
+    )
+    assert told == f"I couldn't reach the mailroom. {CANT_TELL}"
+    assert not check_robot_words([told])

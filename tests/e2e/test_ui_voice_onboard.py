@@ -15,7 +15,12 @@ import httpx
 import pytest
 from playwright.sync_api import Browser, expect, sync_playwright
 
-from robot_stack_testing.mission_driver import RunningStack, mailroom_stack
+from robot_stack_testing.mission_driver import (
+    SAYS_AT_MOST,
+    RunningStack,
+    mailroom_stack,
+    spoken_turn_outcomes,
+)
 from robot_stack_testing.stack import free_port_overrides
 from robot_stack_testing.waiting import wait_until
 
@@ -85,19 +90,11 @@ def heard_lines(stack: RunningStack) -> list[str]:
     ]
 
 
-MAX_SAYS = 4
-
-
 def spoken_turn(stack: RunningStack, says: int) -> str | None:
-    """The outcome the brain logged for the ``says``-th recording ("acted", "read_back" or
-    "not_acted"), or None while it has not answered it yet."""
+    """The outcome the brain logged for the ``says``-th recording, or None while it has not
+    answered it yet."""
     logs = sorted(stack.var_dir.glob("brain-*.log")) if stack.var_dir else []
-    outcomes = [
-        line.partition('"outcome": "')[2].partition('"')[0]
-        for log in logs
-        for line in log.read_text(errors="replace").splitlines()
-        if '"event": "speech_turn_answered"' in line
-    ]
+    outcomes = [o for log in logs for o in spoken_turn_outcomes(log.read_text(errors="replace"))]
     return outcomes[says - 1] if len(outcomes) >= says else None
 
 
@@ -122,14 +119,14 @@ def test_talk_is_heard_on_board_and_the_robot_drives(
         expect(talk).to_have_text("Talk", timeout=60_000)  # the recording was answered
 
     # A person repeats what the robot did not catch, and says the command again to confirm a
-    # read-back; so does the test, at most MAX_SAYS times. Each turn is read from the brain's log.
-    for says in range(1, MAX_SAYS + 1):
+    # read-back; so does the test (at most SAYS_AT_MOST says), reading each turn from the log.
+    for says in range(1, SAYS_AT_MOST + 1):
         say_once()
         turn = wait_until(lambda n=says: spoken_turn(dev_stack, n), 30.0, f"spoken turn {says}")
         if turn == "acted":
             break
     else:
-        raise AssertionError(f"not acted on after {MAX_SAYS} tries: {heard_lines(dev_stack)}")
+        raise AssertionError(f"not acted on after {SAYS_AT_MOST} tries: {heard_lines(dev_stack)}")
     expect(conversation).to_contain_text("go to the kitchen", timeout=30_000)
 
     def in_kitchen() -> bool:

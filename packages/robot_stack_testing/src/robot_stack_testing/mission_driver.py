@@ -69,6 +69,19 @@ def sim_world(*change: str) -> dict[str, Any]:
     return world
 
 
+SAYS_AT_MOST = 4  # a person repeats what the robot did not catch, and confirms a read-back
+
+
+def spoken_turn_outcomes(brain_log: str) -> list[str]:
+    """How the brain answered each spoken turn, in order ("acted", "read_back",
+    "not_acted"), from its ``speech_turn_answered`` log lines."""
+    return [
+        line.partition('"outcome": "')[2].partition('"')[0]
+        for line in brain_log.splitlines()
+        if '"event": "speech_turn_answered"' in line
+    ]
+
+
 async def say_on_microphone(text: str, *options: str) -> None:
     """robot-sim-say: a person in the office says ``text`` on the robot's microphone topic
     (``options``: espeak-ng's, e.g. ``--speed 180``)."""

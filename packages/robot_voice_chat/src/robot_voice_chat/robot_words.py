@@ -46,6 +46,8 @@ _PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
             r"[{\[]\s*[\"']|[\"']\w+[\"']\s*:|\b\w+(?:Error|Exception)\b|\berror:|Traceback",
         ),
     ),
+    # "Nav2 error 208", "error code 42": a number only an engineer can read
+    ("error number", re.compile(r"\berror(?: code)? \d{2,}\b", re.IGNORECASE)),
     # "for 0 s", "0 s ago", "0.0 s ago": under a second is "just now"
     ("zero seconds", re.compile(r"(?<![\d.])0(?:\.0+)? ?s(?:ec(?:onds?)?)?\b")),
     # a software stop is a software stop

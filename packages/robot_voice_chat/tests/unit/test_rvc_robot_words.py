@@ -63,6 +63,7 @@ from robot_voice_chat.settings import ChatConfig
         ("I last saw the red mug in the kitchen 12 s ago, for 0 s.", "zero seconds"),
         ("I last saw the red mug 0 s ago.", "zero seconds"),
         ("An emergency stop is latched.", "emergency stop"),
+        ("I couldn't reach the mailroom: no path (Nav2 error 208: no valid path).", "error number"),
     ],
 )
 def test_the_checker_finds_each_kind_of_leak(sentence: str, kind: str) -> None:

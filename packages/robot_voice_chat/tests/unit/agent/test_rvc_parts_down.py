@@ -171,3 +171,18 @@ async def test_a_buffered_view_is_not_said_as_now_when_the_vision_node_is_gone(
         "from 8 s ago, showed the charging dock's floor plate."
     )
     assert not check_robot_words([mission.summary])
+
+
+def test_a_servers_engineering_detail_is_left_out_of_the_reason() -> None:
+    failed = json.dumps({
+        "error_code": "NO_PATH",
+        "message": "Nav2 found no path to the destination (the way may be blocked, e.g. a closed "
+        "door) on the way to mailroom (Nav2 error 208: no valid path: the way to the goal is "
+        "blocked)",
+    })  # fmt: skip
+    said = reason_of(failed)
+    assert said == (
+        "Nav2 found no path to the destination (the way may be blocked, e.g. a closed door) "
+        "on the way to mailroom"
+    )
+    assert not check_robot_words([said])

@@ -65,6 +65,10 @@ def _parts(content: str) -> tuple[str, str]:
     return "", content.strip().removeprefix("error:").strip()
 
 
+# "(Nav2 error 208: no valid path: …)": the server's own code and words, for its log, not a person
+_ENGINEERS = re.compile(r"\s*\([^()]*\berror(?: code)? \d{2,}[^()]*\)", re.IGNORECASE)
+
+
 def reason_of(content: str, names: Names | None = None, known: Iterable[str] = ()) -> str:
     """Why a call failed, in plain words (no code, tool name or raw text)."""
     code, detail = _parts(content)
@@ -74,7 +78,7 @@ def reason_of(content: str, names: Names | None = None, known: Iterable[str] = (
     lost = _NOT_CONNECTED.search(detail)
     if lost is not None:
         return f"my {service_name(lost['server'])} is not connected"
-    said = plain_text(detail, names, known) if detail else ""
+    said = plain_text(_ENGINEERS.sub("", detail), names, known) if detail else ""
     if said and not leaks(said):
         return said.rstrip(".")
     first = detail.split(" ", 1)[0]

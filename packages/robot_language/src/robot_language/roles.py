@@ -36,6 +36,8 @@ class RoleWords(BaseModel):
     other_verbs: list[str] = Field(default_factory=list)
     not_things: list[str] = Field(default_factory=list)
     done_to: list[str] = Field(default_factory=list)
+    asking_for: list[str] = Field(default_factory=list)
+    not_in_a_thing: list[str] = Field(default_factory=list)
     conditions: list[str] = Field(default_factory=list)
 
 
@@ -68,9 +70,14 @@ def said_plainly(text: str, words: RoleWords) -> str:
             f"{condition['rest']}"
         )
     done = re.match(rf"^(?P<thing>.+?) (?:{_alternatives(words.done_to)}) (?P<rest>.+)$", text)
-    if done is not None and _after(text, words.carry_verbs) is None:
-        return f"bring {done['thing']} {done['rest']}"
-    return text
+    if done is None or _after(text, words.carry_verbs) is not None:
+        return text
+    thing = done["thing"]
+    for frame in sorted(words.asking_for, key=len, reverse=True):
+        thing = thing.removeprefix(frame + " ")
+    if set(thing.split()) & set(words.not_in_a_thing):
+        return text  # "the meeting was moved to the kitchen": told, not asked for
+    return f"bring {thing} {done['rest']}"
 
 
 def read_roles(

@@ -149,3 +149,23 @@ def test_a_persons_thing_is_not_read_as_from_their_place(understanding: Understa
     assert reading.code() == ["ask"]
     assert reading.question is not None
     assert reading.question.text.startswith("Where should I get bob's mug from?")
+
+
+@pytest.mark.parametrize(
+    "said",
+    [
+        "the meeting was moved from the kitchen to reception",
+        "the package got taken from the mailroom to reception yesterday",
+        "the red mug was brought back to the kitchen from the dock",
+    ],
+)
+def test_a_statement_in_the_passive_is_never_a_request(
+    understanding: Understanding, said: str
+) -> None:
+    codes = _codes(understanding, said)
+    assert not any(code.startswith("fetch") for code in codes), codes
+
+
+def test_a_passive_asked_for_is_a_request(understanding: Understanding) -> None:
+    said = "i'd like the package from the mailroom brought to reception"
+    assert _codes(understanding, said) == ["fetch:package@mailroom>reception"]

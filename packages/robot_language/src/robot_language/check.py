@@ -23,13 +23,8 @@ from robot_language.mentions import (
 )
 from robot_language.places import PlaceIndex, words
 from robot_language.reading import Action, Question, Reading
+from robot_language.saying import CUT_OFF
 
-# a sentence that ends on one of these was cut off ("bring the mug from the kitchen to")
-_CUT_OFF = {
-    "to", "from", "and", "or", "at", "into", "onto", "of", "with", "for", "by", "the", "a",
-    "an", "via", "towards", "toward", "but", "if", "before", "after", "until", "because",
-    "unless", "my", "your",
-}  # fmt: skip
 # "leave the box alone / where it is / as it is", "don't touch the box": hands off it
 _HANDS_OFF = re.compile(
     r"\b(?:leave|let)\s+(?P<left>.+?)\s+(?:alone|be|where\s+(?:it|they)\s+(?:is|are)|"
@@ -137,7 +132,7 @@ def _unsound(actions: list[Action], places: PlaceIndex | None) -> _Found | None:
                 "tell me again what to do with the thing and with the place.",
                 [],
             )
-        if obj and obj.split()[-1] in _CUT_OFF:
+        if obj and obj.split()[-1] in CUT_OFF:
             return _Found(f"I didn't catch the end of {obj!r}.", [])
         for slot in (action.place, action.to):
             if slot and not _a_place(slot, places):
@@ -148,13 +143,13 @@ def _unsound(actions: list[Action], places: PlaceIndex | None) -> _Found | None:
 def _a_place(slot: str, places: PlaceIndex | None) -> bool:
     if places is not None and places.places:
         return places.get(slot) is not None
-    return len(slot.split()) <= _MAX_PLACE_WORDS and slot.split()[-1] not in _CUT_OFF
+    return len(slot.split()) <= _MAX_PLACE_WORDS and slot.split()[-1] not in CUT_OFF
 
 
 def _cut_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
     """The sentence stops at a word that needs more after it."""
     said = re.findall(r"[\w']+", text)
-    if not said or said[-1] not in _CUT_OFF or _WH_QUESTION.match(text):
+    if not said or said[-1] not in CUT_OFF or _WH_QUESTION.match(text):
         return None
     last = actions[-1]
     if said[-1] == "to" and last.kind == "fetch" and last.to is None:

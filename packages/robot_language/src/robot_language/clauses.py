@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from robot_language.normalise import normalise
+
 _SPLIT = re.compile(
     r"\s*(?:[,;]\s*(?:and\s+)?(?:then|after\s+that|afterwards|next)\b"
     r"|[.!?]\s+(?:and\s+)?(?:then\s+)?"
@@ -21,16 +23,12 @@ _TRAIL = re.compile(
     r"here|around|somewhere|again))+$"
 )
 _REPORT = re.compile(r"^(?:tell|report|let)\s+(?:me|us)\s*(?:back|know)?$")
-_ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|her|his|their|your|any)\s+")
-
-
-def normalise(text: str) -> str:
-    return " ".join(text.lower().replace("’", "'").split())
+_ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|her|his|their|your|any|this|that)\s+")
 
 
 def clauses(text: str) -> list[str]:
     """The legs of a request in order ("go to the kitchen, then reception" → 2)."""
-    parts = [tidy(p) for p in _SPLIT.split(normalise(text).strip(" .!?"))]
+    parts = [tidy(p) for p in _SPLIT.split(normalise(text, spoken=False).strip(" .!?"))]
     return [p for p in parts if p and not _REPORT.match(p)]
 
 

@@ -13,6 +13,8 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
+from robot_language.normalise import normalise
+
 Kind = Literal["goto", "find", "see", "watch", "fetch", "pick", "put", "release", "unknown"]
 
 _ARTICLE = r"(?:(?:the|a|an|my|our|some)\s+)?"
@@ -103,14 +105,10 @@ class Command:
         return " ".join(parts)
 
 
-def normalise(text: str) -> str:
-    return " ".join(text.lower().replace("’", "'").split())
-
-
 def parse(text: str) -> Command:
     """The first command found in ``text`` (the part before a colon is tried first, so a
     restated instruction "Fetch the package from the mailroom: drive …" parses)."""
-    clean = normalise(text)
+    clean = normalise(text, spoken=False)
     for candidate in (clean.split(":", 1)[0], *re.split(r"(?<=[.!?])\s+", clean)):
         words = _TAIL.sub("", _POLITE.sub("", candidate.strip()))
         for kind, pattern in _PATTERNS:

@@ -159,13 +159,7 @@ def _choose(actions: list[Action], index: int, leg: Leg, places: PlaceIndex | No
 def _fill(actions: list[Action], index: int, leg: Leg, places: PlaceIndex | None) -> Question:
     action = actions[index]
     if leg.slot == "obj":
-        verb = (
-            "watch for"
-            if action.kind == "watch"
-            else "look for"
-            if action.kind == "find"
-            else "get"
-        )
+        verb = {"watch": "watch for", "find": "look for"}.get(action.kind, "get")
         return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
     known = f" I know: {_known(places)}." if places and places.places else ""
     ask = (

@@ -3,14 +3,23 @@ a broken file is refused with its file and line."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
-from typing import TypeVar
+from typing import Annotated, TypeVar
 
 import yaml
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, BeforeValidator, ValidationError
 
 Model = TypeVar("Model", bound=BaseModel)
 CONFIG = Path(__file__).parent / "config"
+
+
+def _one_pattern(value: object) -> object:
+    return "|".join(map(str, value)) if isinstance(value, list) else value
+
+
+# a regular expression, written whole or as the list of its alternatives; compiled on load
+Regex = Annotated[re.Pattern[str], BeforeValidator(_one_pattern)]
 
 
 class PhrasingsError(ValueError):

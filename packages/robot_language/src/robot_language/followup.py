@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 from robot_language import clauses as cl
-from robot_language import speech
+from robot_language.normalise import normalise
 from robot_language.places import PlaceIndex
 from robot_language.reading import Question, Reading
 
@@ -28,7 +28,7 @@ def follow_up(question: Question, answer: str, places: PlaceIndex | None) -> Rea
     """The request completed by ``answer``; a cancel; or None (not an answer: read it as a new
     request)."""
     owners = places.owners() if places is not None else ()
-    text = cl.tidy(speech.normalise(answer, owners))
+    text = cl.tidy(normalise(answer, owners))
     corrected = _instead(question, text, places)
     if corrected is not None:
         return corrected

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass, field
+
+from robot_language.places import PlaceIndex
 
 
 @dataclass
@@ -15,18 +16,10 @@ class Locations:
 
     @classmethod
     def from_result(cls, text: str) -> Locations:
-        try:
-            data = json.loads(text)
-        except ValueError:
-            data = None
-        items = data.get("locations", []) if isinstance(data, dict) else []
         found = cls()
-        for item in items if isinstance(items, list) else []:
-            if not isinstance(item, dict) or not isinstance(item.get("name"), str):
-                continue
-            name = item["name"]
-            for spelling in [name, *[a for a in item.get("aliases", []) if isinstance(a, str)]]:
-                found.names[_key(spelling)] = name
+        for place in PlaceIndex.from_result(text).places:
+            for spelling in (place.name, *place.aliases):
+                found.names[_key(spelling)] = place.name
         return found
 
     def resolve(self, phrase: str) -> str | None:

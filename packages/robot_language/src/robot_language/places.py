@@ -8,6 +8,7 @@ import re
 from dataclasses import dataclass, field, replace
 
 from robot_language import fuzzy
+from robot_language.normalise import possessors
 
 _STOP = {
     "the", "a", "an", "to", "of", "your", "my", "our", "his", "her", "their", "yourself",
@@ -232,8 +233,7 @@ class PlaceIndex:
 
     def owners(self) -> set[str]:
         """Whose places the map has ("Alice's desk" → alice): "alices desk" is Alice's."""
-        said = " ".join(p.description for p in self.places)
-        return {m.lower() for m in re.findall(r"\b(\w+)['’]s\b", said)}
+        return possessors(p.description for p in self.places)
 
     def only_place(self, phrase: str) -> bool:
         """``phrase`` names one place and says nothing else ("the post room", "kitchen")."""

@@ -3,11 +3,9 @@ a refusal, or a question the robot answers from its tools."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-from robot_language.places import located
 from robot_language.recall import Recall
 
 ActionKind = Literal["goto", "find", "fetch", "watch", "see", "pick", "put", "release"]
@@ -37,25 +35,6 @@ class Action:
             return _hands_instruction(self)
         return "what do you see"
 
-    def spoken(self, names: Callable[[str], str] | None = None) -> str:
-        """The action as the robot says it back; ``names`` says a map id by its human name
-        ("Alice's desk"), else the id with spaces."""
-        say = names or _by_id
-        place, to = say(self.place or ""), say(self.to or "")
-        if self.kind == "goto":
-            return f"go to {place}"
-        if self.kind == "find":
-            return f"look for the {self.obj}" + (f" {located(place)}" if self.place else "")
-        if self.kind == "fetch":
-            return f"get the {self.obj} from {place}" + (
-                f" and bring it to {to}" if self.to else ""
-            )
-        if self.kind == "watch":
-            return f"watch for {self.obj}"
-        if self.kind in ("pick", "put", "release"):
-            return _hands_spoken(self)
-        return "tell you what I see"
-
     def code(self) -> str:
         """Compact form used by the phrasing sets: goto:kitchen, fetch:mug@kitchen>dock."""
         if self.kind == "see":
@@ -80,27 +59,8 @@ def _hands_instruction(action: Action) -> str:
     return "hand it over"
 
 
-def _hands_spoken(action: Action) -> str:
-    place = (action.place or "").replace("_", " ")
-    if action.kind == "pick":
-        return f"pick up the {action.obj}"
-    if action.kind == "put":
-        what = f"the {action.obj}" if action.obj else "it"
-        return f"put {what} down" + (f" at the {place}" if action.place else "")
-    return "hand it over"
-
-
 def instruction_of(actions: list[Action]) -> str:
     return ", then ".join(a.instruction() for a in actions)
-
-
-def _by_id(place: str) -> str:
-    return f"the {place.replace('_', ' ')}"
-
-
-def spoken_of(actions: list[Action], names: Callable[[str], str] | None = None) -> str:
-    said = [a.spoken(names) for a in actions]
-    return said[0] if len(said) == 1 else ", then ".join(said[:-1]) + ", then " + said[-1]
 
 
 @dataclass(frozen=True)

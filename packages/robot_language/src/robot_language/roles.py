@@ -18,6 +18,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from robot_language.clauses import strip_article
 from robot_language.config_file import CONFIG, read_model
 
 DEFAULT_ROLES = CONFIG / "roles.yaml"
@@ -99,7 +100,7 @@ def read_roles(
     rest = _skip(rest, words.after_verb)
     marks = _marks(rest, words.source, "source") + _marks(rest, words.destination, "destination")
     marks.sort()
-    thing = _article_off(rest[: marks[0][0]] if marks else rest)
+    thing = strip_article(rest[: marks[0][0]] if marks else rest)
     found: dict[str, str] = {}
     owner, _, owned = thing.partition("'s ")
     if owned and owner not in people and is_place(owner):  # "reception's package": from there
@@ -136,7 +137,3 @@ def _marks(text: str, prepositions: list[str], role: str) -> list[tuple[int, int
     """Where each preposition of ``role`` stands in ``text`` (the longest wins at one spot)."""
     pattern = _alternatives(prepositions)
     return [(m.start(), m.end(), role) for m in re.finditer(rf"\b(?:{pattern})\b", text)]
-
-
-def _article_off(phrase: str) -> str:
-    return re.sub(r"^(?:the|a|an|my|our|some|this|that)\s+", "", phrase.strip())

@@ -42,9 +42,15 @@ def said(action: Action, places: PlaceIndex | None) -> str:
         )
     if action.kind == "watch":
         return f"watch for {action.obj}"
-    if action.kind == "see":
-        return "tell you what I see"
-    return action.spoken()  # kinds added elsewhere say themselves
+    if action.kind == "pick":
+        return f"pick up the {action.obj}"
+    if action.kind == "put":
+        what = f"the {action.obj}" if action.obj else "it"
+        where = f" at the {action.place.replace('_', ' ')}" if action.place else ""
+        return f"put {what} down{where}"
+    if action.kind == "release":
+        return "hand it over"
+    return "tell you what I see"
 
 
 def plan(actions: list[Action], places: PlaceIndex | None) -> str:
@@ -65,22 +71,13 @@ _NOT_A_THING = {
 }  # fmt: skip
 
 
-_DANGLING = {
-    "from",
-    "to",
-    "in",
-    "at",
-    "of",
-    "on",
-    "the",
-    "a",
-    "an",
-    "and",
-    "or",
-    "for",
-    "with",
-    "by",
-}
+# a phrase or sentence that ends on one of these was cut off ("bring the mug from the kitchen
+# to"); "in" and "on" may end a sentence ("come in", "carry on"), never a thing's name
+CUT_OFF = {
+    "to", "from", "and", "or", "at", "into", "onto", "of", "with", "for", "by", "the", "a",
+    "an", "via", "towards", "toward", "but", "if", "before", "after", "until", "because",
+    "unless", "my", "your",
+}  # fmt: skip
 
 
 def plausible(obj: str | None) -> bool:
@@ -89,7 +86,7 @@ def plausible(obj: str | None) -> bool:
     if obj is None:
         return True
     said = obj.split()
-    if not said or said[-1] in _DANGLING:  # "bob's desk far from"
+    if not said or said[-1] in CUT_OFF | {"in", "on"}:  # "bob's desk far from"
         return False
     return len(said) <= 5 and not _NOT_A_THING & set(said)
 

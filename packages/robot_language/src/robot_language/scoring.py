@@ -10,71 +10,17 @@ from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 from robot_language.commands import parse
+from robot_language.config_file import CONFIG
 from robot_language.listing import Locations
 from robot_language.places import words
 
-OFFICE_LOCATIONS = [  # as robot_mcp_navigation/config/maps/office.yaml (x, y in metres)
-    {
-        "name": "dock",
-        "x": 0.0,
-        "y": 0.0,
-        "description": "Charging dock next to the entrance.",
-        "aliases": [],
-    },
-    {
-        "name": "reception",
-        "x": 4.0,
-        "y": 1.5,
-        "description": "Reception desk, usually staffed during office hours.",
-        "aliases": ["front_desk", "reception_desk"],
-    },
-    {
-        "name": "kitchen",
-        "x": 9.0,
-        "y": -3.0,
-        "description": "Kitchen with the coffee machine and the fridge.",
-        "aliases": [],
-    },
-    {
-        "name": "corridor_b",
-        "x": 14.0,
-        "y": 6.0,
-        "description": "East corridor; leads to the mailroom's east entrance.",
-        "aliases": [],
-    },
-    {
-        "name": "mailroom",
-        "x": 17.0,
-        "y": 3.0,
-        "description": "Mailroom where parcels and letters are collected.",
-        "aliases": ["mail_room", "post_room"],
-    },
-    {
-        "name": "desk_alice",
-        "x": 6.0,
-        "y": 8.0,
-        "description": "Alice's desk in the open-plan office.",
-        "aliases": [],
-    },
-    {
-        "name": "desk_bob",
-        "x": 8.5,
-        "y": 8.0,
-        "description": "Bob's desk in the open-plan office.",
-        "aliases": [],
-    },
-    {
-        "name": "meeting_room",
-        "x": 11.0,
-        "y": 10.0,
-        "description": 'Meeting room "Harbour".',
-        "aliases": [],
-    },
-]
+# the office map (config/office_map.yaml), as robot_mcp_navigation/config/maps/office.yaml
+OFFICE_LOCATIONS: list[dict[str, Any]] = yaml.safe_load((CONFIG / "office_map.yaml").read_text())
 OFFICE_LIST_LOCATIONS = json.dumps({"map": "office", "locations": OFFICE_LOCATIONS})
 # every code that moves the robot or its arm (issue 38: pick, put and release act too)
 ACTING = ("goto:", "find:", "fetch:", "watch:", "see", "pick", "put", "release")

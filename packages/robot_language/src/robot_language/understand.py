@@ -13,14 +13,7 @@ from typing import Literal
 import structlog
 
 from robot_language import clauses as cl
-from robot_language import (
-    composites,
-    guards,
-    negation,
-    phrasing,
-    saying,
-    speech,
-)
+from robot_language import composites, guards, negation, phrasing, saying
 from robot_language.check import check, check_answer
 from robot_language.commands import parse
 from robot_language.composing import (
@@ -34,6 +27,7 @@ from robot_language.composing import (
 from robot_language.embedder import Embedder, default_embedder
 from robot_language.followup import follow_up
 from robot_language.intents import load_intents
+from robot_language.normalise import normalise
 from robot_language.places import PlaceIndex, PlaceMatch, could_name_a_place
 from robot_language.questions import read_question
 from robot_language.reading import (
@@ -91,7 +85,7 @@ class Understanding:
         self.act_threshold, self.ask_threshold, self.margin = act_threshold, ask_threshold, margin
         self._labels = [n for n, i in self.intents.intents.items() for _ in i.examples]
         examples = [e for i in self.intents.intents.values() for e in i.examples]
-        self._examples = self.embedder.embed([cl.normalise(e) for e in examples])
+        self._examples = self.embedder.embed([normalise(e, spoken=False) for e in examples])
 
     @property
     def name(self) -> str:
@@ -103,7 +97,7 @@ class Understanding:
     # --- one request ------------------------------------------------------------------------
     def understand(self, text: str, places: PlaceIndex | None = None) -> Reading:
         started = time.monotonic()
-        heard = speech.normalise(text, places.owners() if places is not None else ())
+        heard = normalise(text, places.owners() if places is not None else ())
         reading, ruled_out = self._understand(heard, places)
         # the CHECK stage: the one point every reading passes before anything acts on it
         reading = check(heard, reading, places, ruled_out, self.intents.objects)
@@ -251,12 +245,6 @@ class Understanding:
         for label, sim in zip(self._labels, sims.tolist(), strict=True):
             best[label] = max(best.get(label, -1.0), float(sim))
         return best
-
-    def _match(self, part: str) -> tuple[str, float, str, float]:
-        """Best intent and score, runner-up (another intent) and its score."""
-        ranked = sorted(self._scores(part).items(), key=lambda kv: kv[1], reverse=True)
-        (first, s1), (second, s2) = ranked[0], ranked[1] if len(ranked) > 1 else ("", -1.0)
-        return first, s1, second, s2
 
     def _verb(self, part: str) -> str | None:
         """The action intent whose verb starts ``part`` (the longest verb wins)."""

@@ -9,7 +9,7 @@ import re
 
 from rapidfuzz import fuzz, process
 
-from robot_language.clauses import normalise
+from robot_language.normalise import normalise
 from robot_language.recall.phrasings import PHRASINGS
 from robot_language.recall.times import SPOKEN_CLOCK, clock_digits
 
@@ -48,7 +48,7 @@ def clean(text: str) -> str:
     """Lower case, chatty openers dropped ("yo, ...", "hey robot, ...", "ok so ..."), texting
     shorthand spelled out ("u seen" → "you seen"), clock words as digits ("half past two" →
     "2:30")."""
-    plain = _OPENER.sub("", normalise(text).strip(" .!?"))
+    plain = _OPENER.sub("", normalise(text, spoken=False).strip(" .!?"))
     plain = " ".join(PHRASINGS.shorthand.get(w, w) for w in plain.split())
     plain = _ROBOT_SUBJECT.sub(_as_you, _SEEING.sub(_plain_seeing, plain))
     return SPOKEN_CLOCK.sub(clock_digits, plain)

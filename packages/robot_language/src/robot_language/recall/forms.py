@@ -27,118 +27,7 @@ from robot_language.recall.times import (
 FIRST_OF = 20  # "when did you first see X": the earliest of its last this-many sightings
 AROUND = "5m"  # "what did you see at 3 pm": the server's "3pm -5m" to "3pm +5m"
 DEFAULT_AWAY = "-1h"  # "while I was away" when the previous turn is not known
-AWAY = re.compile(
-    r"\b(?:while|when|whilst) i (?:was|were) (?:away|gone|out|out of the office|not here|"
-    r"not around|at lunch|in a meeting|in the meeting)"
-    r"|\bsince i (?:left|was (?:last )?here|went away|last (?:spoke|talked|asked|checked))"
-    r"|\bsince (?:we|you and i) (?:last )?(?:spoke|talked)|\bsince my last (?:message|question)"
-    r"|\bsince (?:the )?last time (?:we|i) (?:spoke|talked)|\bin my absence\b"
-    r"|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b|\bbring me up to (?:date|speed)\b"
-)
-_SAW = r"(?:saw|spotted|noticed|have seen|'ve seen|had seen|came across|have come across)"
-_SEE = r"(?:see|seen|spot|spotted|notice|noticed|come across|came across|run into)"
-_LAST_SEEN = [
-    # the thing moved on: "where did the scissors end up", "where has my mug got to"
-    re.compile(
-        r"\bwhere(?:'d| did| has| have| had) (?!(?:you|we|i|it|they|the robot)\b)(?P<obj>.+?) "
-        r"(?:end(?:ed)? up|go|gone|went|get to|got to|gotten to|wind up|wound up|"
-        r"disappear(?:ed)?(?: to)?|vanish(?:ed)?(?: to)?)$"
-    ),
-    # "the last time / place you saw X", "where's the last place you spotted X"
-    re.compile(
-        rf"\b(?:the )?(?:last|first) (?:time|place|spot) (?:that |where )?you {_SAW} (?P<obj>.+)"
-    ),
-    # the thing as subject: "when did the mug last show up", "when was the mug last seen"
-    re.compile(
-        r"\b(?:when|where) (?:did|was|were|has|have) (?:the last time )?(?P<obj>.+?) "
-        r"(?:last |first )?(?:show(?:ed)? up|turn(?:ed)? up|appear(?:ed)?|pop(?:ped)? up)\b"
-    ),
-    re.compile(
-        r"\b(?:the )?last time (?:that )?(?P<obj>.+?) (?:showed up|turned up|appeared|was seen)\b"
-    ),
-    re.compile(
-        rf"\bhow (?:long|many \w+) ago (?:did|have) you (?:last |first )?{_SEE} (?P<obj>.+)"
-    ),
-    re.compile(
-        r"\bhow long (?:did|have|were) you (?:see|seen|spot|watch|watched|looking at) (?P<obj>.+)"
-    ),
-    # "any idea where the charger is", "do you know where my keys went"
-    re.compile(
-        r"\b(?:any idea|do you know|have you any idea|got any idea|you know) where (?P<obj>.+?) "
-        r"(?:is|are|was|were|went|ended up|might be|could be)\b"
-    ),
-    # the auxiliary dropped, as typed: "seen my keys?", "you seen the laptop anywhere"
-    re.compile(r"^(?:you )?(?:seen|spotted|noticed|come across) (?P<obj>.+)"),
-    re.compile(
-        r"\b(?:when|where)\b(?: and (?:when|where))?(?: exactly)?\s+(?:did|have|had)\s+you\s+"
-        r"(?:last|most recently|first|ever)?\s*(?:see|seen|spot|spotted|notice|noticed)\s+"
-        r"(?P<obj>.+)"
-    ),
-    re.compile(
-        r"\b(?:when|where)\b(?: and (?:when|where))?\s+you\s+(?:last\s+|most recently\s+)?"
-        r"(?:saw|spotted|noticed|have seen|'ve seen)\s+(?P<obj>.+)"
-    ),
-    re.compile(rf"^(?:have|did|had) you (?:ever |already |recently )?{_SEE} (?P<obj>.+)"),
-    re.compile(
-        r"\b(?:where|when) (?:was|were|is|are) (?P<obj>.+?) (?:last |first )?(?:seen|spotted)"
-    ),
-    re.compile(r"\bwhere (?:did|have) (?:i|we) (?:leave|left|put) (?P<obj>.+)"),
-    re.compile(r"\b(?:any|seen any) (?:sign|trace) of (?P<obj>.+)"),
-]
-# "where's the red mug now?", "where are the scissors": present tense, but the robot can only
-# say where it last saw the thing; the answer offers to go and look (a question, never a motion)
-_WHERE_NOW = re.compile(
-    r"^where(?:'s| is| are|'re| r)\s+(?!(?:you|we|i|it|they|he|she|that|this|those|these|the robot|"
-    r"everyone|everybody|everything|my location|your location)\b)(?P<obj>.+?)"
-    r"(?:\s+(?:now|right now|at the moment|currently|then|kept|located|hiding|at))?$"
-)
-# "is my mug still in the kitchen": its sighting there, and whether it was gone later
-_IS_STILL = re.compile(r"^(?:is|are) (?P<obj>.+?) still (?P<rest>(?:in|at|on|by|near) .+|there)$")
-_SEEN = re.compile(
-    r"\bwhat\s+(?:else\s+)?(?:did|have|had)\s+you\s+(?:just\s+)?(?:see|seen|spot|spotted|notice|"
-    r"noticed|observe|observed|look at|looked at)\b"
-    r"|\bwhat\s+(?:(?:objects|things)\s+)?you\s+(?:just\s+)?(?:saw|spotted|noticed|observed|"
-    r"have seen|'ve seen)\b"
-    r"|\b(?:did|have) you (?:see|seen|spot|spotted|notice|noticed) (?:anything|something|"
-    r"any(?:one|body)|things)\b"
-    r"|\bwhat (?:was|were) (?:in front of you|you looking at|in view|on (?:your )?camera)\b"
-    r"|\bwhat (?:objects|things|stuff) (?:did|have) you (?:see|seen|spot|spotted|notice|noticed)\b"
-    r"|\bwhat (?:did|had) (?:your camera|the camera|you) (?:pick up|catch|detect|see)\b"
-    r"|\bwhich (?:objects|things) (?:did|have) you (?:see|seen|spot|spotted)\b"
-    r"|\b(?:what )?(?:do|can) you remember (?:seeing|spotting|noticing|from|about)\b"
-    r"|\bwhat (?:objects |things |stuff )?(?:was|were) (?:there |lying |standing )?"
-    r"(?:in|at|on|inside) (?!front of\b)"
-    r"|\bwhat (?:objects|things) (?:are|were) (?:there|around)\b"
-    r"|^(?:was|were) there (?:anything|anyone|anybody|something|someone|somebody)\b"
-)
-# "anything at the reception earlier?", "anyone in the kitchen at 3 pm?": a digest of what was
-# seen there, when a time in the past is said (without one it may be a request to go and look)
-_ANYTHING_AT = re.compile(
-    r"^(?:(?:and|so|but)\s+)?(?:(?:did you see|you see|see|seen|saw)\s+)?(?:anything|anyone|"
-    r"anybody|something|someone|somebody)(?: (?:interesting|unusual|new|else|at all))?"
-    r" (?:in|at|on|inside|near|by) "
-)
-_PAST_MARK = re.compile(r"\b(?:earlier|before|ago|yesterday|previously|so far)\b")
-_DIGEST = re.compile(
-    r"\bwhat(?:'s| has| had|'d)?\s+(?:just\s+)?(?:happened|happening|been happening|been going on|"
-    r"went on|going on)\b"
-    r"|\bwhat (?:did|have) you (?:do|done|been doing|been up to|get up to|got up to)\b"
-    r"|\bwhat (?:were|was) you (?:doing|up to)\b"
-    r"|\banything (?:happen|happened|new|interesting|going on|to report)\b"
-    r"|\bdid anything (?:happen|interesting happen)\b"
-    r"|\bwhat(?:'s| is) new\b|\bgive me (?:a |an )?(?:summary|recap|rundown|update)\b"
-    r"|\b(?:summari[sz]e|recap)\b|\bwhat did i miss\b|\bcatch me up\b|\bfill me in\b"
-    r"|\bbring me up to (?:date|speed)\b|\bwhat went on\b"
-)
-_POSE_AT = re.compile(
-    r"\bwhere\s+(?:were|was)\s+(?:you|the robot|it)\b|\bwhich (?:room|place|location) were you"
-    r"|\bwhere had you been\b|\bwhat were you (?:doing|up to)\b|\bwhere did you be\b"
-)
-_VISITS = re.compile(
-    r"\bwhere (?:have|did) you (?:been|go|gone|drive|driven|went)\b"
-    r"|\bwhich (?:places|rooms) (?:did|have) you (?:visit|visited|go to|been to|drive to)"
-    r"|\bwhere all (?:have|did) you\b"
-)
+FORMS = PHRASINGS.forms
 _LAST_HOUR = ("-1h", "in the last hour")
 
 
@@ -171,7 +60,7 @@ def _read(plain: str) -> Recall | None:
 
 def pose_at(text: str) -> Recall | None:
     """ "where were you at 3 pm / 10 minutes ago"."""
-    if not _POSE_AT.search(text):
+    if not FORMS.pose_at.search(text):
         return None
     if (at := clock(text)) is not None:
         return Recall("pose_at", POSE_AT, {"time": at}, f"at {at}")
@@ -183,17 +72,17 @@ def pose_at(text: str) -> Recall | None:
 
 def last_seen(text: str) -> Recall | None:
     """ "when did you last see the mug", "is my mug still in the kitchen", "where's the mug"."""
-    still = _IS_STILL.match(text)
+    still = FORMS.is_still.match(text)
     phrase = None
     if still is not None:
         rest = still["rest"]
         phrase = still["obj"] if rest == "there" else f"{still['obj']} {rest}"
-    for pattern in _LAST_SEEN:
+    for pattern in FORMS.last_seen:
         if phrase is not None:
             break
         if (match := pattern.search(text)) is not None:
             phrase = match["obj"]
-    now = _WHERE_NOW.match(text) if phrase is None else None
+    now = FORMS.where_now.match(text) if phrase is None else None
     if now is not None:
         phrase = now["obj"]
     if phrase is None:
@@ -214,7 +103,8 @@ def last_seen(text: str) -> Recall | None:
 
 def _seen(text: str) -> Recall | None:
     if not (
-        _SEEN.search(text) or (_ANYTHING_AT.search(text) and place_of(text) and _in_the_past(text))
+        FORMS.seen.search(text)
+        or (FORMS.anything_at.search(text) and place_of(text) and _in_the_past(text))
     ):
         return None
     return window(text, ["sightings"], "seen", default=_LAST_HOUR)
@@ -223,21 +113,21 @@ def _seen(text: str) -> Recall | None:
 def _in_the_past(text: str) -> bool:
     """A time in the past is said: an amount ago, the last N, a clock time, today, earlier."""
     return bool(
-        _PAST_MARK.search(text) or ago(text) or span(text) or clock(text)
+        FORMS.past_mark.search(text) or ago(text) or span(text) or clock(text)
         or TODAY.search(text) or RECENT.search(text) or BETWEEN.search(text)
     )  # fmt: skip
 
 
 def _visits(text: str) -> Recall | None:
-    if not _VISITS.search(text):
+    if not FORMS.visits.search(text):
         return None
     return window(text, ["places"], "visits", default=_LAST_HOUR)
 
 
 def _digest(text: str) -> Recall | None:
-    if AWAY.search(text):
+    if FORMS.away.search(text):
         return _away()
-    if not _DIGEST.search(text):
+    if not FORMS.digest.search(text):
         return None
     return window(text, None, "digest", default=None) or _away()
 
@@ -265,7 +155,7 @@ def window(
         return Recall(kind, WHAT_HAPPENED, arguments, f"between {start} and {end}", place=place)
     length = span(text)
     before = ago(text) if length is None else None
-    if AWAY.search(text):
+    if FORMS.away.search(text):
         arguments["start"] = DEFAULT_AWAY
         return Recall(kind, WHAT_HAPPENED, arguments, "while away", place=place, since_turn=True)
     if length is not None:

@@ -7,7 +7,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, PositiveInt, StringConstraints
 
-from robot_language.config_file import CONFIG, read_model
+from robot_language.config_file import CONFIG, Regex, read_model
 
 RECALL_PHRASINGS = CONFIG / "recall.yaml"
 # the text is read lower case with single spaces: anything else would never be matched
@@ -25,6 +25,19 @@ class SeeingForms(_Strict):
     past: WordList
 
 
+class Forms(_Strict):
+    away: Regex
+    last_seen: list[Regex]
+    where_now: Regex
+    is_still: Regex
+    seen: Regex
+    anything_at: Regex
+    past_mark: Regex
+    digest: Regex
+    pose_at: Regex
+    visits: Regex
+
+
 class RecallPhrasings(_Strict):
     shorthand: dict[Words, Words]
     run_together: dict[Words, Words]
@@ -35,6 +48,7 @@ class RecallPhrasings(_Strict):
     nothing: WordList
     hedges: WordList
     amounts: dict[Words, PositiveInt]
+    forms: Forms
 
 
 PHRASINGS = read_model(RECALL_PHRASINGS, RecallPhrasings, "recall phrasings")

@@ -15,7 +15,8 @@ from datetime import UTC, datetime
 from typing import Any
 
 from robot_language import saying
-from robot_language.commands import Command, normalise
+from robot_language.commands import Command
+from robot_language.normalise import normalise
 from robot_language.places import PlaceIndex, located
 from robot_language.reading import (
     Action,
@@ -132,7 +133,7 @@ class RulesChat(LLMProvider):
         if last.tool_results:
             return self._on_result(last.tool_results[0], messages, names)
         self._stamp_turn(messages)
-        text = normalise(last.content)
+        text = normalise(last.content, spoken=False)
         if _STOP.match(text) and "stop_mission" in names:
             self._pending = None
             return self._call("stop_mission", {}, "stop")

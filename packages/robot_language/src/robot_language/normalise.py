@@ -1,5 +1,6 @@
-"""Speech-style input written the way the grammar reads it (issue 32): what a speech-to-text
-engine or a hurried thumb leaves in a request, taken out before anything else reads it.
+"""NORMALISE, the first stage: speech-style input written the way the grammar reads it (issue
+32): what a speech-to-text engine or a hurried thumb leaves in a request, taken out before
+anything else reads it. The one ``normalise`` of the package.
 
 - casing, curly apostrophes, and one word per sentence ("Go. To. The. Meeting. Room.");
 - hesitations and fillers ("uh", "um", "like" as a filler), stutters ("go go to the the kitchen");
@@ -9,6 +10,8 @@ engine or a hurried thumb leaves in a request, taken out before anything else re
   when a place is Bob's);
 - spoken numbers as digits ("room twenty three" → "room 23"), by ``text2num`` (MIT); small isolated
   numbers and ordinals ("two", "first", "a second") are left as words.
+
+The word lists are data: ``config/normalise.yaml``.
 """
 
 from __future__ import annotations
@@ -16,51 +19,28 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
+from pydantic import BaseModel, ConfigDict
 from text_to_num import alpha2digit  # type: ignore[import-untyped]
 
-_HESITATIONS = {
-    "uh", "uhh", "uhm", "um", "umm", "uhhh", "ummm", "hmm", "hm", "hmmm", "er", "erm", "err",
-    "ah", "ahh", "eh", "mm", "mmm", "mhm",
-}  # fmt: skip
-_TEXTING = {
-    "u": "you", "ya": "you", "ur": "your", "yr": "your", "pls": "please", "plz": "please",
-    "pleez": "please", "thx": "thanks", "thnx": "thanks", "thanx": "thanks", "tnx": "thanks",
-    "ty": "thank you", "k": "ok", "kk": "ok", "okey": "okay", "n": "and", "wat": "what",
-    "wut": "what", "wht": "what", "wer": "where", "whr": "where", "cud": "could", "wud": "would",
-    "cn": "can", "b4": "before", "rn": "right now", "gonna": "going to", "wanna": "want to",
-    "gotta": "got to", "lemme": "let me", "gimme": "give me", "im": "i'm", "abt": "about",
-    "cuz": "because", "coz": "because", "bc": "because", "sry": "sorry", "srry": "sorry",
-    "nvm": "never mind", "idk": "i don't know", "tmr": "tomorrow", "msg": "message",
-}  # fmt: skip
-# contractions typed without the apostrophe (words that are also words, "its", "were", "ill",
-# "wont", are left alone)
-_CONTRACTIONS = {
-    "dont": "don't", "doesnt": "doesn't", "didnt": "didn't", "cant": "can't", "isnt": "isn't",
-    "arent": "aren't", "wasnt": "wasn't", "werent": "weren't", "shouldnt": "shouldn't",
-    "couldnt": "couldn't", "wouldnt": "wouldn't", "havent": "haven't", "hasnt": "hasn't",
-    "whats": "what's", "wheres": "where's", "hows": "how's", "whos": "who's", "thats": "that's",
-    "theres": "there's", "heres": "here's", "lets": "let's", "youre": "you're",
-    "theyre": "they're", "ive": "i've", "youve": "you've", "youll": "you'll", "itll": "it'll",
-    "shes": "she's", "hes": "he's", "whens": "when's",
-}  # fmt: skip
-_ID_BEFORE = {"like", "love", "rather", "prefer", "want"}  # "id like" → "i'd like"
-# "2" / "4" are "to" / "for" next to these words ("go 2 the kitchen", "look 4 the mug")
-_TO_AFTER = {
-    "go", "come", "get", "drive", "head", "back", "way", "over", "it", "them", "me", "up",
-    "going", "want", "need", "have", "got", "bring", "take", "move", "walk", "return", "this",
-    "that", "trip", "visit", "down", "out", "next", "like", "proceed", "navigate",
-}  # fmt: skip
-_BEFORE_TO = {
-    "the", "a", "an", "my", "your", "our", "his", "her", "their", "me", "you", "go", "get",
-    "bring", "see", "find", "check", "look", "reception", "kitchen", "home", "base",
-}  # fmt: skip
-_FOR_AFTER = {"look", "looking", "search", "searching", "watch", "wait", "check", "out", "ask"}
-# after these, "like" is a verb or a comparison, not a filler
-_LIKE_KEEPS = {
-    "i", "you", "we", "they", "he", "she", "it", "would", "i'd", "you'd", "we'd", "d", "looks",
-    "look", "looked", "something", "anything", "nothing", "feel", "feels", "things", "don't",
-    "do", "does", "didn't", "did",
-}  # fmt: skip
+from robot_language.config_file import CONFIG, read_model
+
+
+class _Words(BaseModel):
+    """``config/normalise.yaml``: the words this stage reads."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    hesitations: frozenset[str]
+    texting: dict[str, str]
+    contractions: dict[str, str]
+    id_before: frozenset[str]
+    to_after: frozenset[str]
+    before_to: frozenset[str]
+    for_after: frozenset[str]
+    like_keeps: frozenset[str]
+
+
+WORDS = read_model(CONFIG / "normalise.yaml", _Words, "normalise")
 _LEADING = re.compile(r"^(?:(?:so|well|alright|all right|oh|yo|okay so|ok so|right,)[\s,]+)+")
 _YOU_KNOW = re.compile(r"(?:^|,)\s*you know\s*(?:,|$)")
 _SENTENCES = re.compile(r"[.!?]+")
@@ -77,10 +57,14 @@ def possessors(names: Iterable[str]) -> set[str]:
     return {m.lower() for text in names for m in re.findall(r"\b(\w+)['’]s\b", text)}
 
 
-def normalise(text: str, owners: Iterable[str] = ()) -> str:
+def normalise(text: str, owners: Iterable[str] = (), *, spoken: bool = True) -> str:
     """``text`` as the grammar reads it; ``owners``: names whose possessive a place uses
-    ("bob" for "Bob's desk"), so "bobs desk" gets its apostrophe back."""
+    ("bob" for "Bob's desk"), so "bobs desk" gets its apostrophe back. ``spoken=False`` stops
+    after case, apostrophes and spaces: for text that is no person's words (an instruction the
+    planner wrote, an intent's example) or was normalised already."""
     text = " ".join(text.replace("’", "'").replace("‘", "'").lower().split())
+    if not spoken:
+        return text
     text = _one_word_sentences(text)
     text = _words(text, {f"{o}s": f"{o}'s" for o in owners})
     text = _drop_repeated_pairs(text)
@@ -101,22 +85,22 @@ def _one_word_sentences(text: str) -> str:
 
 
 def _word(heard: str, before: str, after: str, owned: dict[str, str]) -> str:
-    if heard in _HESITATIONS:
+    if heard in WORDS.hesitations:
         return ""
-    if heard == "like" and before not in _LIKE_KEEPS:
+    if heard == "like" and before not in WORDS.like_keeps:
         return ""
-    if heard == "2" and (before in _TO_AFTER or after in _BEFORE_TO):
+    if heard == "2" and (before in WORDS.to_after or after in WORDS.before_to):
         return "to"
-    if heard == "4" and (before in _FOR_AFTER or after in _BEFORE_TO):
+    if heard == "4" and (before in WORDS.for_after or after in WORDS.before_to):
         return "for"
     if heard == "r" and (before in {"where", "what", "how", "who", "why", "when", "you"}
                          or after in {"you", "u"}):  # fmt: skip
         return "are"
-    if heard == "id" and after in _ID_BEFORE:
+    if heard == "id" and after in WORDS.id_before:
         return "i'd"
     if heard in owned:
         return owned[heard]
-    return _TEXTING.get(heard) or _CONTRACTIONS.get(heard) or heard
+    return WORDS.texting.get(heard) or WORDS.contractions.get(heard) or heard
 
 
 def _words(text: str, owned: dict[str, str]) -> str:

@@ -4,7 +4,8 @@ Understood: "go / drive / head / navigate to <place>", "find / look for / search
 [in the <place>]", "what do you see", "watch for <thing>", "fetch / bring / get <thing>
 from <place>", and for the arm: "pick up / grab <thing> [at <place>]" (with a place: a fetch),
 "put / place / set <it | thing> [down] [on / at / in <place>]", "hand it over / drop it / give it
-to me / let go". Anything else is ``unknown`` and the planner says so.
+to me / let go". Anything else is ``unknown`` and the planner says so. The grammar is data:
+``config/commands.yaml``.
 """
 
 from __future__ import annotations
@@ -13,76 +14,32 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
+from pydantic import BaseModel, ConfigDict
+
+from robot_language.config_file import CONFIG, Regex, read_model
 from robot_language.normalise import normalise
 
 Kind = Literal["goto", "find", "see", "watch", "fetch", "pick", "put", "release", "unknown"]
 
-_ARTICLE = r"(?:(?:the|a|an|my|our|some)\s+)?"
-_POLITE = re.compile(
-    r"^(?:(?:please|robot|hey robot|ok|okay|now|then|and|could you|can you|would you|"
-    r"will you|i want you to|i'd like you to)[\s,]+)+"
-)
-_TAIL = re.compile(r"\s*(?:[.!?:;]|,\s*please|\s+please|\s+and\s+(?:tell|report|let)\b).*$")
-_PATTERNS: list[tuple[Kind, re.Pattern[str]]] = [
-    (
-        "fetch",
-        re.compile(
-            rf"^(?:fetch|bring(?:\s+me)?|get(?:\s+me)?|pick\s+up|collect|grab)\s+{_ARTICLE}"
-            rf"(?P<obj>.+?)\s+from\s+{_ARTICLE}(?P<place>.+)$"
-        ),
-    ),
-    (
-        "pick",
-        re.compile(
-            rf"^(?:pick\s+up|grab|take\s+hold\s+of)\s+{_ARTICLE}(?P<obj>.+?)"
-            rf"(?:\s+(?:in|at|from|on)\s+{_ARTICLE}(?P<place>.+))?$"
-        ),
-    ),
-    (
-        "put",
-        re.compile(
-            rf"^(?:put|place|set|leave)\s+(?:it|that|this|{_ARTICLE}(?P<obj>.+?))"
-            rf"(?:\s+(?:back\s+)?down)?(?:\s+(?:here|there))?"
-            rf"(?:\s+(?:on|at|in|onto|into)\s+{_ARTICLE}(?P<place>.+))?$"
-        ),
-    ),
-    (
-        "release",
-        re.compile(
-            r"^(?:hand\s+(?:it|that|this|(?:the\s+)?\w+(?:\s+\w+)?)\s+over|hand\s+over\b.*|"
-            # "give me the mug" hands over what is held; "give me a description of the room"
-            # is not a hand-over (a thing of at most two words, no phrase after it)
-            r"give\s+(?:it|that|this|me\s+(?:the\s+|a\s+|an\s+|my\s+)?\w+(?:\s+\w+)?|.+\s+to\s+me)|"
-            r"drop\s+(?:it|that|this|.+)|"
-            r"let\s+(?:it\s+|that\s+)?go)(?:\s+(?:here|now|to\s+me))?$"
-        ),
-    ),
-    (
-        "see",
-        re.compile(
-            r"^(?:what\s+(?:do|can)\s+you\s+see|what'?s?\s+in\s+front\s+of\s+you|"
-            r"look\s+around|describe\s+(?:the\s+)?(?:scene|what you see))\b"
-        ),
-    ),
-    (
-        "watch",
-        re.compile(rf"^(?:watch|keep\s+an\s+eye|wait)\s+(?:out\s+)?for\s+{_ARTICLE}(?P<obj>.+)$"),
-    ),
-    (
-        "find",
-        re.compile(
-            rf"^(?:find|look\s+for|search\s+for|locate|where\s+is)\s+{_ARTICLE}(?P<obj>.+?)"
-            rf"(?:\s+(?:in|at)\s+{_ARTICLE}(?P<place>.+))?$"
-        ),
-    ),
-    (
-        "goto",
-        re.compile(
-            rf"^(?:go|drive|head|move|navigate|return|come)\s+(?:back\s+)?(?:over\s+)?"
-            rf"(?:to|into)\s+{_ARTICLE}(?P<place>.+)$"
-        ),
-    ),
-]
+
+class _Command(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    kind: Kind
+    pattern: Regex
+
+
+class Grammar(BaseModel):
+    """``config/commands.yaml``: the command grammar, tried in order."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    polite: Regex
+    tail: Regex
+    commands: list[_Command]
+
+
+GRAMMAR = read_model(CONFIG / "commands.yaml", Grammar, "commands")
 
 
 @dataclass(frozen=True)
@@ -110,9 +67,9 @@ def parse(text: str) -> Command:
     restated instruction "Fetch the package from the mailroom: drive …" parses)."""
     clean = normalise(text, spoken=False)
     for candidate in (clean.split(":", 1)[0], *re.split(r"(?<=[.!?])\s+", clean)):
-        words = _TAIL.sub("", _POLITE.sub("", candidate.strip()))
-        for kind, pattern in _PATTERNS:
-            match = pattern.match(words)
+        words = GRAMMAR.tail.sub("", GRAMMAR.polite.sub("", candidate.strip()))
+        for command in GRAMMAR.commands:
+            kind, match = command.kind, command.pattern.match(words)
             if match is not None:
                 groups = match.groupdict()
                 obj, place = _strip(groups.get("obj")), _strip(groups.get("place"))

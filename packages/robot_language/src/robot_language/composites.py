@@ -5,25 +5,16 @@ of one search ("look for the scissors and a yellow package in the mailroom")."""
 
 from __future__ import annotations
 
-import re
+from robot_language.config_file import patterns
 
 MAX_ROUNDS = 5  # more rounds than this in one request are asked about, never driven
+_P = patterns("composites", "times", "patrol", "list_split")
 _SMALL = {"once": 1, "twice": 2, "thrice": 3, "one": 1, "two": 2, "three": 3, "a couple of": 2}
-_TIMES = re.compile(
-    r"(?:,\s*|\s+)(?:(?P<word>once|twice|thrice)|(?:a )?(?P<n>\d+|one|two|three|a couple of)"
-    r" (?:times|rounds|laps))(?:\s+(?:please|in a row|over|more))*$"
-)
-_PATROL = re.compile(
-    r"^(?:patrol|do (?:a )?(?:round|rounds|lap|laps|patrol) (?:of|between|through)|"
-    r"(?:go|drive|shuttle|run|move) (?:back and forth |to and fro )?between|"
-    r"patrol between|go (?:round|around) between)\s+(?P<places>.+)$"
-)
-_LIST_SPLIT = re.compile(r"\s*(?:,\s*(?:and\s+)?|\s+and\s+(?:then\s+)?|\s+then\s+)\s*")
 
 
 def rounds(text: str) -> tuple[str, int]:
     """``text`` without its "twice" / "3 times", and how many times it was asked for (1)."""
-    match = _TIMES.search(text)
+    match = _P["times"].search(text)
     if match is None:
         return text, 1
     said = match["word"] or match["n"]
@@ -33,8 +24,8 @@ def rounds(text: str) -> tuple[str, int]:
 
 def patrol(text: str) -> str:
     """ "patrol the kitchen and reception" → "go to the kitchen, then go to reception"."""
-    match = _PATROL.match(text)
+    match = _P["patrol"].match(text)
     if match is None:
         return text
-    places = [p for p in _LIST_SPLIT.split(match["places"]) if p.strip()]
+    places = [p for p in _P["list_split"].split(match["places"]) if p.strip()]
     return ", then ".join(f"go to {p.strip()}" for p in places)

@@ -8,9 +8,10 @@ from pathlib import Path
 from typing import Annotated, TypeVar
 
 import yaml
-from pydantic import BaseModel, BeforeValidator, ValidationError
+from pydantic import BaseModel, BeforeValidator, RootModel, ValidationError
 
 Model = TypeVar("Model", bound=BaseModel)
+Value = TypeVar("Value")
 CONFIG = Path(__file__).parent / "config"
 
 
@@ -60,3 +61,33 @@ def _line_of(text: str, loc: tuple[int | str, ...]) -> int:
             break
         node = found[0]
     return node.start_mark.line + 1 if node is not None else 1
+
+
+class _Patterns(RootModel[dict[str, Regex]]):
+    pass
+
+
+class _WordLists(RootModel[dict[str, frozenset[str]]]):
+    pass
+
+
+def patterns(name: str, *needed: str) -> dict[str, re.Pattern[str]]:
+    """``config/<name>.yaml``: named regular expressions, compiled."""
+    return _named(name, _Patterns, needed)
+
+
+def word_lists(name: str, *needed: str) -> dict[str, frozenset[str]]:
+    """``config/<name>.yaml``: named lists of words."""
+    return _named(name, _WordLists, needed)
+
+
+def _named(
+    name: str, model: type[RootModel[dict[str, Value]]], needed: tuple[str, ...]
+) -> dict[str, Value]:
+    """Each of ``needed`` must be there: a broken or short file is refused with its name."""
+    path = CONFIG / f"{name}.yaml"
+    found = read_model(path, model, name).root
+    missing = [n for n in needed if n not in found]
+    if missing:
+        raise PhrasingsError(f"bad {name} file {path}: no {', '.join(missing)}")
+    return found

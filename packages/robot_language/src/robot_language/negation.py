@@ -17,11 +17,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from robot_language import clauses as cl
+from robot_language.config_file import patterns, word_lists
 
-_LEADING = re.compile(
-    r"^(?:(?:no|nope|no no|actually|wait,|wait no|no wait|sorry|oh|i mean|i said|instead,)"
-    r"[\s,]+)+(?=\w)"
-)
+_P = patterns("negation", "leading", "not_first", "instead_of_first", "not_alone", "instead_of",
+              "not_last", "question", "still_negated")  # fmt: skip
+
 _VERB = (
     r"(?:go|drive|head|come|move|walk|travel|return|navigate|visit|find|look|search|locate|"
     r"check|bring|fetch|get|take|grab|carry|deliver|watch|patrol|swing|pop)"
@@ -33,27 +33,8 @@ _DONT = re.compile(
     rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
     r"(?P<rest>.*)$"
 )
-_NOT_FIRST = re.compile(
-    r"^not (?P<neg>.+?)(?:,\s*|\s+but\s+|\s+(?=(?:the|a|an|to|at|in|go|drive|head)\b))"
-    r"(?P<rest>.+)$"
-)
-_NOT_ALONE = re.compile(
-    r"^(?:not|never|no)\s+(?P<neg>(?:to\s+|in\s+|at\s+)?(?:the|a|an)\s+.+)(?P<rest>)$"
-)
-_NOT_LAST = re.compile(r"^(?P<rest>.+?)(?:,\s*|\s+)(?:and |but )?not (?P<neg>.+)$")
-_INSTEAD_OF = re.compile(r"^(?P<rest>.+?)\s+(?:instead of|rather than|in place of)\s+(?P<neg>.+)$")
-_INSTEAD_OF_FIRST = re.compile(r"^(?:instead of|rather than) (?P<neg>.+?),\s*(?P<rest>.+)$")
 _INSTEAD = re.compile(r"\s+instead$|^instead\s+")
-# a correction marker: a run of these words, with at least one strong one
-_MARKS = {"oh", "uh", "well", "no", "wait", "sorry", "actually", "correction", "nope"}
-_PAIRS = {"i mean", "i meant", "make that", "make it", "scratch that", "or rather", "i said"}
-_STRONG = {"sorry", "actually", "correction", "no", "i mean", "i meant", "make that",
-           "make it", "scratch that", "or rather"}  # fmt: skip
-_NOT_AFTER_NO = {
-    "one", "body", "more", "longer", "matter", "problem", "need", "idea", "thanks", "way",
-    "thing", "where", "doubt", "rush", "worries", "further", "other",
-}  # fmt: skip
-_NO_AFTER = {"is", "there's", "there", "are", "with", "have", "has", "had", "say", "said"}
+_WORDS = word_lists("words", "marks", "pairs", "strong", "not_after_no", "no_after")
 _PLACE_TAIL = re.compile(r"^(?P<head>.*\b(?:to|into|in|at|by|from|towards|near)\s+)(?P<place>.+)$")
 _OBJ_VERB = re.compile(
     r"^(?P<verb>(?:find|look for|search for|locate|get|fetch|bring me|bring|grab|watch for)\s+)"
@@ -77,10 +58,10 @@ class Said:
 def read(text: str, is_place: Callable[[str], bool]) -> Said:
     """``text`` (normalised) → what to do and what not to; ``is_place``: whether a phrase
     names a place on the live map (a correction that is a place replaces a place)."""
-    text = _LEADING.sub("", text).strip(" ,")
+    text = _P["leading"].sub("", text).strip(" ,")
     negated: list[str] = []
     text = _correct(text, is_place, negated)
-    for pattern in (_DONT, _NOT_FIRST, _INSTEAD_OF_FIRST, _NOT_ALONE):
+    for pattern in (_DONT, *(_P[n] for n in ("not_first", "instead_of_first", "not_alone"))):
         match = pattern.match(text)
         if match is not None:
             leg = _trim(match["neg"])
@@ -90,9 +71,9 @@ def read(text: str, is_place: Callable[[str], bool]) -> Said:
                 return Said("", negated, leg)
             text = rest
             break
-    for pattern in (_INSTEAD_OF, _NOT_LAST):
+    for pattern in (_P["instead_of"], _P["not_last"]):
         match = pattern.match(text)
-        if match is not None and not _QUESTION.match(match["rest"]):
+        if match is not None and not _P["question"].match(match["rest"]):
             negated.append(_place_of(_trim(match["neg"])))
             text = _trim(match["rest"])
             break
@@ -139,10 +120,10 @@ def _last_mark(text: str) -> tuple[str, str] | None:
         j, strong = i, False
         while j < len(tokens):
             pair = " ".join(tokens[j : j + 2])
-            if pair in _PAIRS:
-                strong, j = strong or pair in _STRONG, j + 2
-            elif tokens[j] == "," or (tokens[j] in _MARKS and _marks(tokens, j)):
-                strong = strong or tokens[j] in _STRONG
+            if pair in _WORDS["pairs"]:
+                strong, j = strong or pair in _WORDS["strong"], j + 2
+            elif tokens[j] == "," or (tokens[j] in _WORDS["marks"] and _marks(tokens, j)):
+                strong = strong or tokens[j] in _WORDS["strong"]
                 j += 1
             else:
                 break
@@ -167,9 +148,9 @@ def _marks(tokens: list[str], j: int) -> bool:
     if word == "wait":
         return after in (",", "no") or before in ("no", ",")
     if word == "no":
-        return after not in _NOT_AFTER_NO and before not in _NO_AFTER
+        return after not in _WORDS["not_after_no"] and before not in _WORDS["no_after"]
     if word in ("oh", "uh", "well"):
-        return after in _MARKS or after in ("i", ",")
+        return after in _WORDS["marks"] or after in ("i", ",")
     return True
 
 
@@ -189,11 +170,7 @@ def _place_of(leg: str) -> str:
     return cl.strip_article(match["place"]) if match is not None else cl.strip_article(leg)
 
 
-_QUESTION = re.compile(r"^(?:is|are|was|were|do|does|did|why|where|what|how|can|could|have|has)\b")
-_STILL_NEGATED = re.compile(r"\b(?:not|don't|do not|never|mustn't|shouldn't|instead of)\b")
-
-
 def still_negated(text: str) -> bool:
     """A negation this module could not take apart is left in ``text``: nothing in it may be
     acted on or proposed (it might be the very place the person ruled out)."""
-    return _STILL_NEGATED.search(text) is not None
+    return _P["still_negated"].search(text) is not None

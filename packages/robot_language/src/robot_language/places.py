@@ -8,30 +8,16 @@ import re
 from dataclasses import dataclass, field, replace
 
 from robot_language import fuzzy
+from robot_language.config_file import word_lists
 from robot_language.normalise import possessors
-
-_STOP = {
-    "the", "a", "an", "to", "of", "your", "my", "our", "his", "her", "their", "yourself",
-    "please", "now", "where", "is", "are", "there", "that", "this", "it", "and", "in", "at",
-    "on", "over", "back", "into", "area", "place", "spot", "s", "for", "me", "with", "by",
-}  # fmt: skip
-
 
 # where a description's head (the place's own name) ends: "Kitchen with the ...", "Alice's desk
 # in the ...", "Reception desk, usually ..."
+_WORDS = word_lists("words", "place_stop", "rooms", "not_in_place_names")
+_STOP = _WORDS["place_stop"]
 _HEAD_END = re.compile(
     r"[,;.:()]| - | — | (?:in|with|next|near|by|on|at|for|where|which|that|leads|usually|of)\b"
 )
-
-
-# the head nouns of places one is *in* ("in the kitchen"); any other place one is *at* ("at
-# reception", "at Alice's desk", "at the charging dock")
-_ROOMS = {
-    "kitchen", "corridor", "hallway", "hall", "office", "lab", "laboratory", "lobby", "library",
-    "warehouse", "garage", "cafeteria", "canteen", "lounge", "basement", "cellar", "attic",
-    "workshop", "studio", "toilet", "toilets", "pantry", "foyer", "atrium", "wing", "area",
-    "building", "garden", "yard", "courtyard", "gym", "ward", "hangar",
-}  # fmt: skip
 
 
 def located(spoken: str) -> str:
@@ -40,7 +26,7 @@ def located(spoken: str) -> str:
     last word that is not a name after it ("Harbour"), a letter or a number ("corridor b")."""
     for word in reversed(re.findall(r"[\w'’-]+", spoken)):
         low = word.lower()
-        if low in _ROOMS or low.endswith("room"):
+        if low in _WORDS["rooms"] or low.endswith("room"):
             return f"in {spoken}"
         if len(word) > 1 and not word.isdigit() and not word[:1].isupper():
             break
@@ -81,8 +67,7 @@ class Place:
         return set(words(" ".join([self.name, *self.aliases, self.description])))
 
     def bag(self) -> set[str]:
-        text = " ".join([self.name, *self.aliases, self.description])
-        return {stem(w) for w in words(text)}
+        return {stem(w) for w in self.vocabulary()}
 
     def spoken(self) -> str:
         """How a sentence names it: the description's head when it names this place ("Alice's
@@ -245,28 +230,18 @@ class PlaceIndex:
         place = self.get(match.names[0])
         assert place is not None
         spelled = set(" ".join(place.spellings()).split())
-        bag = place.bag()
         rest = [w for w in words(phrase) if w not in _STOP and w not in spelled]
-        fits = [stem(w) in bag or any(x in bag for x in self.place_words.get(w, [])) for w in rest]
-        return all(fits) and len(rest) <= 2
+        return len(rest) <= 2 and bool(self._fits(rest, [place]))
 
 
 def _number(value: object) -> float | None:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
-# Words a place's name does not hold: a phrase with one of them is a sentence not understood,
-# never said back as "a place called '...'".
-# fmt: off
-_NOT_IN_PLACE_NAMES = frozenset({
-    "how", "what", "why", "when", "who", "which", "whether", "is", "are", "was", "were", "am",
-    "do", "does", "did", "can", "could", "would", "will", "should", "you", "your", "i", "it", "if",
-})
-# fmt: on
 _LONGEST_PLACE_NAME = 6  # words, articles not counted
 
 
 def could_name_a_place(phrase: str) -> bool:
     """Whether ``phrase`` (not found on the map) could still be the name of a place."""
     said = [w for w in words(phrase) if w not in ("the", "a", "an")]
-    return 0 < len(said) <= _LONGEST_PLACE_NAME and not _NOT_IN_PLACE_NAMES & set(said)
+    return 0 < len(said) <= _LONGEST_PLACE_NAME and not _WORDS["not_in_place_names"] & set(said)

@@ -31,8 +31,12 @@ class Action:
             )
         if self.kind == "watch":
             return f"watch for {self.obj}"
-        if self.kind in ("pick", "put", "release"):
-            return _hands_instruction(self)
+        if self.kind == "pick":
+            return f"pick up {self.obj}"
+        if self.kind == "put":
+            return f"put {self.obj or 'it'} down" + (f" at {self.place}" if self.place else "")
+        if self.kind == "release":
+            return "hand it over"
         return "what do you see"
 
     def code(self) -> str:
@@ -47,16 +51,6 @@ class Action:
         if self.to:
             text += f">{self.to}"
         return text
-
-
-def _hands_instruction(action: Action) -> str:
-    """pick / put / release in the exact grammar's words (commands.py parses them back)."""
-    if action.kind == "pick":
-        return f"pick up {action.obj}"
-    if action.kind == "put":
-        what = action.obj or "it"
-        return f"put {what} down" + (f" at {action.place}" if action.place else "")
-    return "hand it over"
 
 
 def instruction_of(actions: list[Action]) -> str:

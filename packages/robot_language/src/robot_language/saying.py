@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+from robot_language.config_file import word_lists
 from robot_language.places import PlaceIndex, located
 from robot_language.reading import Action, Question
 
@@ -64,20 +65,8 @@ def confirm(actions: list[Action], places: PlaceIndex | None) -> str:
     return f"Do you want me to {plan(actions, places)}? (yes or no)"
 
 
-_NOT_A_THING = {
-    "it", "you", "me", "i", "them", "there", "there's", "what", "tell", "see", "is", "are",
-    "that", "this", "yourself", "we", "us", "he", "she", "they", "do", "does", "can", "could",
-    "would", "will", "if", "no", "not", "whether", "whats", "what's", "how", "why", "when", "who",
-}  # fmt: skip
-
-
-# a phrase or sentence that ends on one of these was cut off ("bring the mug from the kitchen
-# to"); "in" and "on" may end a sentence ("come in", "carry on"), never a thing's name
-CUT_OFF = {
-    "to", "from", "and", "or", "at", "into", "onto", "of", "with", "for", "by", "the", "a",
-    "an", "via", "towards", "toward", "but", "if", "before", "after", "until", "because",
-    "unless", "my", "your",
-}  # fmt: skip
+_WORDS = word_lists("words", "not_a_thing", "cut_off")
+CUT_OFF = _WORDS["cut_off"]  # a phrase that ends on one of these was cut off
 
 
 def plausible(obj: str | None) -> bool:
@@ -88,7 +77,7 @@ def plausible(obj: str | None) -> bool:
     said = obj.split()
     if not said or said[-1] in CUT_OFF | {"in", "on"}:  # "bob's desk far from"
         return False
-    return len(said) <= 5 and not _NOT_A_THING & set(said)
+    return len(said) <= 5 and not _WORDS["not_a_thing"] & set(said)
 
 
 def did_you_mean(

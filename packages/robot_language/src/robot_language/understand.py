@@ -50,9 +50,6 @@ NOT_READ_RECALL = (
     "you last see the mug?', 'what did you see 5 minutes ago?', 'what happened while I was "
     "away?' or 'where were you at 3 pm?'"
 )
-_SEARCH_IN = re.compile(r"^(?:search|check|look\s+in|look\s+through)\s+.+?\s+for\s+.+$")
-# intents that read the same words: a verb of one and the meaning of the other agree
-_FAMILY = {"fetch": "carry", "deliver": "carry", "find": "find", "goto": "goto", "watch": "watch"}
 # "put it on Q" / "leave it at Q" right after a fetch: where to bring it (the verbs of a
 # manipulation of its own are the manipulation layer's)
 _PUT_IT = re.compile(
@@ -187,7 +184,11 @@ class Understanding:
         previous = before[-1] if before else None
         if previous is None or previous.action is None or previous.action.kind != "find":
             return None
-        if parse(part).kind != "unknown" or self._verb(part) is not None or _SEARCH_IN.match(part):
+        if (
+            parse(part).kind != "unknown"
+            or self._verb(part) is not None
+            or cl.SEARCH_IN.match(part)
+        ):
             return None
         if places is not None and places.only_place(part):
             return None
@@ -286,7 +287,7 @@ class Understanding:
         ranked = sorted(scores.items(), key=lambda kv: kv[1], reverse=True)
         (intent, s1), s2 = ranked[0], ranked[1][1]
         verb = self._verb(part)
-        if _SEARCH_IN.match(part):
+        if cl.SEARCH_IN.match(part):
             verb = "find"
         if verb is not None:
             # the verb names the intent; the meaning must not point clearly elsewhere

@@ -14,25 +14,19 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict
-
-from robot_language.config_file import CONFIG, Regex, read_model
+from robot_language.config_file import CONFIG, Regex, Strict, read_model
 from robot_language.normalise import normalise
 
 Kind = Literal["goto", "find", "see", "watch", "fetch", "pick", "put", "release", "unknown"]
 
 
-class _Command(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
+class _Command(Strict):
     kind: Kind
     pattern: Regex
 
 
-class Grammar(BaseModel):
+class Grammar(Strict):
     """``config/commands.yaml``: the command grammar, tried in order."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     polite: Regex
     tail: Regex

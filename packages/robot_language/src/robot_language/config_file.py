@@ -8,11 +8,17 @@ from pathlib import Path
 from typing import Annotated, TypeVar
 
 import yaml
-from pydantic import BaseModel, BeforeValidator, RootModel, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, RootModel, ValidationError
 
 Model = TypeVar("Model", bound=BaseModel)
 Value = TypeVar("Value")
 CONFIG = Path(__file__).parent / "config"
+
+
+class Strict(BaseModel):
+    """A file's model: no key it does not know, read once and never changed."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 def _one_pattern(value: object) -> object:

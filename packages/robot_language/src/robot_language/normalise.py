@@ -19,16 +19,13 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-from pydantic import BaseModel, ConfigDict
 from text_to_num import alpha2digit  # type: ignore[import-untyped]
 
-from robot_language.config_file import CONFIG, read_model
+from robot_language.config_file import CONFIG, Strict, read_model
 
 
-class _Words(BaseModel):
+class _Words(Strict):
     """``config/normalise.yaml``: the words this stage reads."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     hesitations: frozenset[str]
     texting: dict[str, str]

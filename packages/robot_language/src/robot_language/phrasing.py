@@ -7,21 +7,15 @@ ways of asking are data: ``config/phrasing.yaml``."""
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict
-
-from robot_language.config_file import CONFIG, Regex, read_model
+from robot_language.config_file import CONFIG, Regex, Strict, read_model
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class _Rewrite(_Strict):
+class _Rewrite(Strict):
     pattern: Regex
     to: str
 
 
-class Rewrites(_Strict):
+class Rewrites(Strict):
     """``config/phrasing.yaml``: the ways of asking, in order, and the words each becomes."""
 
     vocative: Regex

@@ -7,22 +7,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pydantic import BaseModel, ConfigDict
-
-from robot_language.config_file import CONFIG, Regex, read_model
+from robot_language.config_file import CONFIG, Regex, Strict, read_model
 
 
-class _SmallTalk(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
+class _SmallTalk(Strict):
     pattern: Regex
     reply: str
 
 
-class QuestionForms(BaseModel):
+class QuestionForms(Strict):
     """``config/questions.yaml``: the forms of the questions answered."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     distance: list[Regex]
     time: Regex

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, PositiveInt, StringConstraints
+from pydantic import Field, PositiveInt, StringConstraints
 
-from robot_language.config_file import CONFIG, Regex, read_model
+from robot_language.config_file import CONFIG, Regex, Strict, read_model
 
 RECALL_PHRASINGS = CONFIG / "recall.yaml"
 # the text is read lower case with single spaces: anything else would never be matched
@@ -15,17 +15,13 @@ Words = Annotated[str, StringConstraints(pattern=r"^[a-z']+(?: [a-z']+)*$")]
 WordList = Annotated[list[Words], Field(min_length=1)]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class SeeingForms(_Strict):
+class SeeingForms(Strict):
     base: WordList
     both: WordList
     past: WordList
 
 
-class Forms(_Strict):
+class Forms(Strict):
     away: Regex
     last_seen: list[Regex]
     where_now: Regex
@@ -38,7 +34,7 @@ class Forms(_Strict):
     visits: Regex
 
 
-class RecallPhrasings(_Strict):
+class RecallPhrasings(Strict):
     shorthand: dict[Words, Words]
     run_together: dict[Words, Words]
     opening_words: WordList

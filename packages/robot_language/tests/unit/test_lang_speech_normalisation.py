@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_language.normalise import normalise, possessors
+from robot_language.scoring import OFFICE_LIST_LOCATIONS
 from robot_language.understand import Understanding
 
 

@@ -5,6 +5,9 @@
   person is told, and "stop" then says what is true, never "Stopped.";
 - the restarted navigation server, latched by the brain's lease, refuses a direct
   ``navigate_to`` from another local client and nothing moves;
+- robot-sim frozen mid-drive (SIGSTOP, as a host starved of CPU freezes it) until navigation
+  counts the base as lost, then let go → the brain waits for a fresh pose, re-issues the drive
+  once, says so in plain words, and the robot arrives (robot-sim's pose);
 - robot-sim killed → the drive ends BASE_UNAVAILABLE (not by the drive timeout), the pose is
   stale, and the base's return at the dock is reported as a relocation, not a silent jump.
 
@@ -192,10 +195,38 @@ async def test_navigation_killed_mid_drive_halts_the_robot_and_stop_says_what_is
     await end_mission(http)
 
 
-async def test_robot_sim_killed_mid_drive_is_a_lost_base_and_its_return_is_reported(
+async def test_robot_sim_frozen_for_a_moment_mid_drive_and_the_robot_still_arrives(
     stack: Stack, http: httpx.AsyncClient
 ) -> None:
     mission_id = await drive(stack, http, "kitchen")
+    await async_wait_until(away_from_dock(stack.watch), 30, "the robot 1 m from the dock", 0.1)
+    robot_sim = stack.services["robot_sim"].pid
+
+    async def base_lost_shown() -> bool:
+        steps = (await mission(http, mission_id))["steps"]
+        return any("contact with the base lost" in (s.get("detail") or "") for s in steps)
+
+    os.kill(robot_sim, signal.SIGSTOP)
+    try:  # navigation's feedback timeout (3 s) runs out while robot-sim is frozen
+        await async_wait_until(base_lost_shown, 30, "the brain waiting for its base", 0.1)
+    finally:
+        os.kill(robot_sim, signal.SIGCONT)
+
+    async def finished() -> dict[str, Any] | None:
+        data = await mission(http, mission_id)
+        return data if data["state"] in ("succeeded", "failed", "aborted") else None
+
+    ended = await async_wait_until(finished, 90, "the mission finished", 0.5)
+    assert ended["state"] == "succeeded", ended["summary"]
+    pose = await stack.nav("get_pose", {})
+    assert pose["at_location"] == "kitchen", pose  # words = world: robot-sim's pose
+    assert "lost contact with my base for a moment" in await said(http, mission_id)
+
+
+async def test_robot_sim_killed_mid_drive_is_a_lost_base_and_its_return_is_reported(
+    stack: Stack, http: httpx.AsyncClient
+) -> None:
+    mission_id = await drive(stack, http, "meeting room")
     await async_wait_until(away_from_dock(stack.watch), 30, "the robot 1 m from the dock", 0.1)
 
     killed = kill9(stack, "robot_sim")

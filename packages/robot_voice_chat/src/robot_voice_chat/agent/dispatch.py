@@ -12,7 +12,16 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
-from robot_voice_chat.agent.lapse import RECOVER_WAIT_S, IssuedCall, carrying_on, is_lapse
+from robot_voice_chat.agent.lapse import (
+    BASE_BACK_WAIT_S,
+    RECOVER_WAIT_S,
+    IssuedCall,
+    LostLink,
+    base_answers,
+    carrying_on,
+    lost_link,
+    refused_unsupervised,
+)
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
@@ -37,7 +46,7 @@ from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
-from robot_voice_chat.services.tools.base import ToolBackend
+from robot_voice_chat.services.tools.base import ToolBackend, ToolOutcome
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
@@ -313,9 +322,10 @@ class TaskDispatcher:
             if handle is None:
                 self._stop_orphan_if_latched(event)
             return False
-        if event.type == "task_failed" and self._lapse_to_recover(run, handle, event):
+        lost = lost_link(event.payload) if event.type == "task_failed" else None
+        if lost is not None and self._lapse_to_recover(run, handle):
             self.registry.resolve(event)
-            self.spawn(self._recover_lapse(run, handle, event))
+            self.spawn(self._recover_lapse(run, handle, event, lost))
             return True
         return await self._deliver(run, handle, event)
 
@@ -358,25 +368,28 @@ class TaskDispatcher:
             seen.add(task_id)
         return task_id
 
-    def _lapse_to_recover(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> bool:
-        """A motion step of the running mission cancelled because supervision lapsed, with the
-        brain alive, the stop not latched, the mission not paused and the step not re-issued
-        yet: recovered here instead of failing (agent.lapse)."""
+    def _lapse_to_recover(self, run: MissionRun, handle: TaskHandle) -> bool:
+        """A motion step of the running mission that ended because a link was lost for a moment
+        (supervision lapsed, the base went silent), with the brain alive, the stop not latched,
+        the mission not paused and the step not re-issued yet: recovered here instead of failing
+        (agent.lapse)."""
         issued = self.issued.get(handle.task_id)
         return (
             self.supervisor is not None
             and self._is_motion(handle.server)
             and issued is not None
-            and is_lapse(event.payload)
             and not self.latched()
             and run.mission.state == "running"
             and not run.awaiting_user
             and (run.mission.id, issued.step_id) not in self.recovered
         )
 
-    async def _recover_lapse(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> None:
-        """Re-lease, wait for the server's lock to open, re-issue the step's call once and say
-        so once; if any of that fails, the planner gets the failure as it came."""
+    async def _recover_lapse(
+        self, run: MissionRun, handle: TaskHandle, event: TaskEvent, lost: LostLink
+    ) -> None:
+        """Re-lease, wait for the server's lock to open (and a lost base's fresh pose), re-issue
+        the step's call once and say so once; if any of that fails, the planner gets the failure
+        as it came."""
         assert self.supervisor is not None
         issued = self.issued.pop(handle.task_id)
         mission = run.mission
@@ -386,33 +399,35 @@ class TaskDispatcher:
             server=handle.server,
             task_id=handle.task_id,
             step_id=issued.step_id,
+            lost=lost,
         )
         step = mission.step(issued.step_id)
         if step is not None:
-            step.detail = "safety link lost for a moment: resuming"
+            link = "safety link" if lost == "lease" else "contact with the base"
+            step.detail = f"{link} lost for a moment: resuming"
             await self.output.emit_plan(run)
-        opened = await self.supervisor.wait_lock_open(handle.server, RECOVER_WAIT_S)
-        if not (opened and self._still_running(run)):
-            logger.warning(
-                "supervision_lapse_not_recovered",
-                server=handle.server,
-                task_id=handle.task_id,
-                lock_open=opened,
-            )
-            if self._still_running(run):
-                await self._deliver(run, handle, event)
-            return
-        if issued.step_id is not None:
-            self.motion_steps_in_flight.add(issued.step_id)
-        try:
-            sent_at = time.time()
-            with dispatching(DispatchContext(mission.id, issued.step_id)):
-                outcome = await self.tools.call_tool(
-                    issued.tool, issued.arguments, self.config.tool_timeout_s
+        deadline = time.monotonic() + RECOVER_WAIT_S
+        opened = lost == "lease" or await self._base_back(handle.server)
+        while True:
+            left = max(0.0, deadline - time.monotonic())
+            opened = opened and await self.supervisor.wait_lock_open(handle.server, left)
+            if not (opened and self._still_running(run)):
+                logger.warning(
+                    "supervision_lapse_not_recovered",
+                    server=handle.server,
+                    task_id=handle.task_id,
+                    lock_open=opened,
                 )
-        finally:
-            if issued.step_id is not None:
-                self.motion_steps_in_flight.discard(issued.step_id)
+                if self._still_running(run):
+                    await self._deliver(run, handle, event)
+                return
+            sent_at = time.time()
+            outcome = await self._send_again(run, issued)
+            # refused unsupervised: nothing moved, the lease lapsed again (the host is still
+            # catching up): sent again once the lock is open, within the same wait
+            if not (refused_unsupervised(outcome) and time.monotonic() < deadline):
+                break
+            logger.info("supervision_lapse_resend", server=handle.server, step_id=issued.step_id)
         info = None if outcome.is_error else parse_task_info(outcome.text)
         self.trace.record(
             mission.id,
@@ -439,7 +454,31 @@ class TaskDispatcher:
             run, issued.tool, issued.step_id, info, sent_at, shown_as=handle.label
         )
         if self._still_running(run):
-            await self.output.say(run, carrying_on(issued))
+            await self.output.say(run, carrying_on(issued, lost))
+
+    async def _send_again(self, run: MissionRun, issued: IssuedCall) -> ToolOutcome:
+        if issued.step_id is not None:
+            self.motion_steps_in_flight.add(issued.step_id)
+        try:
+            with dispatching(DispatchContext(run.mission.id, issued.step_id)):
+                return await self.tools.call_tool(
+                    issued.tool, issued.arguments, self.config.tool_timeout_s
+                )
+        finally:
+            if issued.step_id is not None:
+                self.motion_steps_in_flight.discard(issued.step_id)
+
+    async def _base_back(self, server: str) -> bool:
+        """The base shows a fresh pose again within ``BASE_BACK_WAIT_S`` (``get_pose``)."""
+        deadline = time.monotonic() + BASE_BACK_WAIT_S
+        while True:
+            outcome = await self.tools.call_tool(f"{server}.get_pose", {}, BASE_BACK_WAIT_S)
+            if not outcome.is_error and base_answers(outcome.text):
+                return True
+            if time.monotonic() >= deadline:
+                logger.warning("base_not_back", server=server, wait_s=BASE_BACK_WAIT_S)
+                return False
+            await asyncio.sleep(0.25)
 
     def _still_running(self, run: MissionRun) -> bool:
         return (

@@ -7,19 +7,36 @@ refusal code). Such a step is not the mission's failure: the dispatcher re-lease
 the server's lock to open, re-issues the same call once within the same mission and says so
 once. Never while the software stop is latched, nor after an operator's stop (the mission is
 paused then, and its tasks were dropped), nor twice for one step.
+
+A drive that ended ``BASE_UNAVAILABLE`` (no NavigateToPose feedback for the navigation server's
+``feedback_timeout_s``) is the same kind of moment when the base answers again right after: a
+host starved of CPU for a few seconds starves robot-sim or Nav2 as much as the lease (seen in a
+quiet CI run: both locks went silent for robot-sim, then no feedback for 3 s). It is re-issued
+the same way once the base's pose is fresh again within ``BASE_BACK_WAIT_S``; a base that stays
+silent (killed, powered off) fails the step as it came, that much later.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from robot_mcp_kit.supervision import LAPSE_REASONS, NOT_SUPERVISED
+from robot_voice_chat.services.tools.base import ToolOutcome
 
 RECOVER_WAIT_S = 10.0
 """How long a lapsed step waits for a fresh lease and an open lock before its failure goes to
 the planner as it came (the lease thread renews every period; a lock that stays shut this long
 is not a moment's lapse)."""
+
+
+BASE_BACK_WAIT_S = 4.0
+"""How long a drive that lost its base waits for a fresh pose before it fails as it came (a lost
+base is reported to the person this much after the navigation server's own 3 s; the navigation
+server's task says BASE_UNAVAILABLE at once either way)."""
+
+LostLink = Literal["lease", "base"]
 
 
 @dataclass(frozen=True)
@@ -39,11 +56,41 @@ def is_lapse(payload: dict[str, Any]) -> bool:
     return LAPSE_REASONS["lapsed"] in message or NOT_SUPERVISED in message
 
 
+def is_base_stall(payload: dict[str, Any]) -> bool:
+    """A drive that ended because its base stopped answering for a moment (or for good)."""
+    return payload.get("error_code") == "BASE_UNAVAILABLE" and payload.get("recoverable") is True
+
+
+def lost_link(payload: dict[str, Any]) -> LostLink | None:
+    """Which link a task failure says was lost for a moment, if one a step recovers from."""
+    if is_lapse(payload):
+        return "lease"
+    return "base" if is_base_stall(payload) else None
+
+
+def refused_unsupervised(outcome: ToolOutcome) -> bool:
+    """A motion call refused because the lease lapsed again: nothing moved."""
+    try:
+        error = json.loads(outcome.text) if outcome.is_error else None
+    except ValueError:
+        return False
+    return isinstance(error, dict) and error.get("error") == NOT_SUPERVISED
+
+
+def base_answers(pose_result: str) -> bool:
+    """``navigation.get_pose``'s answer shows a fresh pose from the base."""
+    try:
+        pose = json.loads(pose_result)
+    except ValueError:
+        return False
+    return isinstance(pose, dict) and pose.get("stale") is False
+
+
 def _place(location: object) -> str:
     return f"the {str(location).replace('_', ' ')}"
 
 
-def carrying_on(call: IssuedCall) -> str:
+def carrying_on(call: IssuedCall, kind: LostLink = "lease") -> str:
     """What the robot says once, as it re-issues the step."""
     tool = call.tool.partition(".")[2]
     args = call.arguments
@@ -57,4 +104,5 @@ def carrying_on(call: IssuedCall) -> str:
         doing = "carrying on with letting it go"
     else:
         doing = "carrying on"
-    return f"I lost my safety link for a moment and stopped; it's back, so I'm {doing}."
+    lost = "my safety link" if kind == "lease" else "contact with my base"
+    return f"I lost {lost} for a moment and stopped; it's back, so I'm {doing}."

@@ -1,6 +1,8 @@
 """A mission recovers from a supervision lapse with the brain alive (issue 39 item 1): the drive
 the server cancelled is re-issued once, within the same mission, said once; never while the
-stop is latched, never after an operator's stop, never twice for one step."""
+stop is latched, never after an operator's stop, never twice for one step. A drive whose base
+went silent for a moment (BASE_UNAVAILABLE) is re-issued the same way once the base shows a fresh
+pose again; a base that stays silent fails the step as it came."""
 
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.supervision import LAPSE_REASONS
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.harness import Harness, make_harness, task_info
-from robot_voice_chat.agent.lapse import IssuedCall, carrying_on, is_lapse
+from robot_voice_chat.agent import dispatch
+from robot_voice_chat.agent.lapse import IssuedCall, base_answers, carrying_on, is_lapse, lost_link
 from robot_voice_chat.robot_words import leaks
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 
@@ -53,20 +56,52 @@ def lapsed(task_id: str, seq: int = 1) -> TaskEvent:
     )
 
 
+BASE_LOST = (
+    "lost contact with the robot base on the way to kitchen: its navigation stack sent nothing "
+    "for 3 s (stopped or restarting)"
+)
+SAID_BASE = (
+    "I lost contact with my base for a moment and stopped; it's back, so I'm carrying on to the "
+    "kitchen."
+)
+
+
+def base_lost(task_id: str, seq: int = 1) -> TaskEvent:
+    return event(
+        task_id,
+        "task_failed",
+        seq,
+        error_code="BASE_UNAVAILABLE",
+        message=BASE_LOST,
+        recoverable=True,
+    )
+
+
 class Navigation:
     def __init__(self) -> None:
         self.drives = 0
         self.lock = "open"
+        self.pose_stale = False
+        self.poses_asked = 0
+        self.refusals = 0  # the next calls refused NOT_SUPERVISED (the lease lapsed again)
 
     def navigate_to(self, arguments: dict[str, Any]) -> str:
+        if self.refusals:
+            self.refusals -= 1
+            raise ValueError('{"error": "NOT_SUPERVISED", "detail": "the lease lapsed 0.3 s ago"}')
         self.drives += 1
         return task_info(f"nav-{self.drives}")
+
+    def get_pose(self, arguments: dict[str, Any]) -> dict[str, Any]:
+        self.poses_asked += 1
+        return {"x": 1.0, "y": 2.0, "stale": self.pose_stale, "moving": False}
 
 
 async def supervised(tmp_path: Path, planner: FakeLLM) -> tuple[Harness, Navigation]:
     nav = Navigation()
     h = make_harness(tmp_path, planner, supervisor=(0.05, 0.5))
     h.tools.add("navigation.navigate_to", nav.navigate_to, location="string")
+    h.tools.add("navigation.get_pose", nav.get_pose)
     h.tools.add(
         "navigation.supervise",
         lambda a: {
@@ -199,3 +234,80 @@ def test_only_a_lapse_is_recovered_and_the_words_are_plain() -> None:
         IssuedCall("navigation.dock", {}, "s5"),
     ]:
         assert leaks(carrying_on(call)) == [], call
+
+
+async def test_a_drive_whose_base_went_silent_for_a_moment_is_reissued_once_it_answers(
+    drive: Any,
+) -> None:
+    h, nav, mission = drive
+    nav.pose_stale = True
+
+    await h.executor.on_task_event(base_lost("nav-1"))
+    await async_wait_until(lambda: nav.poses_asked >= 2, 5, "the base asked for a fresh pose")
+    assert nav.drives == 1  # not re-sent while the base is silent
+    step = mission.steps[0]
+    assert step.detail == "contact with the base lost for a moment: resuming"
+    nav.pose_stale = False
+
+    await async_wait_until(lambda: nav.drives == 2, 5, "re-issued once the base answered")
+    await async_wait_until(lambda: SAID_BASE in h.speech.spoken, 5, "said once")
+    await h.executor.on_task_event(event("nav-2", "task_done", 1, result={"arrived": "kitchen"}))
+    await h.executor.wait_idle(5)
+
+    assert mission.state == "succeeded"
+    assert h.speech.spoken.count(SAID_BASE) == 1
+    planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
+    assert "BASE_UNAVAILABLE" not in planner_saw
+
+
+async def test_a_resend_refused_because_the_lease_lapsed_again_is_sent_once_more(
+    drive: Any,
+) -> None:
+    h, nav, mission = drive
+    nav.refusals = 1  # the host still catching up: the first resend finds the lease lapsed
+
+    await h.executor.on_task_event(base_lost("nav-1"))
+    await async_wait_until(lambda: nav.drives == 2, 5, "sent again after the refusal")
+    await async_wait_until(lambda: SAID_BASE in h.speech.spoken, 5, "said once")
+
+    assert nav.refusals == 0
+    assert h.tools.called("navigation.navigate_to") == [{"location": "kitchen"}] * 3
+    assert mission.state == "running"
+    assert h.speech.spoken.count(SAID_BASE) == 1
+
+
+async def test_a_base_that_stays_silent_fails_the_step_as_it_came(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(dispatch, "BASE_BACK_WAIT_S", 0.3)
+    h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, GAVE_UP]))
+    nav.pose_stale = True
+    try:
+        mission = await h.executor.start("drive to the kitchen")
+        await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "driving")
+        await h.executor.on_task_event(base_lost("nav-1"))
+        await h.executor.wait_idle(5)
+    finally:
+        await h.executor.shutdown()
+        assert h.supervisor is not None
+        await h.supervisor.aclose()
+
+    assert nav.drives == 1
+    assert mission.state == "failed"
+    assert SAID_BASE not in h.speech.spoken
+    planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
+    assert "[task nav-1 navigation.navigate_to] failed BASE_UNAVAILABLE" in planner_saw
+
+
+def test_which_failures_are_a_lost_link_and_what_a_fresh_pose_is() -> None:
+    assert lost_link({"error_code": "CANCELLED", "message": LAPSED}) == "lease"
+    assert lost_link({"error_code": "BASE_UNAVAILABLE", "recoverable": True}) == "base"
+    assert lost_link({"error_code": "BASE_UNAVAILABLE", "recoverable": False}) is None
+    assert lost_link({"error_code": "DOOR_CLOSED", "recoverable": True}) is None
+    assert base_answers('{"stale": false, "x": 1.0}')
+    assert not base_answers('{"stale": true}')
+    assert not base_answers("{}")
+    assert not base_answers("not json")
+    call = IssuedCall("navigation.navigate_to", {"location": "kitchen"}, "s1")
+    assert carrying_on(call, "base") == SAID_BASE
+    assert leaks(carrying_on(call, "base")) == []

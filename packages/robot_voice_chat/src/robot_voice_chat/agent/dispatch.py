@@ -12,16 +12,7 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
-from robot_voice_chat.agent.lapse import (
-    BASE_BACK_WAIT_S,
-    RECOVER_WAIT_S,
-    IssuedCall,
-    LostLink,
-    base_answers,
-    carrying_on,
-    lost_link,
-    refused_unsupervised,
-)
+from robot_voice_chat.agent.lapse import IssuedCall, lost_link
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
@@ -29,6 +20,7 @@ from robot_voice_chat.agent.reactions import Reaction
 from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
+from robot_voice_chat.agent.step_recovery import StepRecovery
 from robot_voice_chat.agent.supervision_words import lost_motion_server, stop_hint
 from robot_voice_chat.agent.task_registry import (
     TERMINAL_EVENTS,
@@ -46,7 +38,7 @@ from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.supervisor import MotionSupervisor
 from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
-from robot_voice_chat.services.tools.base import ToolBackend, ToolOutcome
+from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
@@ -110,11 +102,8 @@ class TaskDispatcher:
         self.latched = latched
         self.supervisor = supervisor
         self.stopped_orphans: set[tuple[str, str]] = set()  # (server, task) stopped while latched
-        # supervision lapses with the brain alive (agent.lapse): each motion call as sent, the
-        # task a re-issued one replaced (old id → new), and the steps re-issued once already
-        self.issued: dict[str, IssuedCall] = {}
-        self.aliases: dict[str, str] = {}
-        self.recovered: set[tuple[str, str | None]] = set()
+        # motion steps that lost a link for a moment with the brain alive (agent.lapse)
+        self.recovery = StepRecovery(self)
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -139,8 +128,8 @@ class TaskDispatcher:
             return result
         step_id, args = strip_step_id(call.arguments)
         task_id = args.get("task_id")
-        if isinstance(task_id, str) and task_id in self.aliases:  # a task re-issued after a lapse
-            args = {**args, "task_id": self.current_task_id(task_id)}
+        if isinstance(task_id, str):  # a task re-issued after a lapse goes by its new id
+            args = {**args, "task_id": self.recovery.current_task_id(task_id)}
         mission = run.mission
         step = mission.step(step_id)
         server_cfg = self.tools.servers().get(call.name.partition(".")[0])
@@ -194,8 +183,8 @@ class TaskDispatcher:
         info = None if outcome.is_error else parse_task_info(outcome.text)
         if info is not None:
             if motion:
-                self.issued[str(info["task_id"])] = IssuedCall(call.name, args, step_id)
-            await self._register_task(run, call.name, step_id, info, sent_at)
+                self.recovery.issued[str(info["task_id"])] = IssuedCall(call.name, args, step_id)
+            await self.register_task(run, call.name, step_id, info, sent_at)
         elif step is not None:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
             await self.output.emit_plan(run)
@@ -233,7 +222,7 @@ class TaskDispatcher:
             await self.output.emit_plan(run)
         return ToolResult(tool_call_id=call.id, content=held_error(call.name), is_error=True)
 
-    async def _register_task(
+    async def register_task(
         self,
         run: MissionRun,
         dotted: str,
@@ -323,19 +312,19 @@ class TaskDispatcher:
                 self._stop_orphan_if_latched(event)
             return False
         lost = lost_link(event.payload) if event.type == "task_failed" else None
-        if lost is not None and self._lapse_to_recover(run, handle):
+        if lost is not None and self.recovery.recovers(run, handle):
             self.registry.resolve(event)
-            self.spawn(self._recover_lapse(run, handle, event, lost))
+            self.spawn(self.recovery.recover(run, handle, event, lost))
             return True
-        return await self._deliver(run, handle, event)
+        return await self.deliver(run, handle, event)
 
-    async def _deliver(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> bool:
+    async def deliver(self, run: MissionRun, handle: TaskHandle, event: TaskEvent) -> bool:
         """Reactions, the step, the mission's log and the planner's inbox for ``event``."""
         for reaction in run.reactions.take(event):
             await self._react(run, reaction, event)
         self.registry.resolve(event)
         if event.type in TERMINAL_EVENTS:
-            self.issued.pop(event.task_id, None)  # ended: nothing left to re-issue
+            self.recovery.issued.pop(event.task_id, None)  # ended: nothing left to re-issue
         text = format_event(event, handle.label)
         self.trace.record(
             run.mission.id,
@@ -359,134 +348,6 @@ class TaskDispatcher:
             await self.output.log_line(run, "task_event", text)
             run.post(text)
         return True
-
-    def current_task_id(self, task_id: str) -> str:
-        """The task that carries on ``task_id`` after lapses (itself if none re-issued it)."""
-        seen = {task_id}
-        while task_id in self.aliases and self.aliases[task_id] not in seen:
-            task_id = self.aliases[task_id]
-            seen.add(task_id)
-        return task_id
-
-    def _lapse_to_recover(self, run: MissionRun, handle: TaskHandle) -> bool:
-        """A motion step of the running mission that ended because a link was lost for a moment
-        (supervision lapsed, the base went silent), with the brain alive, the stop not latched,
-        the mission not paused and the step not re-issued yet: recovered here instead of failing
-        (agent.lapse)."""
-        issued = self.issued.get(handle.task_id)
-        return (
-            self.supervisor is not None
-            and self._is_motion(handle.server)
-            and issued is not None
-            and not self.latched()
-            and run.mission.state == "running"
-            and not run.awaiting_user
-            and (run.mission.id, issued.step_id) not in self.recovered
-        )
-
-    async def _recover_lapse(
-        self, run: MissionRun, handle: TaskHandle, event: TaskEvent, lost: LostLink
-    ) -> None:
-        """Re-lease, wait for the server's lock to open (and a lost base's fresh pose), re-issue
-        the step's call once and say so once; if any of that fails, the planner gets the failure
-        as it came."""
-        assert self.supervisor is not None
-        issued = self.issued.pop(handle.task_id)
-        mission = run.mission
-        self.recovered.add((mission.id, issued.step_id))
-        logger.warning(
-            "supervision_lapse_recovering",
-            server=handle.server,
-            task_id=handle.task_id,
-            step_id=issued.step_id,
-            lost=lost,
-        )
-        step = mission.step(issued.step_id)
-        if step is not None:
-            link = "safety link" if lost == "lease" else "contact with the base"
-            step.detail = f"{link} lost for a moment: resuming"
-            await self.output.emit_plan(run)
-        deadline = time.monotonic() + RECOVER_WAIT_S
-        opened = lost == "lease" or await self._base_back(handle.server)
-        while True:
-            left = max(0.0, deadline - time.monotonic())
-            opened = opened and await self.supervisor.wait_lock_open(handle.server, left)
-            if not (opened and self._still_running(run)):
-                logger.warning(
-                    "supervision_lapse_not_recovered",
-                    server=handle.server,
-                    task_id=handle.task_id,
-                    lock_open=opened,
-                )
-                if self._still_running(run):
-                    await self._deliver(run, handle, event)
-                return
-            sent_at = time.time()
-            outcome = await self._send_again(run, issued)
-            # refused unsupervised: nothing moved, the lease lapsed again (the host is still
-            # catching up): sent again once the lock is open, within the same wait
-            if not (refused_unsupervised(outcome) and time.monotonic() < deadline):
-                break
-            logger.info("supervision_lapse_resend", server=handle.server, step_id=issued.step_id)
-        info = None if outcome.is_error else parse_task_info(outcome.text)
-        self.trace.record(
-            mission.id,
-            "lapse_recovered" if info is not None else "lapse_not_recovered",
-            tool=issued.tool,
-            arguments=issued.arguments,
-            step_id=issued.step_id,
-            replaces=handle.task_id,
-            result=outcome.text[:500],
-            is_error=outcome.is_error,
-        )
-        if info is None:
-            logger.warning(
-                "supervision_lapse_not_recovered", server=handle.server, result=outcome.text[:200]
-            )
-            if self._still_running(run):  # a stop meanwhile owns the step: nothing to add
-                await self._deliver(run, handle, event)
-            return
-        new_id = str(info["task_id"])
-        self.issued[new_id] = issued
-        self.aliases[handle.task_id] = new_id
-        logger.info("supervision_lapse_recovered", replaces=handle.task_id, task_id=new_id)
-        await self._register_task(
-            run, issued.tool, issued.step_id, info, sent_at, shown_as=handle.label
-        )
-        if self._still_running(run):
-            await self.output.say(run, carrying_on(issued, lost))
-
-    async def _send_again(self, run: MissionRun, issued: IssuedCall) -> ToolOutcome:
-        if issued.step_id is not None:
-            self.motion_steps_in_flight.add(issued.step_id)
-        try:
-            with dispatching(DispatchContext(run.mission.id, issued.step_id)):
-                return await self.tools.call_tool(
-                    issued.tool, issued.arguments, self.config.tool_timeout_s
-                )
-        finally:
-            if issued.step_id is not None:
-                self.motion_steps_in_flight.discard(issued.step_id)
-
-    async def _base_back(self, server: str) -> bool:
-        """The base shows a fresh pose again within ``BASE_BACK_WAIT_S`` (``get_pose``)."""
-        deadline = time.monotonic() + BASE_BACK_WAIT_S
-        while True:
-            outcome = await self.tools.call_tool(f"{server}.get_pose", {}, BASE_BACK_WAIT_S)
-            if not outcome.is_error and base_answers(outcome.text):
-                return True
-            if time.monotonic() >= deadline:
-                logger.warning("base_not_back", server=server, wait_s=BASE_BACK_WAIT_S)
-                return False
-            await asyncio.sleep(0.25)
-
-    def _still_running(self, run: MissionRun) -> bool:
-        return (
-            self.current_run() is run
-            and run.mission.state == "running"
-            and not run.awaiting_user
-            and not self.latched()
-        )
 
     def _stop_orphan_if_latched(self, event: TaskEvent) -> None:
         """Motion the brain did not start, reported while the software stop is latched: stop
@@ -643,9 +504,17 @@ class TaskDispatcher:
                     interrupted=task_id in self.interrupted,
                 )
                 await self.cancel_task(server, task_id)
-                if task_id in self.interrupted and self._is_motion(server):
+                if task_id in self.interrupted and self.is_motion(server):
                     await self.output.speech.say(stopped_after_restart(server))
 
-    def _is_motion(self, server: str) -> bool:
+    def still_running(self, run: MissionRun) -> bool:
+        return (
+            self.current_run() is run
+            and run.mission.state == "running"
+            and not run.awaiting_user
+            and not self.latched()
+        )
+
+    def is_motion(self, server: str) -> bool:
         cfg = self.tools.servers().get(server)
         return cfg is not None and cfg.motion

@@ -16,7 +16,7 @@ from robot_mcp_kit.models import TaskEvent
 from robot_mcp_kit.supervision import LAPSE_REASONS
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.harness import Harness, make_harness, task_info
-from robot_voice_chat.agent import dispatch
+from robot_voice_chat.agent import step_recovery
 from robot_voice_chat.agent.lapse import IssuedCall, base_answers, carrying_on, is_lapse, lost_link
 from robot_voice_chat.robot_words import leaks
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
@@ -148,7 +148,7 @@ async def test_a_drive_cancelled_by_a_lapse_is_reissued_and_the_mission_arrives(
     planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
     assert "[task nav-1 navigation.navigate_to] done:" in planner_saw  # the task it waits on
     assert "supervision was lost" not in planner_saw
-    assert h.executor.dispatcher.issued == {}  # nothing kept once the task ended
+    assert h.executor.dispatcher.recovery.issued == {}  # nothing kept once the task ended
 
 
 async def test_the_drive_waits_until_the_lock_is_open_again(drive: Any) -> None:
@@ -279,7 +279,7 @@ async def test_a_resend_refused_because_the_lease_lapsed_again_is_sent_once_more
 async def test_a_base_that_stays_silent_fails_the_step_as_it_came(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(dispatch, "BASE_BACK_WAIT_S", 0.3)
+    monkeypatch.setattr(step_recovery, "BASE_BACK_WAIT_S", 0.3)
     h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, GAVE_UP]))
     nav.pose_stale = True
     try:

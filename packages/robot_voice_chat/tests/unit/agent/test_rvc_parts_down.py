@@ -186,3 +186,14 @@ def test_a_servers_engineering_detail_is_left_out_of_the_reason() -> None:
         "on the way to mailroom"
     )
     assert not check_robot_words([said])
+
+
+def test_a_lost_base_is_said_in_the_robots_words_not_the_navigation_servers() -> None:
+    failed = json.dumps({
+        "error_code": "BASE_UNAVAILABLE",
+        "message": "lost contact with the robot base on the way to kitchen: its navigation stack "
+        "sent nothing for 3 s (stopped or restarting)",
+    })  # fmt: skip
+    said = reason_of(failed)
+    assert said == "my base stopped answering"
+    assert not check_robot_words([said])

@@ -28,7 +28,7 @@ REASONS = {
     "UNKNOWN_LOCATION": "the map has no such place",
     "NAVIGATION_BUSY": "the robot is busy with another drive",
     "NAVIGATION_TIMEOUT": "the drive took too long",
-    "BASE_UNAVAILABLE": "the robot base is not answering",
+    "BASE_UNAVAILABLE": "my base stopped answering",
     "SERVER_RESTARTED": "it restarted and lost track of the task",
     "SERVICE_UNAVAILABLE": "my camera system is not answering",
     "SERVICE_TIMEOUT": "my camera system did not answer in time",
@@ -65,6 +65,8 @@ def _parts(content: str) -> tuple[str, str]:
     return "", content.strip().removeprefix("error:").strip()
 
 
+# codes whose servers' sentences are an engineer's ("its navigation stack sent nothing for 3 s")
+_CODE_FIRST = frozenset({"BASE_UNAVAILABLE"})
 # "(Nav2 error 208: no valid path: …)": the server's own code and words, for its log, not a person
 _ENGINEERS = re.compile(r"\s*\([^()]*\berror(?: code)? \d{2,}[^()]*\)", re.IGNORECASE)
 
@@ -78,6 +80,8 @@ def reason_of(content: str, names: Names | None = None, known: Iterable[str] = (
     lost = _NOT_CONNECTED.search(detail)
     if lost is not None:
         return f"my {service_name(lost['server'])} is not connected"
+    if code.upper() in _CODE_FIRST:
+        return REASONS[code.upper()]
     said = plain_text(_ENGINEERS.sub("", detail), names, known) if detail else ""
     if said and not leaks(said):
         return said.rstrip(".")

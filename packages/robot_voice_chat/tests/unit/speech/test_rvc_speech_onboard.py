@@ -7,6 +7,7 @@ move the robot is acted on unread-back unless it is what was said."""
 from __future__ import annotations
 
 import json
+import time
 
 import numpy as np
 import pytest
@@ -147,3 +148,32 @@ def test_a_recording_with_long_silence_around_the_speech_is_heard(
     result = recognizer.hear_pcm(np.concatenate([silence, pcm, silence, silence]))
     assert result.text == "find the scissors in the mailroom"
     assert result.usable, result
+
+
+@pytest.mark.parametrize("voice", ["en-gb-scotland", "en-029"])
+def test_a_command_heard_right_is_not_rejected_as_unsure(
+    recognizer: PocketsphinxSpeechInput, voice: str
+) -> None:
+    """The fit against the phone loop was measured in two units (the grammar's lattice in the
+    decoder's scale, the phone loop shifted 10 bits down, so the loop looked perfect): a
+    "go to the kitchen" heard word for word was rejected as unsure (0.07, 0.10)."""
+    result = hear(recognizer, "go to the kitchen", voice, 160, False)
+    assert result.text == "go to the kitchen"
+    assert result.usable, result
+
+
+def test_hearing_takes_a_small_part_of_the_utterances_own_length(
+    recognizer: PocketsphinxSpeechInput,
+) -> None:
+    """The issue's goal is p50 <= 300 ms for up to 5 s of speech; the word-lattice pass alone
+    cost ~450 ms. CPU time of this thread (the decoder runs in it), so a busy machine does
+    not make it fail."""
+    said = ["go to the kitchen", "fetch the package from the mailroom and bring it to reception"]
+    speech = [say(text, "en-us", 160) for text in said]
+    recognizer.hear_pcm(speech[0])  # warm
+    started = time.thread_time()
+    for pcm in speech:
+        recognizer.hear_pcm(pcm)
+    spent = time.thread_time() - started
+    # measured on the 2-core CI machine: 0.11 of the speech's length (0.28 with the lattice)
+    assert spent < 0.2 * sum(pcm.size for pcm in speech) / 16000

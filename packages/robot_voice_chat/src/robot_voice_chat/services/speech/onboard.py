@@ -17,8 +17,14 @@ scored before it is believed:
   layer reads a motion command back when it is below ``confirm_below`` ("Did you say: go to
   the kitchen?").
 
-The calibration (the two ``*_SPAN`` pairs) was measured on espeak-ng voices with and without
-pink noise; ``benchmarks/speech_onboard.py`` scores it on a held-out spoken set.
+The searches run without the word-lattice pass (``bestpath``): it cost ~450 ms an utterance,
+the grammar's scores then came in other units than the phone loop's (the loop looked like a
+perfect fit, ≈ 1.0, so the comparison measured nothing) and more utterances ended on a
+partial sentence.
+
+The calibration (the two ``*_SPAN`` pairs, ``STOP_FIT``) was measured on the benchmark's
+``tuning`` split (espeak-ng voices, clean and with pink noise) plus out-of-vocabulary
+sentences and noise; ``benchmarks/speech_onboard.py`` scores it on held-out splits.
 """
 
 from __future__ import annotations
@@ -57,16 +63,20 @@ logger = structlog.get_logger(__name__)
 GRAMMAR, PHONES, STOP = "grammar", "phones", "stop"
 STOP_WORDS = ("stop", "halt", "freeze", "stop right now", "stop stop")
 STOP_MAX_S = 1.2  # an utterance this short is also tried against the stop words alone
-STOP_FIT = -3.0  # ... and is a stop when they fit it this well (per frame, vs the phone loop)
+STOP_FIT = -2.0  # ... and is a stop when they fit it this well (per frame, vs the phone loop)
 STOP_MARGIN = 0.5  # ... and this much better than the full grammar's hypothesis
 # ... but over a sure hypothesis only these win ("halt" is what the stop words fit to "no",
 # "hello", "go home" ...)
 SURE_STOP_WORDS = ("stop", "stop stop", "stop right now", "freeze")
 STOP_GUESS_WORDS = 2  # a hypothesis this short ("drop it") is checked against them even if sure
 # log-likelihood per frame (grammar − phone loop) mapped onto 0..1: (low, high)
-FRAME_SPAN = (-4.5, -2.0)
+FRAME_SPAN = (-4.0, 0.0)
 # the worst word's log-likelihood per frame against the phone loop, mapped onto 0..1
-WORD_SPAN = (-9.0, -3.5)
+WORD_SPAN = (-9.5, -3.0)
+# the binding hands a score as a probability of the score shifted right by 10 bits (the
+# decoder's senone-score shift); multiplied back, the log-likelihoods are per frame in the
+# decoder's own scale (a right word fits ~-5, a word never said ~-10 against the loop)
+SCORE_SHIFT = 1024.0
 TRIM_KEEP_S = 0.3  # kept around the speech when the recording's silence is cut
 PAD_S = 0.3  # silence added at each end: the search needs to start and end in silence
 DITHER = 8.0  # std of the noise added (int16 units): digital silence breaks the features
@@ -112,7 +122,7 @@ class PocketsphinxSpeechInput(SpeechInput):
             lm=None,
             loglevel="FATAL",
             samprate=RATE,
-            **(search or {}),
+            **{"bestpath": False, **(search or {})},
         )
         started = time.monotonic()
         self._decoder: Any = Decoder(config)
@@ -311,9 +321,9 @@ class PocketsphinxSpeechInput(SpeechInput):
         word: tuple[str, float, int, int], phones: list[tuple[str, float, int, int]]
     ) -> float:
         """A spoken word's log-likelihood per frame against the phone loop over its frames
-        (silences and sentence marks are not words: they fit anything)."""
+        (silences, sentence marks and empty transitions are not words: they fit anything)."""
         name, score, start, end = word
-        if name.startswith(("<", "[")):
+        if name.startswith(("<", "[", "(")):  # (NULL): a grammar's empty transition
             return 0.0
         over = sum(s for _, s, a, b in phones if a >= start and b <= end + 1)
         return (score - over) / max(end - start + 1, 1)
@@ -340,8 +350,9 @@ def trim(samples: np.ndarray) -> np.ndarray:
 
 
 def _log(value: float) -> float:
-    """pocketsphinx hands scores as probabilities; one that underflowed is the smallest log."""
-    return math.log(value) if value > 0 else -745.0
+    """A score the binding handed as a probability, back on the decoder's log scale (see
+    ``SCORE_SHIFT``); one that underflowed is the smallest log."""
+    return (math.log(value) if value > 0 else -745.0) * SCORE_SHIFT
 
 
 def model_path() -> str:

@@ -46,6 +46,12 @@ _PATTERNS: tuple[tuple[str, re.Pattern[str]], ...] = (
             r"[{\[]\s*[\"']|[\"']\w+[\"']\s*:|\b\w+(?:Error|Exception)\b|\berror:|Traceback",
         ),
     ),
+    # the software inside the robot by its engineers' names ("Nav2 found no path", "on the
+    # costmap", "the behaviour tree"): a person hears what the robot could not do
+    (
+        "engineering name",
+        re.compile(r"\bNav2\b|\bcostmaps?\b|\bbehaviou?r tree\b|\bbt_navigator\b", re.I),
+    ),
     # "Nav2 error 208", "error code 42": a number only an engineer can read
     ("error number", re.compile(r"\berror(?: code)? \d{2,}\b", re.IGNORECASE)),
     # "for 0 s", "0 s ago", "0.0 s ago": under a second is "just now"

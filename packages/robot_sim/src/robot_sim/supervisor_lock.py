@@ -80,7 +80,15 @@ class DeadManLocks:
     def _subscriber(self, topic: str) -> Callable[[Any], None]:
         def on_message(msg: Any) -> None:
             with self._mutex:
-                self._locks[topic].on_message(bool(msg.data), self._clock())
+                lock = self._locks[topic]
+                ran_out = lock.stamp is not None and lock.has_expired(self._clock())
+            if ran_out:
+                # silent past its timeout before this message came (robot-sim starved, the
+                # message queued): twist_mux held the base meanwhile, so the halt is dated
+                # before the message opens the lock again
+                self._on_true()
+            with self._mutex:
+                lock.on_message(bool(msg.data), self._clock())
             if msg.data:
                 self._on_true()
 

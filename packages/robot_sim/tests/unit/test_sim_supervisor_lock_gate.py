@@ -40,6 +40,13 @@ class Msg:
         self.data = data
 
 
+def published(node: FakeNode, clock: dict[str, float], until: float) -> None:
+    """The motion server's lock, open, at 10 Hz up to ``until``."""
+    for tick in range(1, round(until * 10) + 1):
+        clock["now"] = tick / 10
+        node.subscriptions["/lock"](Msg(False))
+
+
 @pytest.fixture
 def drive(settings: SimSettings) -> DriveSim:
     return DriveSim(load_world(settings.world_path, settings.map_path).map, 1.0)
@@ -54,8 +61,7 @@ def test_a_silent_lock_halts_the_drive_where_it_was_when_the_timeout_ran_out(
     kitchen = drive.map.locations["kitchen"].pose()
     node.subscriptions["/lock"](Msg(False))
     drive.start(kitchen, 0.0)
-    clock["now"] = 0.9
-    node.subscriptions["/lock"](Msg(False))  # the motion server's last word
+    published(node, clock, until=0.9)  # the motion server's last word at 0.9
     gate.enforce()
 
     clock["now"] = 3.0  # robot-sim starved for 2 s; the lock ran out at 1.4
@@ -65,6 +71,28 @@ def test_a_silent_lock_halts_the_drive_where_it_was_when_the_timeout_ran_out(
     assert state.status == "halted"
     start = drive.map.locations[drive.map.start].pose()
     assert state.pose.distance_to(start) == pytest.approx(drive.speed * 1.4, abs=0.01)
+
+
+def test_a_lock_message_queued_through_a_stall_does_not_hide_that_the_lock_ran_out(
+    drive: DriveSim,
+) -> None:
+    clock = {"now": 0.0}
+    node = FakeNode()
+    gate = SupervisorLockGate(node, drive, ["/lock"], 0.5, lambda: clock["now"])  # type: ignore[arg-type]
+    node.subscriptions["/lock"](Msg(False))
+    drive.start(drive.map.locations["kitchen"].pose(), 0.0)
+    published(node, clock, until=0.9)
+    gate.enforce()
+
+    clock["now"] = 3.0  # robot-sim starved for 2 s; the queued message is handled first
+    node.subscriptions["/lock"](Msg(False))
+    gate.enforce()
+
+    state = drive.state(3.0)
+    assert state.status == "halted"  # the wheels did not turn on while twist_mux held them
+    start = drive.map.locations[drive.map.start].pose()
+    assert state.pose.distance_to(start) == pytest.approx(drive.speed * 1.4, abs=0.01)
+    assert not gate.locked()  # and the lock is open again: the goal may drive on
 
 
 def test_true_halts_at_once_and_false_again_lets_a_new_drive_go(drive: DriveSim) -> None:

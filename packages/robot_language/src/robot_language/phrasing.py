@@ -20,6 +20,7 @@ class Rewrites(Strict):
 
     vocative: Regex
     rewrites: list[_Rewrite]
+    frames: list[_Rewrite]
 
 
 REWRITES = read_model(CONFIG / "phrasing.yaml", Rewrites, "phrasing")
@@ -31,3 +32,10 @@ def canonical(text: str) -> str:
     for rewrite in REWRITES.rewrites:
         text = rewrite.pattern.sub(rewrite.to, text, count=1)
     return text
+
+
+def unframed(text: str) -> str:
+    """``text`` (normalised) without the frame a request is wrapped in ("would you mind ...")."""
+    for frame in REWRITES.frames:
+        text = frame.pattern.sub(frame.to, text, count=1)
+    return text.strip(" ,")

@@ -117,7 +117,8 @@ class Understanding:
             return Reading("answer", topic="history", recall=recall, intent="history"), set()
         if looks_like_recall(text):  # about the past, but not read: never an action from it
             return Reading("refuse", text=NOT_READ_RECALL, intent="history"), set()
-        said = negation.read(text, lambda phrase: guards.names_a_place(places, phrase))
+        unframed = phrasing.unframed(text)  # "would you mind nipping over to X"
+        said = negation.read(unframed, lambda phrase: guards.names_a_place(places, phrase))
         negated = guards.negated_places(said.negated, places)
         if said.only_negative:
             return self._declined(said.refused, places), set()

@@ -14,10 +14,10 @@ is a drive there, confirmed first — as the typed "look at the kitchen" is read
 Statements about a drive ("I went to the kitchen earlier") are not acted on; the robot may still
 ask whether it should go there (a question, not an action) — not yet read as statements.
 
-Score of this file on the code before the change (2026-11-29): 11 of 48 tests passed — 0 of the
-32 requests read right, "look at reception" refused, all 10 non-requests not acted on but none
+Score of this file on the code before the change (2026-11-29): 11 of 49 tests passed — 0 of the
+33 requests read right, "look at reception" refused, all 10 non-requests not acted on but none
 of the 3 negated frames said back (refused as not understood), the unknown place in a frame
-("would you mind nipping over to the garage") not named. After: 48 of 48.
+("would you mind nipping over to the garage") not named. After: 49 of 49.
 """
 
 from __future__ import annotations
@@ -71,6 +71,7 @@ REQUESTS = [
     ),
     ("hey, be a star and grab the red mug from the kitchen", "fetch:red mug@kitchen"),
     ("feel free to head to the dock", "goto:dock"),
+    ("listen, pop over to the kitchen", "goto:kitchen"),
     ("you might want to go to reception", "goto:reception"),
 ]
 

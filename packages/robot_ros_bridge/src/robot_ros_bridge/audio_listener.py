@@ -5,9 +5,10 @@ microphone topic in audio_common's ROS 2 messages (``/audio_stamped``: ``AudioDa
 ``/audio_info``: ``AudioInfo`` latched; audio_common 0.3.12, ``interfaces/audio_common_msgs``),
 cuts utterances with WebRTC's voice-activity detector (``webrtcvad-wheels``: a GMM shipped
 inside the C extension, no model download, no torch) and POSTs each one as a WAV file to the
-brain's ``POST /api/chat/audio`` over loopback. The brain recognizes, reads motion commands
-back and always acts on "stop" (pipeline/spoken.py): the listener sends every utterance, also
-while the robot speaks (barge-in, spec 002 §9).
+brain's ``POST /api/chat/audio?source=microphone`` over loopback. The brain recognizes, reads
+motion commands back and always acts on "stop" (pipeline/spoken.py); with a site's wake phrase
+(``chat.wake_phrase``) it takes a turn only from an utterance that starts with it. The listener
+sends every utterance, also while the robot speaks (barge-in, spec 002 §9).
 
 Environment (never argv for the credential):
 ``BRAIN_URL`` (default ``http://127.0.0.1:8000``), and on a brain with operator login
@@ -44,6 +45,7 @@ logger = structlog.get_logger("robot_ros_bridge.audio_listener")
 AUDIO_TOPIC = "/audio_stamped"
 INFO_TOPIC = "/audio_info"
 DEFAULT_BRAIN_URL = "http://127.0.0.1:8000"
+AUDIO_ROUTE = "/api/chat/audio?source=microphone"  # the brain's wake phrase applies to it
 VAD_RATES = (8_000, 16_000, 32_000, 48_000)
 
 
@@ -217,7 +219,7 @@ class BrainClient:
         if self._cookie:
             headers["Cookie"] = self._cookie
         request = urllib.request.Request(  # noqa: S310 - http(s) only, checked in __init__
-            f"{self.base_url}/api/chat/audio", data=wav, headers=headers, method="POST"
+            f"{self.base_url}{AUDIO_ROUTE}", data=wav, headers=headers, method="POST"
         )
         try:
             with self._open(request, self._timeout_s) as response:

@@ -75,7 +75,7 @@ def test_a_spoken_sentence_reaches_the_brain_as_one_wav(
     wait_until(lambda: received, timeout_s=20, what="the utterance at the brain")
     assert len(received) == 1, listener.log()
     route, wav = received[0]
-    assert route == "/api/chat/audio audio/wav"
+    assert route == "/api/chat/audio?source=microphone audio/wav"
     with wave.open(BytesIO(wav)) as reader:
         assert (reader.getnchannels(), reader.getframerate()) == (1, 16_000)
         seconds = reader.getnframes() / 16_000

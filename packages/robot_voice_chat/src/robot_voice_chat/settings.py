@@ -249,6 +249,10 @@ class ChatConfig(BaseModel):
     # "I'm busy" for a mission that is already running is said aloud once per burst: again
     # only after this long without one (each turn still gets it on screen; issue 39)
     busy_reply_repeat_s: float = Field(30.0, ge=0)
+    # What people say first when they talk to the robot's own microphone ("robbie"): without
+    # it an utterance is not a turn (chatter nearby); "stop" needs none. Empty: none needed.
+    # Push-to-talk in the browser never needs it.
+    wake_phrase: str = Field("", max_length=40, pattern=r"^[A-Za-z' ]*$")
     # Tools of motion servers the fast path may call (they do not move the robot).
     motion_read_tools: list[str] = Field(
         default_factory=lambda: ["get_pose", "list_locations", "get_task", "list_tasks"]

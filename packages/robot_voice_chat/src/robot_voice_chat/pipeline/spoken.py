@@ -7,7 +7,11 @@ Never a wrong action from speech:
 * a motion command heard with middling confidence is read back first ("Did you say: go to
   the kitchen? (yes or no)"); "yes" — or the same command said again — carries it out, "no"
   or anything else drops it;
-* "stop" is always acted on at once (a stop is never wrong).
+* "stop" is always acted on at once (a stop is never wrong);
+* with a wake phrase (``chat.wake_phrase``), what the robot's own microphone hears is a turn
+  only when it starts with it ("robbie, go to the kitchen"): chatter near the robot is not a
+  command. A stop needs none, nor the answer to a read-back. Push-to-talk needs none (the press
+  says it is for the robot).
 
 The vocabulary is the live one: before each utterance the places are read from
 ``navigation.list_locations`` (when the navigation server answers) and the recognizer rebuilds
@@ -19,7 +23,7 @@ from __future__ import annotations
 import asyncio
 import time
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import structlog
 
@@ -27,7 +31,14 @@ from robot_voice_chat.pipeline.chat import ChatPipeline, TurnResult
 from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.speech.audio import Utterance
 from robot_voice_chat.services.speech.base import Heard, SpeechInput, SpeechOutput
-from robot_voice_chat.services.speech.vocabulary import NO, YES, places_from_listing, words_of
+from robot_voice_chat.services.speech.vocabulary import (
+    NO,
+    YES,
+    addressed,
+    is_stop,
+    places_from_listing,
+    words_of,
+)
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.socket_events import ChatMessage
 
@@ -45,12 +56,16 @@ class SpokenResult:
     turn: TurnResult | None  # None: no turn was made (rejected, or read back)
     reply: str
     read_back: bool = False
+    addressed: bool = True  # False: the wake phrase was missing, nothing was answered
 
     @property
     def outcome(self) -> str:
-        """What came of the turn: acted (a turn was made), read_back or not_acted."""
+        """What came of the turn: acted (a turn was made), read_back, not_addressed or
+        not_acted."""
         if self.turn is not None:
             return "acted"
+        if not self.addressed:
+            return "not_addressed"
         return "read_back" if self.read_back else "not_acted"
 
 
@@ -72,6 +87,7 @@ class SpokenTurns:
         emitter: EventEmitter,
         speech_output: SpeechOutput,
         places_timeout_s: float = 2.0,
+        wake_phrase: str = "",
     ) -> None:
         self._input = speech_input
         self._pipeline = pipeline
@@ -79,6 +95,7 @@ class SpokenTurns:
         self._emitter = emitter
         self._speech = speech_output
         self._places_timeout_s = places_timeout_s
+        self._wake = " ".join(words_of(wake_phrase))
         self._pending: _Pending | None = None
         self._lock = asyncio.Lock()
 
@@ -97,20 +114,34 @@ class SpokenTurns:
         places = places_from_listing(result.text)
         if not places:
             return False
-        return self._input.update_vocabulary(places)
+        return self._input.update_vocabulary(places, wake=self._wake)
 
-    async def hear(self, utterance: Utterance) -> SpokenResult:
+    async def hear(self, utterance: Utterance, *, from_microphone: bool = False) -> SpokenResult:
+        """``from_microphone``: the robot's own microphone (the wake phrase applies)."""
         async with self._lock:  # one utterance at a time: a read-back belongs to its answer
             started = time.perf_counter()
             await self.refresh_vocabulary()
             heard = await self._input.hear(utterance)
-            result = await self._act(heard)
+            text, named = addressed(heard.text, self._wake) if self._wake else (heard.text, False)
+            if named:
+                heard = replace(heard, text=text)
+            if from_microphone and self._wake and not (named or self._may_skip_wake(heard)):
+                logger.info("speech_not_addressed", text=heard.text)
+                result = SpokenResult(heard, None, "", addressed=False)
+            else:
+                result = await self._act(heard)
             logger.info(
                 "speech_turn_answered",
                 outcome=result.outcome,
                 duration_ms=round((time.perf_counter() - started) * 1000, 1),
             )
             return result
+
+    def _may_skip_wake(self, heard: Heard) -> bool:
+        """A stop, or the answer to the question the robot just asked."""
+        pending = self._pending
+        asked = pending is not None and time.monotonic() - pending.asked_at <= READ_BACK_TTL_S
+        return heard.kind == "stop" or is_stop(heard.text) or (asked and heard.kind == "answer")
 
     async def _act(self, heard: Heard) -> SpokenResult:
         if heard.notice:

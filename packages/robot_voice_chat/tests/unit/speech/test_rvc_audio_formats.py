@@ -69,7 +69,7 @@ def test_unsupported_and_corrupt_bodies_are_named() -> None:
         decode(wav_bytes(np.zeros(0, np.int16)), "audio/wav")
 
 
-def _container(tmp_path: Path) -> Container:
+def _container(tmp_path: Path, wake_phrase: str = "") -> Container:
     h = make_harness(tmp_path, FakeLLM([]))
     adapters = Adapters(
         llm=FakeLLM([reply("The kitchen it is.")] * 8),
@@ -84,6 +84,7 @@ def _container(tmp_path: Path) -> Container:
             "speech_output": {"_target_": "fake"},
             "speech_input": {"_target_": "fake"},
             "agent": {"trace_dir": str(tmp_path / "traces"), "memory_server": ""},
+            "chat": {"wake_phrase": wake_phrase},
         }
     )
     return assemble(config, adapters, FakeEventEmitter())
@@ -129,3 +130,25 @@ async def test_the_audio_route_refuses_unsupported_and_corrupt_audio_without_a_5
         "/api/chat/audio", content=truncated, headers={"content-type": "audio/webm"}
     )
     assert cut.status_code == 422
+
+
+async def test_the_robots_microphone_needs_the_wake_phrase_and_push_to_talk_does_not(
+    tmp_path: Path,
+) -> None:
+    app = create_app(_container(tmp_path, wake_phrase="robbie"), manage_lifecycle=False)
+    body = wav_bytes(say("what time is it"))
+    wav = {"content-type": "audio/wav"}
+    async with httpx.AsyncClient(
+        transport=httpx.ASGITransport(app), base_url="http://127.0.0.1"
+    ) as client:
+        heard = await client.post("/api/chat/audio?source=microphone", content=body, headers=wav)
+        pressed = await client.post("/api/chat/audio", content=body, headers=wav)
+        unknown = await client.post("/api/chat/audio?source=door", content=body, headers=wav)
+
+    assert heard.status_code == 200, heard.text
+    assert heard.json()["addressed"] is False
+    assert heard.json()["reply"] == ""  # chatter near the robot is not answered
+    assert heard.json()["mission_id"] is None
+    assert pressed.json()["addressed"] is True
+    assert pressed.json()["reply"] == "The kitchen it is."
+    assert unknown.status_code == 422

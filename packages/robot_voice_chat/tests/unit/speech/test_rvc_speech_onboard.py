@@ -177,3 +177,11 @@ def test_hearing_takes_a_small_part_of_the_utterances_own_length(
     spent = time.thread_time() - started
     # measured on the 2-core CI machine: 0.11 of the speech's length (0.28 with the lattice)
     assert spent < 0.2 * sum(pcm.size for pcm in speech) / 16000
+
+
+def test_the_sites_wake_phrase_is_heard_before_a_command() -> None:
+    engine = PocketsphinxSpeechInput()
+    assert engine.update_vocabulary(places_from_listing(OFFICE_LIST_LOCATIONS), wake="computer")
+    heard = engine.hear_pcm(say("computer, go to the kitchen", "en-us", 160))
+    assert heard.text == "computer go to the kitchen", heard  # in the grammar, heard as said
+    assert heard.kind == "motion"

@@ -6,7 +6,16 @@ from __future__ import annotations
 import pytest
 
 from robot_language.scoring import OFFICE_LIST_LOCATIONS
-from robot_voice_chat.services.speech.vocabulary import Vocabulary, kind_of, places_from_listing
+from robot_voice_chat.services.speech.vocabulary import (
+    Vocabulary,
+    addressed,
+    is_sentence,
+    is_stop,
+    kind_of,
+    matcher,
+    places_from_listing,
+    rules,
+)
 
 OFFICE = Vocabulary.build(places_from_listing(OFFICE_LIST_LOCATIONS))
 
@@ -39,3 +48,24 @@ def test_a_place_named_without_a_verb_is_a_motion(heard: str) -> None:
 )
 def test_the_other_kinds_are_unchanged(heard: str, kind: str) -> None:
     assert kind_of(heard, OFFICE) == kind
+
+
+def test_a_wake_phrase_is_heard_as_an_opener_and_taken_off() -> None:
+    listing = places_from_listing(OFFICE_LIST_LOCATIONS)
+    with_wake = Vocabulary.build(listing, wake="Hey  Computer")
+    grammar = rules(with_wake)
+    assert with_wake.wake == "hey computer"
+    assert with_wake.digest() != OFFICE.digest()  # a new wake phrase rebuilds the grammar
+    assert is_sentence("hey computer go to the kitchen", matcher(grammar))
+    assert not is_sentence("hey computer", matcher(grammar))
+    assert kind_of("hey computer go to the kitchen", with_wake) == "motion"
+    assert kind_of("hey computer stop", with_wake) == "stop"
+    assert addressed("ok robbie, go to the kitchen", "Robbie") == ("go to the kitchen", True)
+    assert addressed("robbie's mug is in the kitchen", "robbie") == (
+        "robbie's mug is in the kitchen",
+        False,
+    )
+    assert addressed("go to the kitchen robbie", "robbie") == ("go to the kitchen robbie", False)
+    assert is_stop("halt right there")
+    assert is_stop("stop")
+    assert not is_stop("don't stop")

@@ -36,9 +36,10 @@ class ScriptedInput(SpeechInput):
         return self.heard.pop(0)
 
     def update_vocabulary(
-        self, places: Iterable[Iterable[str]], objects: Iterable[str] = ()
+        self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""
     ) -> bool:
         self.places.append([list(p) for p in places])
+        self.wake = wake
         return True
 
 
@@ -51,7 +52,9 @@ class RecordingPipeline:
         return TurnResult("t1", f"done: {text}", "fast")
 
 
-def spoken(heard: list[Heard]) -> tuple[SpokenTurns, RecordingPipeline, FakeEventEmitter]:
+def spoken(
+    heard: list[Heard], wake_phrase: str = ""
+) -> tuple[SpokenTurns, RecordingPipeline, FakeEventEmitter]:
     tools = FakeToolBackend()
     tools.add("navigation.list_locations", lambda a: LOCATIONS)
     pipeline, emitter = RecordingPipeline(), FakeEventEmitter()
@@ -61,6 +64,7 @@ def spoken(heard: list[Heard]) -> tuple[SpokenTurns, RecordingPipeline, FakeEven
         tools=tools,
         emitter=emitter,
         speech_output=FakeSpeechOutput(),
+        wake_phrase=wake_phrase,
     )
     return turns, pipeline, emitter
 
@@ -137,4 +141,60 @@ async def test_the_same_command_said_again_confirms_a_read_back() -> None:
     turns, pipeline, _ = spoken([motion, motion])
     assert (await turns.hear(UTTERANCE)).read_back
     assert not (await turns.hear(UTTERANCE)).read_back
+    assert pipeline.turns == ["go to the kitchen"]
+
+
+async def test_the_robots_microphone_takes_a_turn_only_after_the_wake_phrase() -> None:
+    turns, pipeline, emitter = spoken(
+        [
+            Heard("go to the kitchen", 0.9, "x", "motion"),  # chatter nearby
+            Heard("robbie go to the kitchen", 0.9, "x", "motion"),
+            Heard("hey robbie what do you see", 0.9, "x", "other"),
+        ],
+        wake_phrase="Robbie",
+    )
+
+    chatter = await turns.hear(UTTERANCE, from_microphone=True)
+    named = await turns.hear(UTTERANCE, from_microphone=True)
+    called = await turns.hear(UTTERANCE, from_microphone=True)
+
+    assert chatter.outcome == "not_addressed"
+    assert chatter.reply == ""
+    assert named.outcome == "acted"
+    assert called.outcome == "acted"
+    assert pipeline.turns == ["go to the kitchen", "what do you see"]
+    assert said(emitter) == []  # nothing answered to chatter
+    assert turns._input.wake == "robbie"  # type: ignore[attr-defined]  # the grammar hears it
+
+
+async def test_stop_and_a_read_back_answer_need_no_wake_phrase() -> None:
+    turns, pipeline, _ = spoken(
+        [
+            Heard("stop", 0.9, "x", "stop"),
+            Heard("halt right there", None, "cloud", "other"),  # a free-form engine
+            Heard("robbie go to the kitchen", 0.5, "x", "motion", confirm=True),
+            Heard("yes", 0.9, "x", "answer"),
+            Heard("yes", 0.9, "x", "answer"),  # nothing was asked any more
+        ],
+        wake_phrase="robbie",
+    )
+
+    results = [await turns.hear(UTTERANCE, from_microphone=True) for _ in range(5)]
+
+    assert [r.outcome for r in results] == [
+        "acted",
+        "acted",
+        "read_back",
+        "acted",
+        "not_addressed",
+    ]
+    assert pipeline.turns == ["stop", "halt right there", "go to the kitchen"]
+
+
+async def test_push_to_talk_needs_no_wake_phrase() -> None:
+    turns, pipeline, _ = spoken([Heard("go to the kitchen", 0.9, "x", "motion")], "robbie")
+
+    result = await turns.hear(UTTERANCE)
+
+    assert result.outcome == "acted"
     assert pipeline.turns == ["go to the kitchen"]

@@ -19,6 +19,7 @@ from robot_voice_chat.socket_events import SendMessage
 router = APIRouter(prefix="/api/chat", tags=["chat"])
 MAX_AUDIO_BYTES = 10 * 1024 * 1024
 BODY_LIMITS = {"/api/chat/audio": MAX_AUDIO_BYTES}  # above api.max_body_bytes (BodyLimit)
+SOURCES = ("browser", "microphone")
 
 
 @router.post("", operation_id="send_message")
@@ -42,6 +43,7 @@ def spoken_turns(request: Request, container: Container) -> SpokenTurns:
             tools=container.adapters.tools,
             emitter=container.emitter,
             speech_output=container.adapters.speech_output,
+            wake_phrase=container.config.chat.wake_phrase,
         )
         request.app.state.spoken_turns = spoken
     return spoken
@@ -57,6 +59,7 @@ def spoken_answer(result: SpokenResult) -> dict[str, Any]:
         "heard": heard.kind,
         "rejected": heard.rejected,
         "read_back": result.read_back,
+        "addressed": result.addressed,
         "turn_id": turn.turn_id if turn else None,
         "reply": turn.reply if turn else result.reply,
         "route": turn.route if turn else "heard",
@@ -67,7 +70,12 @@ def spoken_answer(result: SpokenResult) -> dict[str, Any]:
 @router.post("/audio", operation_id="send_audio")
 async def send_audio(request: Request, container: ContainerDep) -> dict[str, Any]:
     """A recording (raw body, its content type) → heard → a turn like ``POST /api/chat``.
-    415: not an audio type the brain decodes; 422: not decodable, or the recognizer failed."""
+    ``?source=microphone``: the robot's own microphone (``chat.wake_phrase`` applies; the
+    default ``browser`` is push-to-talk). 415: not an audio type the brain decodes; 422: not
+    decodable, the recognizer failed, or an unknown source."""
+    source = request.query_params.get("source", "browser")
+    if source not in SOURCES:
+        raise HTTPException(422, f"source must be one of {', '.join(SOURCES)}")
     mime = request.headers.get("content-type", "")
     if not mime.startswith("audio/"):
         raise HTTPException(415, "send the recording as the raw body with an audio/* content type")
@@ -83,7 +91,9 @@ async def send_audio(request: Request, container: ContainerDep) -> dict[str, Any
     except AudioFormatError as exc:
         raise HTTPException(422, str(exc)) from exc
     try:
-        result = await spoken_turns(request, container).hear(utterance)
+        result = await spoken_turns(request, container).hear(
+            utterance, from_microphone=source == "microphone"
+        )
     except TranscriptionError as exc:
         raise HTTPException(422, str(exc)) from exc
     return spoken_answer(result)

@@ -126,10 +126,11 @@ class SpeechInput(abc.ABC):
         return Heard(text, None, self.name, rejected=None if text else "nothing_heard")
 
     def update_vocabulary(
-        self, places: Iterable[Iterable[str]], objects: Iterable[str] = ()
+        self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""
     ) -> bool:
-        """The live places (spoken names per place) and object labels; True when the
-        recognizer rebuilt what it listens for (free-form engines need none)."""
+        """The live places (spoken names per place), object labels and the site's wake
+        phrase; True when the recognizer rebuilt what it listens for (free-form engines need
+        none)."""
         return False
 
     async def aclose(self) -> None:  # noqa: B027 - optional hook

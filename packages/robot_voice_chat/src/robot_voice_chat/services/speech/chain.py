@@ -58,11 +58,11 @@ class SpeechChain(SpeechInput):
         return heard.text if heard.usable else ""
 
     def update_vocabulary(
-        self, places: Iterable[Iterable[str]], objects: Iterable[str] = ()
+        self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""
     ) -> bool:
         kept = [list(p) for p in places]
         found = list(objects)
-        changed = [p.update_vocabulary(kept, found) for p in self._providers]
+        changed = [p.update_vocabulary(kept, found, wake) for p in self._providers]
         return any(changed)
 
     async def hear(self, utterance: Utterance) -> Heard:

@@ -148,13 +148,13 @@ class PocketsphinxSpeechInput(SpeechInput):
         return self._vocabulary
 
     def update_vocabulary(
-        self, places: Iterable[Iterable[str]], objects: Iterable[str] = ()
+        self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""
     ) -> bool:
         """The live places (spoken names per place) and any object labels heard of beyond
         the configured ones; the grammar is rebuilt when anything changed (True)."""
         known = self._vocabulary
         vocabulary = Vocabulary.build(
-            places, dict.fromkeys([*self._objects, *objects]), known.intents
+            places, dict.fromkeys([*self._objects, *objects]), known.intents, wake
         )
         if vocabulary.digest() == self._digest:
             return False
@@ -185,6 +185,7 @@ class PocketsphinxSpeechInput(SpeechInput):
         with them are left out of the grammar)."""
         wanted = {w for p in vocabulary.place_phrases() for w in p.split()}
         wanted |= {w for o in vocabulary.objects for w in o.split()}
+        wanted |= set(vocabulary.wake.split())
         missing = set()
         for word in sorted(wanted):
             if self._known(word):

@@ -59,6 +59,8 @@ CONTROL = (
     "stop", "halt", "freeze", "stop right now", "abort", "abort the mission", "cancel the mission",
     "continue", "carry on", "keep going", "go on", "resume", "resume the mission",
 )  # fmt: skip
+# said alone, or first, a stop is heard without the wake phrase (spec 002 §9)
+STOPS = frozenset({"stop", "halt", "freeze", "stop right now", "abort", "abort the mission"})
 ORDINALS = ("the first one", "the second one", "the third one", "the first", "the second")
 ARM = {
     # the arm's own verbs (understanding/README.md §4): pick here, put at a place, release
@@ -73,6 +75,25 @@ QUESTION_VERBS = frozenset({"where's", "where is", "where are", "is there", "are
 
 def words_of(text: str) -> list[str]:
     return _WORD.findall(text.lower().replace("’", "'"))
+
+
+def addressed(text: str, wake: str) -> tuple[str, bool]:
+    """``text`` without a leading wake phrase ("hey robbie, go to the kitchen" → "go to the
+    kitchen", True); (``text``, False) when it does not start with it."""
+    said, name = words_of(text), words_of(wake)
+    for start in (0, 1):  # "robbie …", or "hey robbie …" / "ok robbie …"
+        if name and said[start : start + len(name)] == name and (start == 0 or said[0] in _CALLS):
+            return " ".join(said[start + len(name) :]), True
+    return text, False
+
+
+def is_stop(text: str) -> bool:
+    """A stop word alone or first ("stop", "halt right there"): always listened for."""
+    said = words_of(text)
+    return " ".join(said) in STOPS or (bool(said) and said[0] in {"stop", "halt", "freeze"})
+
+
+_CALLS = frozenset({"hey", "ok", "okay", "hi", "hello"})
 
 
 def spoken_names(place: dict[str, object]) -> list[str]:
@@ -109,6 +130,7 @@ class Vocabulary:
     places: tuple[tuple[str, ...], ...] = ()
     objects: tuple[str, ...] = DEFAULT_OBJECTS
     intents: IntentFile = field(default_factory=load_intents, compare=False, hash=False)
+    wake: str = ""  # the site's wake phrase ("robbie"): heard as an opener
 
     @classmethod
     def build(
@@ -116,17 +138,19 @@ class Vocabulary:
         places: Iterable[Iterable[str]],
         objects: Iterable[str] = DEFAULT_OBJECTS,
         intents: IntentFile | None = None,
+        wake: str = "",
     ) -> Vocabulary:
         return cls(
             tuple(tuple(p) for p in places if p),
             tuple(dict.fromkeys(" ".join(words_of(o)) for o in objects if words_of(o))),
             intents if intents is not None else load_intents(),
+            " ".join(words_of(wake)),
         )
 
     def digest(self) -> str:
         """Changes when anything the grammar is made of changes (the grammar is rebuilt)."""
         intents = self.intents.model_dump_json()
-        blob = json.dumps([self.places, self.objects, intents], sort_keys=True)
+        blob = json.dumps([self.places, self.objects, intents, self.wake], sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     def place_phrases(self) -> list[str]:
@@ -177,7 +201,7 @@ def rules(vocabulary: Vocabulary, known: Callable[[str], bool] = lambda _w: True
     watch = vocabulary.intent_verbs("watch", spoken=True)
     return {
         "utterance": "[<opener>] <request> [<closer>]",
-        "opener": alt(OPENERS),
+        "opener": alt([*OPENERS, vocabulary.wake]),
         "closer": alt(CLOSERS),
         "request": "<commands> | <negated> | <corrected> | <answer> | <control> | <phrase>",
         "commands": "<command> [<joiner> <command>]",
@@ -255,8 +279,8 @@ def kind_of(text: str, vocabulary: Vocabulary) -> HeardKind:
     that moves the robot, its arm or its camera, or a place named without a verb: the typed
     path reads "the kitchen" as "go there"), ``other`` (questions, small talk, a negation
     alone: "don't go to the kitchen" moves nothing)."""
-    said = " ".join(words_of(text))
-    if said in {"stop", "halt", "freeze", "stop right now", "abort", "abort the mission"}:
+    said = addressed(" ".join(words_of(text)), vocabulary.wake)[0]
+    if said in STOPS:
         return "stop"
     if said in {*YES, *NO, *ORDINALS}:
         return "answer"

@@ -1,8 +1,12 @@
-"""A person next to the robot says "stop" (issue 36 item 4), on the local stack with the brain on
-the dev preset as shipped (rules, no keys, the on-board recognizer): the robot drives to the
-kitchen, robot-sim-say speaks "stop" on /audio_stamped, robot-audio-listener cuts it and posts it
-to the brain, and robot-sim's base halts short of the kitchen (its /amcl_pose, not the brain's
-report)."""
+"""A person next to the robot talks to it (issue 36 item 4), on the local stack with the brain on
+the dev preset as shipped (rules, no keys, the on-board recognizer) and the site's wake phrase
+"robbie" (RVC_WAKE_PHRASE):
+
+- someone near the robot says "go to the kitchen" without its name: chatter, not a command —
+  the brain answers nothing and the robot does not move;
+- the robot drives to the kitchen, robot-sim-say speaks "stop" (no wake phrase: a stop needs
+  none) on /audio_stamped, robot-audio-listener cuts it and posts it to the brain, and
+  robot-sim's base halts short of the kitchen (its /amcl_pose, not the brain's report)."""
 
 from __future__ import annotations
 
@@ -19,6 +23,7 @@ from robot_stack_testing.mission_driver import (
     MissionDriver,
     fresh_secret,
     say_on_microphone,
+    spoken_turn_outcomes,
     stack_env,
 )
 from robot_stack_testing.pose_watch import AmclWatch
@@ -58,11 +63,30 @@ def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
     only = {"robot_sim", "memory", "navigation", "brain", "audio_listener"}
     try:
         with local_stack(
-            ROOT, var, stack_env(fresh_secret()), overrides=placeholders, only=only
+            ROOT,
+            var,
+            {**stack_env(fresh_secret()), "RVC_WAKE_PHRASE": "robbie"},
+            overrides=placeholders,
+            only=only,
         ) as services:
             yield Stack(services, f"http://127.0.0.1:{placeholders['brain_port']}", watch)
     finally:
         watch.close()
+
+
+async def test_chatter_near_the_robot_without_its_name_is_not_a_command(stack: Stack) -> None:
+    async with MissionDriver(stack.brain) as user:
+        await async_wait_until(lambda: navigation_connected(user), 90, "navigation connected", 0.2)
+        brain = stack.services["brain"]
+
+        await say_on_microphone("go to the kitchen")
+
+        outcomes = await async_wait_until(
+            lambda: spoken_turn_outcomes(brain.log()), 60, "the brain heard it", 0.2
+        )
+        assert set(outcomes) == {"not_addressed"}, outcomes
+        assert (await user.http.get("/api/agent/missions")).json()["active"] is None
+        assert not stack.watch.moving()  # robot-sim's pose: it stayed where it was
 
 
 async def test_a_spoken_stop_on_the_microphone_halts_the_drive(stack: Stack) -> None:

@@ -44,6 +44,9 @@ def test_a_place_named_without_a_verb_is_a_motion(heard: str) -> None:
         ("what time is it", "other"),
         ("don't go to the kitchen", "other"),
         ("don't go to the kitchen go to reception", "motion"),
+        ("resume please", "motion"),  # a paused mission drives on: read back when unsure
+        ("carry on", "motion"),
+        ("continue the mission", "motion"),
     ],
 )
 def test_the_other_kinds_are_unchanged(heard: str, kind: str) -> None:

@@ -70,7 +70,7 @@ STOP_MARGIN = 0.5  # ... and this much better than the full grammar's hypothesis
 SURE_STOP_WORDS = ("stop", "stop stop", "stop right now", "freeze")
 STOP_GUESS_WORDS = 2  # a hypothesis this short ("drop it") is checked against them even if sure
 # log-likelihood per frame (grammar − phone loop) mapped onto 0..1: (low, high)
-FRAME_SPAN = (-4.0, 0.0)
+FRAME_SPAN = (-4.5, 0.0)
 # the worst word's log-likelihood per frame against the phone loop, mapped onto 0..1
 WORD_SPAN = (-9.5, -3.0)
 # the binding hands a score as a probability of the score shifted right by 10 bits (the

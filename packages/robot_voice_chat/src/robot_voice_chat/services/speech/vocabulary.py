@@ -61,6 +61,8 @@ CONTROL = (
 )  # fmt: skip
 # said alone, or first, a stop is heard without the wake phrase (spec 002 §9)
 STOPS = frozenset({"stop", "halt", "freeze", "stop right now", "abort", "abort the mission"})
+# what carries a paused mission on (CONTROL's second half): it moves the robot
+RESUMES = frozenset({"continue", "carry on", "keep going", "go on", "resume"})
 ORDINALS = ("the first one", "the second one", "the third one", "the first", "the second")
 ARM = {
     # the arm's own verbs (understanding/README.md §4): pick here, put at a place, release
@@ -282,6 +284,9 @@ def kind_of(text: str, vocabulary: Vocabulary) -> HeardKind:
     said = addressed(" ".join(words_of(text)), vocabulary.wake)[0]
     if said in STOPS:
         return "stop"
+    first = said.split()
+    if " ".join(first[:1]) in RESUMES or " ".join(first[:2]) in RESUMES:
+        return "motion"  # a paused mission drives on: read back when unsure, like a drive
     if said in {*YES, *NO, *ORDINALS}:
         return "answer"
     verbs = {

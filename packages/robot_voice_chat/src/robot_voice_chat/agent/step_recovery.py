@@ -35,6 +35,7 @@ from robot_voice_chat.services.tools.base import ToolBackend, ToolOutcome
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
+RESEND_PAUSE_S = 0.25
 
 
 class RecoveryHost(Protocol):
@@ -143,6 +144,7 @@ class StepRecovery:
             if not (refused_unsupervised(outcome) and time.monotonic() < deadline):
                 break
             logger.info("supervision_lapse_resend", server=handle.server, step_id=issued.step_id)
+            await asyncio.sleep(RESEND_PAUSE_S)  # a lock that reads open but refuses: no spin
         info = None if outcome.is_error else parse_task_info(outcome.text)
         self._host.trace.record(
             mission.id,

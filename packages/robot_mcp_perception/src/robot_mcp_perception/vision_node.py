@@ -47,6 +47,7 @@ from robot_mcp_perception.settings import (
 )
 from robot_mcp_perception.skills import Skill, SkillError, SkillOutput
 from robot_mcp_perception.task_service import Operation, TaskService, serve
+from robot_ros_bridge.spinning import spin_until_shutdown
 
 logger = structlog.get_logger("robot_mcp_perception.vision_node")
 
@@ -357,7 +358,7 @@ def main(args: list[str] | None = None) -> None:
     try:
         node = VisionNode(runtime)
         executor.add_node(node)
-        executor.spin()
+        spin_until_shutdown(executor)  # a skill's entities destroyed mid-wait do not end it
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except StartupError as error:

@@ -20,6 +20,7 @@ create must not run twice).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import inspect
 import threading
 import time
@@ -43,6 +44,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_ros_bridge.errors import BridgeClosedError, ServiceTimeoutError, ServiceUnavailableError
+from robot_ros_bridge.spinning import spin_until_shutdown
 
 logger = structlog.get_logger(__name__)
 
@@ -193,15 +195,8 @@ class RosBridge:
         executor, context = self._executor, self._context
         assert executor is not None
         assert context is not None
-        while not self._closed and context.ok():
-            try:
-                executor.spin()
-            except ExternalShutdownException:
-                return
-            except Exception:  # the spin thread is a process boundary
-                if self._closed or not context.ok():
-                    return
-                logger.exception("ros_callback_failed")
+        with contextlib.suppress(ExternalShutdownException):
+            spin_until_shutdown(executor, lambda: not self._closed and context.ok())
 
     def close(self, timeout_s: float = 5.0) -> None:
         """Stop spinning, destroy the node, shut the context down. Idempotent."""

@@ -11,6 +11,7 @@ import rclpy
 import structlog
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
+from robot_ros_bridge.spinning import spin_until_shutdown
 from robot_sim.camera import Camera
 from robot_sim.config import ConfigError, SimSettings, load_settings
 from robot_sim.costmap import RobotMap
@@ -42,19 +43,10 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 
 
 def spin_on(executor: MultiThreadedExecutor) -> None:
-    """Spin until shutdown; a callback that raises is logged and spinning goes on (as
-    robot_ros_bridge's spin thread does). rmw can fail to send a service reply to a client
-    whose reply reader it has not matched yet ("failed to send response (timeout)"): that
-    raised out of spin() and took the whole simulated robot down in a CI run."""
-    while rclpy.ok():
-        try:
-            executor.spin()
-        except (KeyboardInterrupt, ExternalShutdownException):
-            raise
-        except Exception:  # the spin loop is the process's boundary
-            if not rclpy.ok():
-                return
-            logger.exception("ros_callback_failed")
+    """Spin until shutdown (``robot_ros_bridge.spinning``): rmw failing to send a service reply
+    to a client whose reply reader it has not matched yet raised out of spin() and took the
+    whole simulated robot down in a CI run."""
+    spin_until_shutdown(executor)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -1,0 +1,34 @@
+"""Spinning an executor until shutdown, as a process boundary (the bridge's spin thread,
+robot-sim, the vision node).
+
+An exception that reaches ``executor.spin()`` ends it: a callback that raised, rmw failing to
+send a service reply to a client it has not matched yet, or an entity that a callback destroyed
+while another executor thread was building its wait set (rclpy's ``InvalidHandle``: "cannot use
+Destroyable because destruction was requested" — it took the vision node down in a busy CI run
+as a skill's publishers were destroyed). Each is logged and spinning goes on; the next turn
+builds its wait set without the destroyed entity.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import rclpy
+import structlog
+from rclpy.executors import ExternalShutdownException
+
+logger = structlog.get_logger(__name__)
+
+
+def spin_until_shutdown(executor: Any, running: Callable[[], bool] = rclpy.ok) -> None:
+    """Spin ``executor`` while ``running()``; Ctrl-C and an external shutdown end it (raised)."""
+    while running():
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            raise
+        except Exception:  # the spin loop is the process's boundary
+            if not running():
+                return
+            logger.exception("ros_callback_failed")

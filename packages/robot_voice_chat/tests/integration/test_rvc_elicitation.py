@@ -92,6 +92,23 @@ async def test_a_denied_question_is_a_clean_refusal_and_the_robot_stays(
     assert pose["moving"] is False
 
 
+async def test_a_call_out_too_long_is_marked_cut_off_and_one_never_sent_is_not(
+    asking_navigation: tuple[McpToolBackend, ApprovalBroker],
+) -> None:
+    """A motion call that went out and did not answer may have started something (the
+    dispatcher tells the person it lost contact); one never sent did not."""
+    tools, broker = asking_navigation
+    out = await tools.call_tool("navigation.navigate_to", {"location": "kitchen"}, 0.5)
+    assert out.is_error
+    assert out.cut_off
+    assert "timed out after" in out.text
+    never_sent = await tools.call_tool("arm.pick", {})
+    assert never_sent.is_error
+    assert not never_sent.cut_off
+    await async_wait_until(lambda: broker.pending(), 30, "the question still asked")
+    broker.resolve(broker.pending()[0].approval_id, "deny", "bob")  # nothing drives
+
+
 def test_only_a_single_yes_no_field_is_answerable() -> None:
     assert yes_no_field({"properties": {"confirm": {"type": "boolean"}}}) == "confirm"
     assert yes_no_field({"properties": {"name": {"type": "string"}}}) is None

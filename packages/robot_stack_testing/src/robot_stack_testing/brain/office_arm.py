@@ -14,6 +14,7 @@ from typing import Any
 from pydantic import SecretStr
 
 from robot_stack_testing.brain.office_world import OfficeWorld
+from robot_voice_chat.services.tools.base import ToolOutcome
 from robot_voice_chat.settings import McpServerConfig
 
 ARM_SECRET = "an-arm-event-secret-that-is-32-bytes"  # noqa: S105 - a test fake's
@@ -45,6 +46,9 @@ class OfficeArm:
         # restarted server reports the pick lost (SERVER_RESTARTED), as robot-sim's world shows
         self.lost_after_grasp = False
         self.lost_on_place = False  # a place that fails after the gripper opened: it fell
+        # the arm's server killed while the pick call was out: the call is cut off, the server
+        # gone (get_held does not answer), the gripper as it was
+        self.cut_off_pick = False
         self.running: asyncio.Task[None] | None = None
         self._ids = itertools.count(1)
         tools = world.tools
@@ -62,7 +66,11 @@ class OfficeArm:
     def get_held(self, args: dict[str, Any]) -> dict[str, Any]:
         return {"known": True, "holding": self.held is not None, "label": self.held}
 
-    def pick(self, args: dict[str, Any]) -> dict[str, Any]:
+    def pick(self, args: dict[str, Any]) -> dict[str, Any] | ToolOutcome:
+        if self.cut_off_pick:
+            self.world.tools.states["manipulation"] = "disconnected"
+            text = "error: manipulation.pick failed: Connection closed"
+            return ToolOutcome(text=text, is_error=True, cut_off=True)
         ref = args.get("mask_ref")
         if not isinstance(ref, dict) or not str(ref.get("topic", "")).startswith("/vision/"):
             raise _error("INVALID_DETECTION", "mask_ref must be a detection's mask_ref")

@@ -176,6 +176,8 @@ class TaskDispatcher:
         stopped = motion and not latched_before and self.latched()
         if stopped and outcome.is_error and SAFETY_STOP_LATCHED in outcome.text:
             return await self._stopped_in_flight(run, call, step_id)
+        if motion and outcome.cut_off:  # its server went away mid-call: the motion may run
+            await self._cut_off(run, call.name.partition(".")[0])
         if not outcome.is_error and (
             notice := self.fallback_notice.sentence_for(call.name, outcome.text)
         ):
@@ -470,6 +472,15 @@ class TaskDispatcher:
             )
         await self.output.say(run, said)
         run.post(line)
+
+    async def _cut_off(self, run: MissionRun, server: str) -> None:
+        """A motion call whose server went away while it was out: told at once, like a server
+        lost with a running task (the lease decides whether it holds itself stopped)."""
+        if server in self.lost_servers:
+            return
+        self.lost_servers.add(server)
+        logger.warning("motion_call_cut_off", server=server)
+        await self.output.say(run, await lost_motion_server(self.supervisor, server))
 
     async def reconcile(self, server: str) -> None:
         """Hook for (re)connects: lost tasks → SERVER_RESTARTED; orphans cancelled when idle."""

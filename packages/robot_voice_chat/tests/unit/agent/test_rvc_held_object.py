@@ -125,6 +125,29 @@ async def test_a_pick_lost_to_a_server_restart_after_the_grasp_goes_on_with_what
     assert len(o.tools.called("manipulation.pick")) == 1
 
 
+async def test_a_pick_cut_off_by_the_arm_servers_death_is_told_and_claims_nothing(
+    tmp_path: Path,
+) -> None:
+    """kill -9 of the arm server while the pick call was out (it may have started the arm):
+    the robot says it lost contact with its arm at once, and the summary does not claim where
+    the package is — nobody can know until the arm answers again."""
+    o = arm_office(tmp_path)
+    o.world.arm.cut_off_pick = True
+
+    mission = await o.run(FETCH)
+
+    assert mission.state == "failed"
+    said = " ".join(o.speech.spoken)
+    assert "I lost contact with my arm" in said, said
+    assert mission.summary.startswith(
+        "I couldn't pick up the package: I lost contact with my arm while it was starting. "
+        "I can't tell yet whether my gripper closed on it."
+    ), mission.summary
+    assert "still in the mailroom" not in mission.summary
+    assert "reported a problem" not in mission.summary
+    assert check_robot_words([said, mission.summary]) == []
+
+
 async def test_a_failed_put_says_what_the_gripper_says_not_that_it_still_holds_it(
     tmp_path: Path,
 ) -> None:

@@ -39,6 +39,9 @@ class ToolOutcome(BaseModel):
 
     text: str
     is_error: bool = False
+    # the call went out and its server went away (or went silent) before it answered: what it
+    # started, if anything, is unknown
+    cut_off: bool = False
 
 
 class ToolBackend(abc.ABC):

@@ -254,10 +254,10 @@ class McpToolBackend(ToolBackend):
                 )
         except TimeoutError:
             outcome = ToolOutcome(
-                text=f"error: {name} timed out after {timeout:g} s", is_error=True
+                text=f"error: {name} timed out after {timeout:g} s", is_error=True, cut_off=True
             )
         except Exception as exc:
-            outcome = ToolOutcome(text=f"error: {name} failed: {exc}", is_error=True)
+            outcome = ToolOutcome(text=f"error: {name} failed: {exc}", is_error=True, cut_off=True)
             conn.wake.set()  # let the supervisor health-check the connection now
         else:
             outcome = ToolOutcome(text=_result_text(result), is_error=bool(result.is_error))

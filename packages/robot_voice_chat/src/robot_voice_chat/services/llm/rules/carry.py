@@ -10,6 +10,7 @@ robot never claims to carry anything.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,7 +46,15 @@ _SAID = {
 }
 
 
+# the arm's server went away while the call was out (the tool backend's "error: <tool> failed:
+# …" / "timed out after"): the arm may have started, and nobody can tell yet
+CUT_OFF = "CUT_OFF"
+_CUT_OFF_TEXT = re.compile(r"^error: [\w.]+ (?:failed: |timed out after\b)")
+
+
 def said(code: str) -> str:
+    if code == CUT_OFF:
+        return "I lost contact with my arm while it was starting"
     return _SAID.get(code, "my arm reported a problem")
 
 
@@ -144,6 +153,8 @@ class Carrying:
             if started.is_error:
                 data = as_json(started.content)
                 code = str(data.get("error", "")) if isinstance(data, dict) else ""
+                if _CUT_OFF_TEXT.match(started.content):
+                    code = CUT_OFF
                 return Outcome("error", code), ""
             task_id = task_id_of(started.content)
             if task_id is None:
@@ -177,7 +188,8 @@ class Carrying:
                 code = failure.code
             # words = world (issue 39): a pick reported failed — a restarted or killed arm
             # server, a cancel too late — may have closed the gripper on it all the same
-            holding = yield from self._held_now()
+            gripper: Held = yield from self._gripper()
+            holding = gripper.label
             if holding is not None and names_it(obj, holding):
                 break
             if look_again and code in RETRIED:
@@ -196,11 +208,14 @@ class Carrying:
                 step = pick
                 continue
             tried = " (I tried twice)" if not look_again else ""
-            # the gripper holds something else (told at the mission's end), or nothing
-            raise Finished(
-                "failed",
-                f"I couldn't pick up the {obj}: {said(code)}{tried}. It is still{where}.",
+            # the gripper holds something else (told at the mission's end), or nothing — or,
+            # when the arm's server went away mid-call, nobody can say yet (words = world)
+            still = (
+                "I can't tell yet whether my gripper closed on it"
+                if code == CUT_OFF and not gripper.known
+                else f"It is still{where}"
             )
+            raise Finished("failed", f"I couldn't pick up the {obj}: {said(code)}{tried}. {still}.")
         return (yield from self._held(obj, held_step))
 
     def _retry_steps(self, after: str, obj: str) -> tuple[str, str]:

@@ -156,6 +156,12 @@ def build_server(memory: Episodic, approvals: ApprovalVerifier | None = None) ->
         return await _answer("pose_at", lambda: memory.pose_at(time))
 
     @server.tool(annotations=READ_ONLY)
+    async def known_labels() -> dict[str, Any]:
+        """Call this to know which things the robot has ever seen (the labels of its
+        sightings, sorted). Returns {"labels", "count"}."""
+        return await _answer("known_labels", memory.known_labels)
+
+    @server.tool(annotations=READ_ONLY)
     async def memory_status() -> dict[str, Any]:
         """Call this to know how far back memory goes and whether recording works: rows and
         time span per kind, size of index and recordings, retention horizon, last write per

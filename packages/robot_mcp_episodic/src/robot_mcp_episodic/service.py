@@ -381,6 +381,13 @@ class Episodic:
             "started": self._when(event.t, now),
         }
 
+    def known_labels(self) -> dict[str, Any]:
+        """Every label this robot has a sighting of: the names of the things it can be asked
+        about (the brain's on-board recognizer listens for them)."""
+        self._flush()
+        labels = sorted(self.store.labels())
+        return {"labels": labels, "count": len(labels)}
+
     def memory_status(self) -> dict[str, Any]:
         now = self._clock()
         self._flush()

@@ -66,8 +66,9 @@ async def test_the_server_lists_the_contract_tools(app: EpisodicApp) -> None:
         tools = {tool.name: tool for tool in (await client.list_tools()).tools}
     assert set(tools) == {
         "what_happened", "last_seen", "search_memory", "pose_at", "memory_status", "forget",
-        "record_note",
+        "record_note", "known_labels",
     }  # fmt: skip
+    assert tools["known_labels"].input_schema.get("properties", {}) == {}
     assert set(tools["what_happened"].input_schema["properties"]) == {
         "start", "end", "kinds", "place", "max_items",
     }  # fmt: skip
@@ -147,6 +148,18 @@ async def test_memory_status_reports_rows_sizes_retention_and_gaps(app: Episodic
     assert status["size_bytes"]["index"] > 0
     assert status["oldest_record"]["time"] == iso(T - 600)
     assert status["recordings"]["enabled"] is False
+
+
+async def test_known_labels_are_every_label_seen_and_follow_forget(app: EpisodicApp) -> None:
+    assert await call(app, "known_labels") == {"labels": [], "count": 0}
+    indexer = app.memory.indexer
+    indexer.on_detections("detect", T - 90, [{"label": "umbrella", "score": 0.9}])
+    indexer.on_detections("detect", T - 80, [{"label": "mug", "score": 0.8}])
+    indexer.on_detections("detect", T - 70, [{"label": "mug", "score": 0.8}])
+    assert await call(app, "known_labels") == {"labels": ["mug", "umbrella"], "count": 2}
+
+    await forget_approved(app, start="-5m", end="now", label="umbrella", dry_run=False)
+    assert (await call(app, "known_labels"))["labels"] == ["mug"]
 
 
 async def test_forget_previews_then_deletes_and_audits(app: EpisodicApp) -> None:

@@ -14,8 +14,10 @@ Never a wrong action from speech:
   says it is for the robot).
 
 The vocabulary is the live one: before each utterance the places are read from
-``navigation.list_locations`` (when the navigation server answers) and the recognizer rebuilds
-its grammar when they changed, so a place added to the map is understood without a restart.
+``navigation.list_locations`` (when the navigation server answers) and the things the robot
+has seen from ``episodic.known_labels`` (when memory runs), and the recognizer rebuilds its
+grammar when they changed, so a place added to the map, or a thing the camera saw, is
+understood without a restart.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from robot_voice_chat.services.speech.vocabulary import (
     YES,
     addressed,
     is_stop,
+    labels_from_listing,
     places_from_listing,
     words_of,
 )
@@ -45,6 +48,8 @@ from robot_voice_chat.socket_events import ChatMessage
 logger = structlog.get_logger(__name__)
 
 LIST_LOCATIONS = "navigation.list_locations"
+KNOWN_LABELS = "episodic.known_labels"
+MAX_LABELS = 300  # the grammar stays small enough to decode in real time
 NOT_CAUGHT = "Sorry, I didn't catch that. Please say it again."
 DROPPED = "OK, I won't do that."
 READ_BACK_TTL_S = 60.0  # a read-back not answered within this is forgotten
@@ -97,6 +102,7 @@ class SpokenTurns:
         self._places_timeout_s = places_timeout_s
         self._wake = " ".join(words_of(wake_phrase))
         self._pending: _Pending | None = None
+        self._labels: list[str] = []
         self._lock = asyncio.Lock()
 
     @property
@@ -104,8 +110,10 @@ class SpokenTurns:
         return self._input.name
 
     async def refresh_vocabulary(self) -> bool:
-        """Read the live places and hand them to the recognizer (True: it rebuilt)."""
-        if LIST_LOCATIONS not in {t.name for t in self._tools.list_tools()}:
+        """Read the live places and the things the robot has seen and hand them to the
+        recognizer (True: it rebuilt)."""
+        tools = {t.name for t in self._tools.list_tools()}
+        if LIST_LOCATIONS not in tools:
             return False
         result = await self._tools.call_tool(LIST_LOCATIONS, {}, self._places_timeout_s)
         if result.is_error:  # the last vocabulary stays in use
@@ -114,7 +122,19 @@ class SpokenTurns:
         places = places_from_listing(result.text)
         if not places:
             return False
-        return self._input.update_vocabulary(places, wake=self._wake)
+        if KNOWN_LABELS in tools:
+            await self._read_labels()
+        return self._input.update_vocabulary(places, self._labels, wake=self._wake)
+
+    async def _read_labels(self) -> None:
+        """What episodic memory has seen ("umbrella"): a thing the camera saw can be named.
+        An unread answer keeps the last labels."""
+        result = await self._tools.call_tool(KNOWN_LABELS, {}, self._places_timeout_s)
+        labels = None if result.is_error else labels_from_listing(result.text)
+        if labels is None:
+            logger.warning("speech_labels_unread", error=result.text[:200])
+            return
+        self._labels = labels[:MAX_LABELS]
 
     async def hear(self, utterance: Utterance, *, from_microphone: bool = False) -> SpokenResult:
         """``from_microphone``: the robot's own microphone (the wake phrase applies)."""

@@ -117,6 +117,18 @@ def test_a_place_added_at_run_time_is_heard_without_a_restart() -> None:
     assert after.kind == "motion"
 
 
+def test_a_thing_memory_has_seen_is_heard_once_its_label_arrives() -> None:
+    engine = PocketsphinxSpeechInput()
+    places = places_from_listing(OFFICE_LIST_LOCATIONS)
+    engine.update_vocabulary(places)
+    speech = say("find the umbrella", "en-us", 160)
+    assert engine.hear_pcm(speech).text != "find the umbrella"
+    assert engine.update_vocabulary(places, ["umbrella"])
+    after = engine.hear_pcm(speech)
+    assert after.usable, after
+    assert after.text == "find the umbrella"
+
+
 SAFETY = [
     ("go to the kitchen", "en-gb-scotland"),
     ("find the scissors in the mailroom", "en-gb-scotland"),

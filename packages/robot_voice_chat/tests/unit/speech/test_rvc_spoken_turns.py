@@ -28,6 +28,7 @@ class ScriptedInput(SpeechInput):
     def __init__(self, heard: list[Heard]) -> None:
         self.heard = heard
         self.places: list[list[list[str]]] = []
+        self.objects: list[list[str]] = []
 
     async def transcribe(self, audio: bytes, mime_type: str) -> str:
         raise AssertionError("hear() is used")
@@ -39,6 +40,7 @@ class ScriptedInput(SpeechInput):
         self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""
     ) -> bool:
         self.places.append([list(p) for p in places])
+        self.objects.append(list(objects))
         self.wake = wake
         return True
 
@@ -134,6 +136,29 @@ async def test_the_recognizer_gets_the_live_places_before_each_utterance() -> No
     assert isinstance(recognizer, ScriptedInput)
     assert recognizer.places == [[["kitchen"], ["mailroom"]]]
     assert json.dumps(LOCATIONS)  # the listing the fake navigation server answered
+
+
+async def test_the_recognizer_listens_for_what_memory_has_seen_and_keeps_it_on_an_error() -> None:
+    turns, _, _ = spoken([Heard("yes", 0.9, "x", "answer")] * 3)
+    answers: list[object] = [
+        {"labels": ["umbrella", "coffee_mug", "umbrella", 7], "count": 3},
+        ValueError("episodic: database is locked"),
+        "not json",
+    ]
+
+    def known_labels(_: dict[str, object]) -> object:
+        answer = answers.pop(0)
+        if isinstance(answer, Exception):
+            raise answer
+        return answer
+
+    turns._tools.add("episodic.known_labels", known_labels)  # type: ignore[attr-defined]
+    for _ in range(3):
+        await turns.hear(UTTERANCE)
+    recognizer = turns._input
+    assert isinstance(recognizer, ScriptedInput)
+    # an unreadable answer (an error, not JSON) keeps the labels last read
+    assert recognizer.objects == [["umbrella", "coffee mug"]] * 3
 
 
 async def test_the_same_command_said_again_confirms_a_read_back() -> None:

@@ -1,8 +1,8 @@
 """What the robot can be told, as a JSGF grammar for the on-board recognizer.
 
 Built from the live state: places (names, aliases and the description's own name, from
-``navigation.list_locations``), object labels (site configuration plus what the brain has
-heard of), and the understanding layer's intents (``intents.yaml``: each intent's verbs
+``navigation.list_locations``), object labels (site configuration plus every label episodic
+memory has a sighting of, ``episodic.known_labels``), and the understanding layer's intents (``intents.yaml``: each intent's verbs
 before a place or an object, its example sentences as they are). The grammar covers what the
 typed path understands: sequences ("X and then Y"), fetch / bring / put, find / look / what do
 you see, where questions, stop / continue / abort / never mind, negation and correction ("don't
@@ -123,6 +123,22 @@ def places_from_listing(text: str) -> list[list[str]]:
         return []
     items = data.get("locations") if isinstance(data, dict) else None
     return [spoken_names(item) for item in items or [] if isinstance(item, dict)]
+
+
+def labels_from_listing(text: str) -> list[str] | None:
+    """``episodic.known_labels``' JSON answer → the labels as spoken ("coffee_mug" → "coffee
+    mug"); None when unreadable."""
+    try:
+        data = json.loads(text)
+    except ValueError:
+        return None
+    labels = data.get("labels") if isinstance(data, dict) else None
+    if not isinstance(labels, list):
+        return None
+    spoken = (
+        " ".join(words_of(label.replace("_", " "))) for label in labels if isinstance(label, str)
+    )
+    return list(dict.fromkeys(s for s in spoken if s))
 
 
 @dataclass(frozen=True)

@@ -190,7 +190,12 @@ class TaskDispatcher:
         elif step is not None:
             step.set_status("failed" if outcome.is_error else "succeeded", outcome.text[:160])
             await self.output.emit_plan(run)
-        return ToolResult(tool_call_id=call.id, content=outcome.text, is_error=outcome.is_error)
+        return ToolResult(
+            tool_call_id=call.id,
+            content=outcome.text,
+            is_error=outcome.is_error,
+            cut_off=outcome.cut_off,
+        )
 
     async def _refuse_held(
         self, run: MissionRun, call: ToolCall, step_id: str | None, args: dict[str, Any]

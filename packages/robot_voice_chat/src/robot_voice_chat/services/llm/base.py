@@ -40,6 +40,9 @@ class ToolResult(BaseModel):
     tool_call_id: str
     content: str
     is_error: bool = False
+    # the call went out and its server went away or stayed silent: it may have started
+    # (``ToolOutcome.cut_off``; never sent to a model, only read by the rules planner)
+    cut_off: bool = False
 
 
 class Message(BaseModel):

@@ -10,7 +10,6 @@ robot never claims to carry anything.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,10 +45,9 @@ _SAID = {
 }
 
 
-# the arm's server went away while the call was out (the tool backend's "error: <tool> failed:
-# …" / "timed out after"): the arm may have started, and nobody can tell yet
+# the arm's server went away while the call was out (``ToolResult.cut_off``): the arm may
+# have started, and nobody can tell yet
 CUT_OFF = "CUT_OFF"
-_CUT_OFF_TEXT = re.compile(r"^error: [\w.]+ (?:failed: |timed out after\b)")
 
 
 def said(code: str) -> str:
@@ -153,7 +151,7 @@ class Carrying:
             if started.is_error:
                 data = as_json(started.content)
                 code = str(data.get("error", "")) if isinstance(data, dict) else ""
-                if _CUT_OFF_TEXT.match(started.content):
+                if started.cut_off:
                     code = CUT_OFF
                 return Outcome("error", code), ""
             task_id = task_id_of(started.content)

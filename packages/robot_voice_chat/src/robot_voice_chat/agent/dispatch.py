@@ -17,11 +17,10 @@ from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
 from robot_voice_chat.agent.reactions import Reaction
-from robot_voice_chat.agent.recovery import stopped_after_restart
 from robot_voice_chat.agent.run import MissionRun
+from robot_voice_chat.agent.server_links import ServerLinks
 from robot_voice_chat.agent.skills import ActiveSkill, SkillLedger
 from robot_voice_chat.agent.step_recovery import StepRecovery
-from robot_voice_chat.agent.supervision_words import lost_motion_server, stop_hint
 from robot_voice_chat.agent.task_registry import (
     TERMINAL_EVENTS,
     TaskHandle,
@@ -29,21 +28,17 @@ from robot_voice_chat.agent.task_registry import (
     format_event,
     parse_task_info,
     progress_detail,
-    running_task_ids,
-    server_restarted_event,
 )
 from robot_voice_chat.agent.trace import TraceRecorder
 from robot_voice_chat.control.context import DispatchContext, dispatching
 from robot_voice_chat.control.latch import SAFETY_STOP_LATCHED
 from robot_voice_chat.control.supervisor import MotionSupervisor
-from robot_voice_chat.robot_words import service_name
 from robot_voice_chat.services.llm.base import HELD_BY_SAFETY_STOP, ToolCall, ToolResult
 from robot_voice_chat.services.tools.base import ToolBackend
 from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 ORPHAN_GRACE_S = 30.0
-MOVING_EVENTS = frozenset({"progress", "trigger_fired"})  # the motion still runs
 
 
 def held_by_stop(run: MissionRun) -> bool:
@@ -97,13 +92,12 @@ class TaskDispatcher:
         self.motion_steps_in_flight: set[str] = set()
         # tasks of missions a previous process life left live (closed at start-up)
         self.interrupted: set[str] = set()
-        self.lost_servers: set[str] = set()  # servers the running mission was told are gone
         self.fallback_notice = FallbackNotice()  # "I'm using the on-board detector", once
         self.latched = latched
         self.supervisor = supervisor
-        self.stopped_orphans: set[tuple[str, str]] = set()  # (server, task) stopped while latched
         # motion steps that lost a link for a moment with the brain alive (agent.lapse)
         self.recovery = StepRecovery(self)
+        self.links = ServerLinks(self)  # losses, reconnects, orphan motion
 
     def spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.create_task(coro)
@@ -177,7 +171,7 @@ class TaskDispatcher:
         if stopped and outcome.is_error and SAFETY_STOP_LATCHED in outcome.text:
             return await self._stopped_in_flight(run, call, step_id)
         if motion and outcome.cut_off:  # its server went away mid-call: the motion may run
-            await self._cut_off(run, call.name.partition(".")[0])
+            await self.links.cut_off(run, call.name.partition(".")[0])
         if not outcome.is_error and (
             notice := self.fallback_notice.sentence_for(call.name, outcome.text)
         ):
@@ -316,7 +310,7 @@ class TaskDispatcher:
             )
             self.early_events.append((time.monotonic(), event))
             if handle is None:
-                self._stop_orphan_if_latched(event)
+                self.links.stop_orphan_if_latched(event)
             return False
         lost = lost_link(event.payload) if event.type == "task_failed" else None
         if lost is not None and self.recovery.recovers(run, handle):
@@ -355,29 +349,6 @@ class TaskDispatcher:
             await self.output.log_line(run, "task_event", text)
             run.post(text)
         return True
-
-    def _stop_orphan_if_latched(self, event: TaskEvent) -> None:
-        """Motion the brain did not start, reported while the software stop is latched: stop
-        it (its cancel_task and the server's stop tool), whoever started it (issue 27)."""
-        cfg = self.tools.servers().get(event.server)
-        key = (event.server, event.task_id)
-        if (
-            cfg is None
-            or not cfg.motion
-            or event.type not in MOVING_EVENTS
-            or not self.latched()
-            or key in self.stopped_orphans
-        ):
-            return
-        self.stopped_orphans.add(key)
-        logger.warning("orphan_motion_stopped", server=event.server, task_id=event.task_id)
-        self.spawn(self.cancel_task(event.server, event.task_id))
-        if cfg.safety_stop_tool:
-            self.spawn(self._stop_tool(f"{event.server}.{cfg.safety_stop_tool}"))
-
-    async def _stop_tool(self, tool: str) -> None:
-        outcome = await self.tools.call_tool(tool, {}, self.config.tool_timeout_s)
-        logger.info("safety_stop_tool_called", tool=tool, is_error=outcome.is_error)
 
     async def _react(self, run: MissionRun, reaction: Reaction, event: TaskEvent) -> None:
         call = reaction.call
@@ -442,86 +413,6 @@ class TaskDispatcher:
             skill_id=skill.skill_id,
             is_error=outcome.is_error,
         )
-
-    async def on_server_lost(self, server: str) -> None:
-        """A server the running mission has live tasks on went away (issue 23 item 4): the
-        steps show it, the person is told and the planner woken. Bound: the backend notices
-        within ``tools.health_interval_s`` + ``tools.connect_timeout_s`` of the loss."""
-        run = self.current_run()
-        if run is None:
-            return
-        handles = self.registry.live(run.mission.id, server=server)
-        if not handles:
-            return
-        self.lost_servers.add(server)
-        ids = ", ".join(h.task_id for h in handles)
-        logger.warning("mission_server_lost", server=server, tasks=ids)
-        for handle in handles:
-            step = run.mission.step(handle.step_id)
-            if step is not None and step.status == "running":
-                step.detail = f"{server} server unreachable: waiting for it to come back"
-        await self.output.emit_plan(run)
-        line = (
-            f"[server {server}] unreachable: tasks {ids} cannot report until it is back "
-            "(if it restarted, its lost tasks come back as SERVER_RESTARTED)"
-        )
-        self.trace.record(run.mission.id, "server_lost", server=server, tasks=ids, text=line)
-        await self.output.log_line(run, "task_event", line)
-        cfg = self.tools.servers().get(server)
-        if cfg is not None and cfg.motion:  # said only once the lease surely ran out
-            said = await lost_motion_server(self.supervisor, server)
-        else:
-            said = (
-                f"I lost contact with my {service_name(server)} and am waiting for it to come "
-                f"back.{stop_hint(self.supervisor)}"
-            )
-        await self.output.say(run, said)
-        run.post(line)
-
-    async def _cut_off(self, run: MissionRun, server: str) -> None:
-        """A motion call whose server went away while it was out: told at once, like a server
-        lost with a running task (the lease decides whether it holds itself stopped)."""
-        if server in self.lost_servers:
-            return
-        self.lost_servers.add(server)
-        logger.warning("motion_call_cut_off", server=server)
-        await self.output.say(run, await lost_motion_server(self.supervisor, server))
-
-    async def reconcile(self, server: str) -> None:
-        """Hook for (re)connects: lost tasks → SERVER_RESTARTED; orphans cancelled when idle."""
-        run = self.current_run()
-        if server in self.lost_servers and run is not None:
-            self.lost_servers.discard(server)
-            line = f"[server {server}] back: reconnected"
-            await self.output.log_line(run, "task_event", line)
-            run.post(line)
-        if not self.tools.has_tool(f"{server}.list_tasks"):
-            return
-        with dispatching(DispatchContext(may_ask=False, caller="the brain's reconciliation")):
-            outcome = await self.tools.call_tool(
-                f"{server}.list_tasks", {"states": ["running"]}, self.config.tool_timeout_s
-            )
-        running = None if outcome.is_error else running_task_ids(outcome.text)
-        if running is None:
-            logger.warning("reconcile_failed", server=server, result=outcome.text[:200])
-            return
-        for handle in self.registry.live(server=server):
-            if handle.task_id not in running:
-                logger.warning("task_lost_on_restart", server=server, task_id=handle.task_id)
-                await self.on_task_event(server_restarted_event(handle))
-        idle = self.current_run() is None
-        for task_id in sorted(running):
-            # an interrupted mission's task is cancelled even while a new mission runs
-            if self.registry.get(task_id) is None and (idle or task_id in self.interrupted):
-                logger.warning(
-                    "orphan_task_cancelled",
-                    server=server,
-                    task_id=task_id,
-                    interrupted=task_id in self.interrupted,
-                )
-                await self.cancel_task(server, task_id)
-                if task_id in self.interrupted and self.is_motion(server):
-                    await self.output.speech.say(stopped_after_restart(server))
 
     def still_running(self, run: MissionRun) -> bool:
         return (

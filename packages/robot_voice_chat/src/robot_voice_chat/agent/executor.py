@@ -549,11 +549,11 @@ class MissionExecutor:
         await self.dispatcher.cancel_task(server, task_id)
 
     async def reconcile(self, server: str) -> None:
-        await self.dispatcher.reconcile(server)
+        await self.dispatcher.links.reconcile(server)
         await self.held_at_start.on_connect(server, idle=self.run is None)
 
     async def on_server_lost(self, server: str) -> None:
-        await self.dispatcher.on_server_lost(server)
+        await self.dispatcher.links.on_server_lost(server)
 
     def is_stop(self, text: str) -> bool:
         return self.bargein.is_stop(text)

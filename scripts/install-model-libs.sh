@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The model libraries of robot_mcp_perception's [sam] and [hf] extras (ultralytics, timm,
-# transformers; locked versions) and torch + torchvision, in the workspace venv: `make test`
+# transformers) and robot_voice_chat's [whisper] extra (faster-whisper; locked versions),
+# and torch + torchvision, in the workspace venv: `make test`
 # runs every model adapter against the real libraries with random-weight checkpoints on the
 # CPU (issue 30). Outside the default sync on purpose (gigabytes no other package needs).
 #
@@ -29,10 +30,16 @@ fi
 started=$SECONDS
 requirements=$(mktemp)
 trap 'rm -f "$requirements"' EXIT
-# The extras' locked pins, less torch/torchvision and the CUDA runtime (they come with torch).
-uv export --frozen --package robot-mcp-perception --extra sam --extra hf --no-hashes \
-  --no-emit-workspace --no-header --no-annotate --format requirements.txt \
-  | grep -v -E '^(torch==|torchvision==|triton|nvidia-|cuda-)' | sed -e 's/ *;.*$//' > "$requirements"
+# The extras' locked pins, less torch/torchvision and the CUDA runtime (they come with torch):
+# perception's [sam] and [hf], and the brain's [whisper] (faster-whisper, ctranslate2,
+# onnxruntime; its real-library test converts a random-weight model with transformers). The
+# environment markers stay: uv leaves out what this platform does not use (pywin32).
+{
+  uv export --frozen --package robot-mcp-perception --extra sam --extra hf --no-hashes \
+    --no-emit-workspace --no-header --no-annotate --format requirements.txt
+  uv export --frozen --package robot-voice-chat --extra whisper --no-hashes \
+    --no-emit-workspace --no-header --no-annotate --format requirements.txt
+} | grep -v -E '^(torch==|torchvision==|triton|nvidia-|cuda-)' | sort -u > "$requirements"
 uv pip install --quiet --python "$venv" --no-deps -r "$requirements"
 # shellcheck disable=SC2086  # the pins are words
 uv pip install --quiet --python "$venv" --index "$index" \
@@ -49,7 +56,7 @@ for name in (
     "ultralytics.models.sam.predict", "ultralytics.models.yolo.world",
     "transformers", "transformers.models.owlv2.image_processing_pil_owlv2",
     "transformers.models.owlv2.image_processing_owlv2", "transformers.models.clip.modeling_clip",
-    "transformers.models.sam3.modeling_sam3",
+    "transformers.models.sam3.modeling_sam3", "faster_whisper", "ctranslate2.converters",
 ):
     importlib.import_module(name)
 transformers = importlib.import_module("transformers")

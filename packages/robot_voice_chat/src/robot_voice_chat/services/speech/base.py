@@ -135,3 +135,21 @@ class SpeechInput(abc.ABC):
 
     async def aclose(self) -> None:  # noqa: B027 - optional hook
         """Release clients and models."""
+
+
+class HearingSpeechInput(SpeechInput):
+    """An engine that scores what it hears: ``transcribe`` is its hearing's usable text (an
+    audio body it cannot decode is a :class:`TranscriptionError`)."""
+
+    async def transcribe(self, audio: bytes, mime_type: str) -> str:
+        from robot_voice_chat.services.speech.audio import AudioFormatError, decode
+
+        try:
+            utterance = decode(audio, mime_type)
+        except AudioFormatError as exc:
+            raise TranscriptionError(str(exc)) from exc
+        heard = await self.hear(utterance)
+        return heard.text if heard.usable else ""
+
+    @abc.abstractmethod
+    async def hear(self, utterance: Utterance) -> Heard: ...

@@ -11,7 +11,13 @@ from dataclasses import replace
 import structlog
 
 from robot_voice_chat.services.speech.audio import Utterance
-from robot_voice_chat.services.speech.base import Heard, Outage, SpeechInput, TranscriptionError
+from robot_voice_chat.services.speech.base import (
+    Heard,
+    HearingSpeechInput,
+    Outage,
+    SpeechInput,
+    TranscriptionError,
+)
 
 logger = structlog.get_logger(__name__)
 
@@ -24,7 +30,7 @@ OUTAGE_WORDS: dict[Outage, str] = {
 }
 
 
-class SpeechChain(SpeechInput):
+class SpeechChain(HearingSpeechInput):
     """``providers`` in order of preference; unconfigured ones (no key) are skipped."""
 
     def __init__(self, providers: Iterable[SpeechInput]) -> None:
@@ -46,16 +52,6 @@ class SpeechChain(SpeechInput):
     @property
     def outage(self) -> tuple[str, Outage] | None:
         return self._outage
-
-    async def transcribe(self, audio: bytes, mime_type: str) -> str:
-        from robot_voice_chat.services.speech.audio import AudioFormatError, decode
-
-        try:
-            utterance = decode(audio, mime_type)
-        except AudioFormatError as exc:
-            raise TranscriptionError(str(exc)) from exc
-        heard = await self.hear(utterance)
-        return heard.text if heard.usable else ""
 
     def update_vocabulary(
         self, places: Iterable[Iterable[str]], objects: Iterable[str] = (), wake: str = ""

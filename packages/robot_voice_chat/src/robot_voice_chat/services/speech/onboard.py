@@ -43,9 +43,8 @@ import structlog
 from robot_voice_chat.services.speech.audio import RATE, Utterance
 from robot_voice_chat.services.speech.base import (
     Heard,
+    HearingSpeechInput,
     Rejection,
-    SpeechInput,
-    TranscriptionError,
 )
 from robot_voice_chat.services.speech.vocabulary import (
     DEFAULT_OBJECTS,
@@ -88,7 +87,7 @@ def _span(value: float, span: tuple[float, float]) -> float:
     return float(min(1.0, max(0.0, (value - low) / (high - low))))
 
 
-class PocketsphinxSpeechInput(SpeechInput):
+class PocketsphinxSpeechInput(HearingSpeechInput):
     """``speech_input: onboard`` — see the module docstring."""
 
     name = "on-board recognizer (pocketsphinx)"
@@ -209,16 +208,6 @@ class PocketsphinxSpeechInput(SpeechInput):
         return lookup(british) if british else None
 
     # --- hearing -----------------------------------------------------------------------------
-    async def transcribe(self, audio: bytes, mime_type: str) -> str:
-        from robot_voice_chat.services.speech.audio import AudioFormatError, decode
-
-        try:
-            utterance = decode(audio, mime_type)
-        except AudioFormatError as exc:
-            raise TranscriptionError(str(exc)) from exc
-        heard = await self.hear(utterance)
-        return heard.text if heard.usable else ""
-
     async def hear(self, utterance: Utterance) -> Heard:
         return await asyncio.to_thread(self.hear_pcm, utterance.pcm)
 

@@ -2,8 +2,9 @@
 
 Built from the live state: places (names, aliases and the description's own name, from
 ``navigation.list_locations``), object labels (site configuration plus every label episodic
-memory has a sighting of, ``episodic.known_labels``), and the understanding layer's intents (``intents.yaml``: each intent's verbs
-before a place or an object, its example sentences as they are). The grammar covers what the
+memory has a sighting of, ``episodic.known_labels``), and the understanding layer's intents
+(``intents.yaml``: each intent's verbs before a place or an object, its example sentences as
+they are). The grammar covers what the
 typed path understands: sequences ("X and then Y"), fetch / bring / put, find / look / what do
 you see, where questions, stop / continue / abort / never mind, negation and correction ("don't
 go to X", "X no wait Y"), and yes/no answers.

@@ -38,8 +38,8 @@ import structlog
 from robot_voice_chat.services.speech.audio import RATE, Utterance
 from robot_voice_chat.services.speech.base import (
     Heard,
+    HearingSpeechInput,
     Rejection,
-    SpeechInput,
     TranscriptionError,
 )
 from robot_voice_chat.services.speech.onboard import MIN_PEAK
@@ -95,7 +95,7 @@ def missing_model_files(folder: Path) -> str | None:
     )
 
 
-class FasterWhisperSpeechInput(SpeechInput):
+class FasterWhisperSpeechInput(HearingSpeechInput):
     """``speech_input: whisper`` — see the module docstring."""
 
     name = "on-board transcription (faster-whisper)"
@@ -191,16 +191,6 @@ class FasterWhisperSpeechInput(SpeechInput):
         hotwords = ", ".join([*vocabulary.place_phrases(), *vocabulary.objects])
         changed, self._hotwords = hotwords != self._hotwords, hotwords
         return changed
-
-    async def transcribe(self, audio: bytes, mime_type: str) -> str:
-        from robot_voice_chat.services.speech.audio import AudioFormatError, decode
-
-        try:
-            utterance = decode(audio, mime_type)
-        except AudioFormatError as exc:
-            raise TranscriptionError(str(exc)) from exc
-        heard = await self.hear(utterance)
-        return heard.text if heard.usable else ""
 
     async def hear(self, utterance: Utterance) -> Heard:
         return await asyncio.to_thread(self.hear_pcm, utterance.pcm)

@@ -16,11 +16,8 @@ from collections.abc import Collection
 from dataclasses import dataclass, replace
 
 from robot_language import saying
-from robot_language.mentions import (
-    Mention,
-    object_mentions,
-    place_mentions,
-)
+from robot_language.config_file import patterns
+from robot_language.mentions import Mention, object_mentions, place_mentions
 from robot_language.places import PlaceIndex, words
 from robot_language.reading import Action, Question, Reading
 from robot_language.saying import CUT_OFF
@@ -35,6 +32,9 @@ _HANDS_OFF = re.compile(
 _WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
 _OFFER = "Do you want me to"
+_Q = patterns("qualifiers", "not_now", "later", "exception", "choice", "many")
+_CANNOT = (("later", "I can't do things at a later time yet."),
+           ("exception", "I can't check that before I start."))  # fmt: skip
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -62,6 +62,7 @@ def check(
         return reading
     found = (
         _hands_off(text, reading.actions, places)
+        or _qualified(text, reading.actions, places)
         or _unsound(reading.actions, places)
         or _cut_off(text, reading.actions, places)
         or _dropped(text, reading.actions, places, ruled_out, objects)
@@ -118,6 +119,23 @@ def _hands_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _
     thing = saying.thing(said.strip()) if said.strip() else saying.thing(handled[0].obj)
     keep = [a for a in actions if a not in handled]
     return _Found(f"You said to leave {thing} alone, so I won't move it.", keep)
+
+
+def _qualified(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
+    """The sentence says when, unless, or which of several — what the robot cannot honour: it
+    does things now, tests no condition first and carries one thing it was told of."""
+    if _Q["not_now"].search(text):
+        return _Found(
+            f"OK, not now. Tell me when you want me to {saying.plan(actions, places)}.", []
+        )
+    for name, why in _CANNOT:
+        if match := _Q[name].search(text):
+            return _Found(f"You said {match[0].strip()!r}, and {why}", actions)
+    for obj in (a.obj for a in actions if a.kind in _HANDLING and a.obj):
+        if _Q["choice"].search(obj) or _Q["many"].search(obj):
+            why = f"I carry one thing at a time and won't choose for you: you said {obj!r}."
+            return _Found(f"{why} Tell me the one thing to take.", [])
+    return None
 
 
 def _unsound(actions: list[Action], places: PlaceIndex | None) -> _Found | None:

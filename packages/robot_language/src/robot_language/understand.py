@@ -30,18 +30,8 @@ from robot_language.intents import load_intents
 from robot_language.normalise import normalise
 from robot_language.places import PlaceIndex, PlaceMatch, could_name_a_place
 from robot_language.questions import read_question
-from robot_language.reading import (
-    Action,
-    ActionKind,
-    Question,
-    Reading,
-    _with,
-)
-from robot_language.recall import (
-    default_recall,
-    looks_like_recall,
-    read_recall,
-)
+from robot_language.reading import Action, ActionKind, Question, Reading, _with
+from robot_language.recall import default_recall, looks_like_recall, read_recall
 from robot_language.roles import DEFAULT_ROLES, read_roles, role_words, said_plainly
 
 logger = structlog.get_logger(__name__)

@@ -170,6 +170,46 @@ def test_a_reading_that_uses_everything_said_still_acts(
     assert understanding.understand(text, places).code() == code
 
 
+@pytest.mark.parametrize(
+    ("text", "heard"),
+    [
+        ("go to the kitchen in five minutes", "in 5 minutes"),  # was goto:kitchen at once
+        ("bring the mug from the kitchen to reception at 3 pm", "at 3 pm"),
+        ("head to the mailroom tomorrow", "tomorrow"),
+        ("go to the kitchen unless Bob is there", "unless bob is there"),  # was goto:kitchen
+    ],
+)
+def test_a_time_or_a_condition_it_cannot_honour_is_said_back_not_dropped(
+    understanding: Understanding, places: PlaceIndex, text: str, heard: str
+) -> None:
+    reading = understanding.understand(text, places)
+    said = _not_acted(reading)
+    assert reading.kind == "ask"  # "Do you want me to just …?": a yes does it now, knowingly
+    assert repr(heard) in said
+
+
+def test_not_now_is_not_now(understanding: Understanding, places: PlaceIndex) -> None:
+    reading = understanding.understand("go to the kitchen but not now", places)
+    said = _not_acted(reading)  # was goto:kitchen
+    assert reading.kind == "refuse"
+    assert said.startswith("OK, not now.")
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "fetch the mug or the bottle from the kitchen",  # was fetch:"mug or the bottle"
+        "bring everything from the mailroom to reception",  # was fetch:"everything"
+        "fetch two mugs from the kitchen",
+    ],
+)
+def test_it_never_chooses_among_things_to_carry(
+    understanding: Understanding, places: PlaceIndex, text: str
+) -> None:
+    reading = understanding.understand(text, places)
+    assert "one thing at a time" in _not_acted(reading)
+
+
 def test_the_arm_acts_too_in_the_scoring() -> None:
     assert acts(["put:box@kitchen"])
     assert acts(["pick:mug"])

@@ -32,9 +32,10 @@ _HANDS_OFF = re.compile(
 _WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
 _OFFER = "Do you want me to"
-_Q = patterns("qualifiers", "not_now", "later", "exception", "choice", "many")
-_CANNOT = (("later", "I can't do things at a later time yet."),
-           ("exception", "I can't check that before I start."))  # fmt: skip
+_Q = patterns("qualifiers", "not_now", "later", "exception", "condition", "choice", "many", "back")
+_FIRST = "I can't check that before I start."
+_CANNOT = (("later", "I can't do things at a later time yet."), ("exception", _FIRST),
+           ("condition", _FIRST))  # fmt: skip
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -62,10 +63,10 @@ def check(
         return reading
     found = (
         _hands_off(text, reading.actions, places)
-        or _qualified(text, reading.actions, places)
         or _unsound(reading.actions, places)
         or _cut_off(text, reading.actions, places)
         or _dropped(text, reading.actions, places, ruled_out, objects)
+        or _qualified(text, reading.actions, places)
     )
     if found is None:
         return reading
@@ -125,13 +126,14 @@ def _qualified(text: str, actions: list[Action], places: PlaceIndex | None) -> _
     """The sentence says when, unless, or which of several — what the robot cannot honour: it
     does things now, tests no condition first and carries one thing it was told of."""
     if _Q["not_now"].search(text):
-        return _Found(
-            f"OK, not now. Tell me when you want me to {saying.plan(actions, places)}.", []
-        )
+        return _Found(f"OK, not now. Tell me when to {saying.plan(actions, places)}.", [])
+    moving_only = all(a.kind in ("goto", "find") for a in actions)
     for name, why in _CANNOT:
-        if match := _Q[name].search(text):
+        if (match := _Q[name].search(text)) and (name != "condition" or moving_only):
             return _Found(f"You said {match[0].strip()!r}, and {why}", actions)
     for obj in (a.obj for a in actions if a.kind in _HANDLING and a.obj):
+        if _Q["back"].search(obj):
+            return _Found("I won't guess where to put it back: tell me the place.", [])
         if _Q["choice"].search(obj) or _Q["many"].search(obj):
             why = f"I carry one thing at a time and won't choose for you: you said {obj!r}."
             return _Found(f"{why} Tell me the one thing to take.", [])

@@ -28,8 +28,8 @@ _VERB = (
 )
 _DONT = re.compile(
     r"^(?:please |you )?(?:don't|do not|never|no need to|you don't need to|you shouldn't|"
-    r"shouldn't|mustn't|must not|skip(?! to\b)|avoid|stay away from|"
-    r"keep away from)\s+(?P<neg>.+?)"
+    r"shouldn't|mustn't|must not|skip(?! to\b)|avoid|stay away from|stay out of|"
+    r"keep away from|keep out of)\s+(?P<neg>.+?)"
     rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
     r"(?P<rest>.*)$"
 )

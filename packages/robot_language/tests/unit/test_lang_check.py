@@ -177,6 +177,7 @@ def test_a_reading_that_uses_everything_said_still_acts(
         ("bring the mug from the kitchen to reception at 3 pm", "at 3 pm"),
         ("head to the mailroom tomorrow", "tomorrow"),
         ("go to the kitchen unless Bob is there", "unless bob is there"),  # was goto:kitchen
+        ("go to the kitchen if the corridor is clear", "if the corridor is clear"),  # ditto
     ],
 )
 def test_a_time_or_a_condition_it_cannot_honour_is_said_back_not_dropped(
@@ -208,6 +209,24 @@ def test_it_never_chooses_among_things_to_carry(
 ) -> None:
     reading = understanding.understand(text, places)
     assert "one thing at a time" in _not_acted(reading)
+
+
+@pytest.mark.parametrize("text", ["put the mug back", "put it back where you found it"])
+def test_back_is_a_place_it_does_not_guess(
+    understanding: Understanding, places: PlaceIndex, text: str
+) -> None:
+    reading = understanding.understand(text, places)  # was put:"mug back": down right here
+    assert "put it back" in _not_acted(reading)
+
+
+def test_a_request_that_only_keeps_it_out_of_a_place_moves_nothing(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    reading = understanding.understand("stay out of the kitchen", places)
+    assert reading.code() == ["cancel"]  # was "Do you want me to go to the kitchen?"
+    assert understanding.understand(
+        "keep out of the kitchen and go to the mailroom", places
+    ).code() == ["goto:mailroom"]
 
 
 def test_the_arm_acts_too_in_the_scoring() -> None:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 from robot_language import saying
 from robot_language.config_file import patterns
-from robot_language.mentions import Mention, object_mentions, place_mentions
+from robot_language.mentions import object_mentions, place_mentions
 from robot_language.places import PlaceIndex, words
 from robot_language.reading import Action, Question, Reading
 from robot_language.saying import CUT_OFF
@@ -32,10 +32,10 @@ _HANDS_OFF = re.compile(
 _WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
 _OFFER = "Do you want me to"
-_Q = patterns("qualifiers", "not_now", "later", "exception", "condition", "choice", "many", "back")
-_FIRST = "I can't check that before I start."
-_CANNOT = (("later", "I can't do things at a later time yet."), ("exception", _FIRST),
-           ("condition", _FIRST))  # fmt: skip
+_Q = patterns("qualifiers", "not_now", "later", "exception", "condition", "choice", "many", "back",
+             "slot_in_thing")  # fmt: skip
+_FIRST, _LATER = "I can't check that before I start.", "I can't do things at a later time yet."
+_CANNOT = (("later", _LATER), ("exception", _FIRST), ("condition", _FIRST))
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -154,6 +154,8 @@ def _unsound(actions: list[Action], places: PlaceIndex | None) -> _Found | None:
             )
         if obj and obj.split()[-1] in CUT_OFF:
             return _Found(f"I didn't catch the end of {obj!r}.", [])
+        if action.kind in _HANDLING and _Q["slot_in_thing"].search(obj):
+            return _Found(f"I won't guess: I heard {obj!r} as one thing. Who is it for?", [])
         for slot in (action.place, action.to):
             if slot and not _a_place(slot, places):
                 return _Found(f"I don't know {slot!r} as a place.", [])
@@ -187,18 +189,14 @@ def _dropped(
     """Known places and objects the sentence names that the reading does not use."""
     used = {p for a in actions for p in (a.place, a.to) if p} | set(ruled_out)
     left = [m for m in place_mentions(text, places) if m.name not in used]
-    said_objects = " ".join(a.obj or "" for a in actions)
-    left += [m for m in object_mentions(text, objects) if not _in(m, said_objects)]
+    said_objects = set(words(" ".join(a.obj or "" for a in actions)))
+    left += [m for m in object_mentions(text, objects) if not set(m.said.split()) <= said_objects]
     if not left:
         return None
     said = [saying.thing(m.name) if m.label else saying.place_of(m.name, places) for m in left]
     names = list(dict.fromkeys(said))
     listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
     return _Found(f"You also said {listed}, and I didn't follow what to do with that.", actions)
-
-
-def _in(mention: Mention, said: str) -> bool:
-    return set(mention.said.split()) <= set(words(said))
 
 
 def _reply(found: _Found, reading: Reading, places: PlaceIndex | None) -> Reading:

@@ -229,6 +229,19 @@ def test_a_request_that_only_keeps_it_out_of_a_place_moves_nothing(
     ).code() == ["goto:mailroom"]
 
 
+def test_a_person_before_the_thing_is_where_it_goes_and_a_stranger_is_asked_about(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    said = understanding.understand("bring Alice the mug from the kitchen", places)
+    assert said.code() == ["fetch:mug@kitchen>desk_alice"]  # was a thing called "alice the mug"
+    assert understanding.understand("take Bob the stapler from reception", places).code() == [
+        "fetch:stapler@reception>desk_bob"
+    ]
+    for text in ("take Carol the mug from the kitchen", "bring the mug to Carol from the kitchen"):
+        reading = understanding.understand(text, places)  # was fetch:"mug to carol"@kitchen
+        assert "'mug to carol' as one thing" in _not_acted(reading)
+
+
 def test_the_arm_acts_too_in_the_scoring() -> None:
     assert acts(["put:box@kitchen"])
     assert acts(["pick:mug"])

@@ -56,6 +56,13 @@ REQUESTS = [
     ("zip over to reception", "goto:reception"),
     ("off you go to the kitchen", "goto:kitchen"),
     ("off you pop to the mailroom", "goto:mailroom"),
+    # the errand after "go": was a drive alone (the search dropped) or a question
+    ("go look for the laptop in the meeting room", "find:laptop@meeting_room"),
+    ("go and look for the mug in the kitchen", "find:mug@kitchen"),
+    ("can you go and get the mug from the kitchen", "fetch:mug@kitchen"),
+    ("head over and check reception for the mug", "find:mug@reception"),
+    # "let go of it" hands it over: it was read as "let's go" (carry on a paused mission)
+    ("ok let go of it now", "release"),
     ("the kitchen could do with a check for the red mug", "find:red mug@kitchen"),
     ("reception could do with a look for the blue folder", "find:blue folder@reception"),
     ("would it be possible for you to go to the dock", "goto:dock"),

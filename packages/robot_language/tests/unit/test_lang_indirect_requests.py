@@ -61,6 +61,9 @@ REQUESTS = [
     ("go and look for the mug in the kitchen", "find:mug@kitchen"),
     ("can you go and get the mug from the kitchen", "fetch:mug@kitchen"),
     ("head over and check reception for the mug", "find:mug@reception"),
+    # a thing "on" a place (issue 36's own example; refused since the CHECK stage)
+    ("find the scissors on bob's desk", "find:scissors@desk_bob"),
+    ("look for the mug on the kitchen counter", "find:mug@kitchen"),
     # "let go of it" hands it over: it was read as "let's go" (carry on a paused mission)
     ("ok let go of it now", "release"),
     ("the kitchen could do with a check for the red mug", "find:red mug@kitchen"),

@@ -55,10 +55,14 @@ def test_a_carrying_request_is_not_read_as_a_drive_to_its_source(
 def test_an_object_never_holds_a_known_place(
     understanding: Understanding, places: PlaceIndex
 ) -> None:
-    reading = understanding.understand("find the stapler beside reception", places)
-    said = _not_acted(reading)  # was find:"stapler beside reception"
-    assert "stapler beside reception" in said
+    reading = understanding.understand("find the stapler behind reception", places)
+    said = _not_acted(reading)  # was find:"stapler behind reception"
+    assert "stapler behind reception" in said
     assert "the reception desk" in said
+    # "beside" names where to look, like "in", "at" and "on"
+    assert understanding.understand("find the stapler beside reception", places).code() == [
+        "find:stapler@reception"
+    ]
 
 
 def test_a_leg_said_after_the_verb_is_not_dropped(

@@ -1,13 +1,10 @@
 """The CHECK stage (issue 38, "nothing said is dropped"): the last look at a reading the robot
-would act on. Every known place and object the sentence names must be used by the reading (as
-its object, source, destination or a leg) or ruled out by the person; an object is a thing, not
-a thing and a place together nor a phrase cut off at a preposition; a place is a place on the
-map, never a piece of sentence; a sentence that stops at "... to" or "... and" is not finished;
-a thing the person said to leave alone is never handled.
-
-When the check fails the robot does not act: it asks one question saying what it understood
-and what it did not follow, or says what it will not do. It never narrows the request on a
-guess."""
+would act on. Every known place and object the sentence names is used by the reading or ruled
+out; an object is one thing (not a place, a choice, a cut-off phrase); a place is on the map; a
+sentence that stops at "... to" is not finished; a thing to leave alone is never handled; a
+time, a condition or "not now" it cannot honour is said back. When the check fails the robot
+asks one question saying what it understood and what it did not follow, or says what it will
+not do. It never narrows the request on a guess."""
 
 from __future__ import annotations
 
@@ -96,9 +93,8 @@ def _said_back_whole(
 
 
 def check_answer(reading: Reading, places: PlaceIndex | None) -> Reading:
-    """The reading an answer to a question completed: its slots are checked again (the answer
-    "the kitchen" to "Where should I get the mug to Bob's desk from?" does not make a thing of
-    "mug to Bob's desk")."""
+    """The reading an answer to a question completed, its slots checked again (the answer "the
+    kitchen" to "Where should I get the mug to Bob's desk from?": no thing "mug to Bob's desk")."""
     if reading.kind != "act" or not reading.actions:
         return reading
     found = _unsound(reading.actions, places)

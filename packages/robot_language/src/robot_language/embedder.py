@@ -50,11 +50,8 @@ class WordLlamaEmbedder(Embedder):
             )
         except Exception as exc:
             raise EmbedderUnavailable(f"can't load the wordllama weights: {exc}") from exc
-        logger.debug(
-            "understanding_model_loaded",
-            model=self.name,
-            duration_ms=round((time.monotonic() - started) * 1000, 1),
-        )
+        duration_ms = round((time.monotonic() - started) * 1000, 1)
+        logger.debug("understanding_model_loaded", model=self.name, duration_ms=duration_ms)
 
     def embed(self, texts: list[str]) -> Vectors:
         vectors = self._model.embed(texts, norm=True)

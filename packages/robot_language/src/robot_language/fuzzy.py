@@ -1,9 +1,9 @@
-"""Fuzzy matching of the words people say against the words of the live places (rapidfuzz, MIT):
-one small wrapper so the scorer and its thresholds live in one place."""
+"""Fuzzy matching of what people say against the live places and the things they ask for
+(rapidfuzz, MIT): one small wrapper, so the scorer and its thresholds live in one place."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass
 
 from rapidfuzz import fuzz, process
@@ -36,3 +36,9 @@ def clear(found: list[Near]) -> bool:
     if not found or found[0].score < SURE:
         return False
     return len(found) == 1 or found[0].score - found[1].score >= MARGIN
+
+
+def respelt(phrase: str, things: Collection[str]) -> str:
+    """``phrase`` with each word that is clearly a misspelt thing ("scisors") spelt as it."""
+    return " ".join(w if w in things or not clear(n := nearest(w, things, SURE)) else n[0].text
+                    for w in phrase.split())  # fmt: skip

@@ -13,7 +13,7 @@ from typing import Literal
 import structlog
 
 from robot_language import clauses as cl
-from robot_language import composites, guards, negation, phrasing, saying
+from robot_language import composites, fuzzy, guards, negation, phrasing, saying
 from robot_language.check import check, check_answer
 from robot_language.commands import parse
 from robot_language.composing import (
@@ -24,6 +24,7 @@ from robot_language.composing import (
     unclear,
     unknown_place,
 )
+from robot_language.config_file import word_lists
 from robot_language.embedder import Embedder, default_embedder
 from robot_language.followup import follow_up
 from robot_language.intents import load_intents
@@ -73,6 +74,9 @@ class Understanding:
         self._labels = [n for n, i in self.intents.intents.items() for _ in i.examples]
         examples = [e for i in self.intents.intents.values() for e in i.examples]
         self._examples = self.embedder.embed([normalise(e, spoken=False) for e in examples])
+        self._things = frozenset(
+            word_lists("words", "things")["things"] | set(self.intents.objects)
+        )
 
     @property
     def name(self) -> str:
@@ -86,16 +90,15 @@ class Understanding:
         started = time.monotonic()
         heard = normalise(text, places.owners() if places is not None else ())
         reading, ruled_out = self._understand(heard, places)
+        spelt = [replace(a, obj=fuzzy.respelt(a.obj, self._things)) if a.obj else a
+                 for a in reading.actions]  # fmt: skip
         # the CHECK stage: the one point every reading passes before anything acts on it
-        reading = check(heard, reading, places, ruled_out, self.intents.objects)
-        logger.debug(
-            "understanding_read",
-            reading=reading.code(),
-            intent=reading.intent,
-            stage=reading.stage,
-            score=round(reading.score, 3),
-            duration_ms=round((time.monotonic() - started) * 1000, 2),
+        reading = check(
+            heard, replace(reading, actions=spelt), places, ruled_out, self.intents.objects
         )
+        logger.debug("understanding_read", reading=reading.code(), intent=reading.intent,
+                     stage=reading.stage, score=round(reading.score, 3),
+                     duration_ms=round((time.monotonic() - started) * 1000, 2))  # fmt: skip
         return reading
 
     def _understand(self, text: str, places: PlaceIndex | None) -> tuple[Reading, set[str]]:

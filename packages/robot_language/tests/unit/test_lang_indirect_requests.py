@@ -64,6 +64,9 @@ REQUESTS = [
     # a thing "on" a place (issue 36's own example; refused since the CHECK stage)
     ("find the scissors on bob's desk", "find:scissors@desk_bob"),
     ("look for the mug on the kitchen counter", "find:mug@kitchen"),
+    # a thing's name misspelt, when it is clearly one thing people ask for (words.yaml `things`)
+    ("fetch the stappler from the kitchen", "fetch:stapler@kitchen"),
+    ("look for the umbrela in the kitchen", "find:umbrella@kitchen"),
     # "let go of it" hands it over: it was read as "let's go" (carry on a paused mission)
     ("ok let go of it now", "release"),
     ("the kitchen could do with a check for the red mug", "find:red mug@kitchen"),

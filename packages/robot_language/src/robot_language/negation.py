@@ -27,9 +27,9 @@ _VERB = (
     r"check|bring|fetch|get|take|grab|carry|deliver|watch|patrol|swing|pop)"
 )
 _DONT = re.compile(
-    r"^(?:please |you )?(?:don't|do not|never|no need to|you don't need to|you shouldn't|"
-    r"shouldn't|mustn't|must not|skip(?! to\b)|avoid|stay away from|stay out of|"
-    r"keep away from|keep out of)\s+(?P<neg>.+?)"
+    r"^(?:please |you |there's |there is )?(?:don't|do not|never|no need to|needn't|need not|"
+    r"shouldn't|mustn't|must not|skip(?! to\b)|avoid|stay away from|stay out of|keep away from|"
+    r"keep out of)\s+(?:(?:have|need|got) to\s+|bother (?:to\s+)?)?(?P<neg>.+?)"
     rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
     r"(?P<rest>.*)$"
 )

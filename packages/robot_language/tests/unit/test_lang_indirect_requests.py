@@ -67,6 +67,10 @@ REQUESTS = [
     # a thing's name misspelt, when it is clearly one thing people ask for (words.yaml `things`)
     ("fetch the stappler from the kitchen", "fetch:stapler@kitchen"),
     ("look for the umbrela in the kitchen", "find:umbrella@kitchen"),
+    # said alone, a word for waiting stops the robot ("hold on" was what it holds)
+    ("hold on", "stop"),
+    ("wait", "stop"),
+    ("hang on", "stop"),
     # "let go of it" hands it over: it was read as "let's go" (carry on a paused mission)
     ("ok let go of it now", "release"),
     ("the kitchen could do with a check for the red mug", "find:red mug@kitchen"),
@@ -92,6 +96,11 @@ NEGATED = [
     "would you mind not going to the kitchen",
     "i reckon you shouldn't go to the dock",
     "i think you should not head to the mailroom",
+    # each was a drive to the place it says not to go to
+    "you don't have to go to the kitchen",
+    "could you possibly not go to the kitchen",
+    "you needn't go to the dock",
+    "there's no need to go to the mailroom",
 ]
 NOT_REQUESTS = [
     *NEGATED,

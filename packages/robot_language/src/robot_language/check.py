@@ -29,10 +29,10 @@ _HANDS_OFF = re.compile(
 _WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
 _OFFER = "Do you want me to"
-_Q = patterns("qualifiers", "not_now", "later", "exception", "condition", "choice", "many", "back",
-             "slot_in_thing")  # fmt: skip
-_FIRST, _LATER = "I can't check that before I start.", "I can't do things at a later time yet."
-_CANNOT = (("later", _LATER), ("exception", _FIRST), ("condition", _FIRST))
+_FIRST = "I can't check that before I start."
+_CANNOT = {"later": "I can't do things at a later time yet.", "exception": _FIRST,
+           "condition": _FIRST, "route": "I can't choose my way around a place yet."}  # fmt: skip
+_Q = patterns("qualifiers", "not_now", "choice", "many", "back", "slot_in_thing", *_CANNOT)
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -124,9 +124,9 @@ def _qualified(text: str, actions: list[Action], places: PlaceIndex | None) -> _
     if _Q["not_now"].search(text):
         return _Found(f"OK, not now. Tell me when to {saying.plan(actions, places)}.", [])
     moving_only = all(a.kind in ("goto", "find") for a in actions)
-    for name, why in _CANNOT:
+    for name, why in _CANNOT.items():
         if (match := _Q[name].search(text)) and (name != "condition" or moving_only):
-            return _Found(f"You said {match[0].strip()!r}, and {why}", actions)
+            return _Found(f"You said {match[0].strip(' ,')!r}, and {why}", actions)
     for obj in (a.obj for a in actions if a.kind in _HANDLING and a.obj):
         if _Q["back"].search(obj):
             return _Found("I won't guess where to put it back: tell me the place.", [])

@@ -182,6 +182,14 @@ def test_a_reading_that_uses_everything_said_still_acts(
         ("head to the mailroom tomorrow", "tomorrow"),
         ("go to the kitchen unless Bob is there", "unless bob is there"),  # was goto:kitchen
         ("go to the kitchen if the corridor is clear", "if the corridor is clear"),  # ditto
+        # a way around a place it cannot choose: "go to the mailroom, avoid the kitchen" offered
+        # "go to the mailroom, then go to the kitchen?"
+        ("go to the mailroom, avoid the kitchen", "avoid the kitchen"),
+        ("avoid the kitchen on your way to the mailroom", "avoid the kitchen on your way"),
+        (
+            "go to the mailroom without going through the kitchen",
+            "without going through the kitchen",
+        ),
     ],
 )
 def test_a_time_or_a_condition_it_cannot_honour_is_said_back_not_dropped(

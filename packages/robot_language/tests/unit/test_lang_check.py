@@ -166,6 +166,8 @@ def test_a_known_object_named_is_not_dropped(tmp_path: Path) -> None:
         ),
         ("patrol between the kitchen and the mailroom", ["goto:kitchen", "goto:mailroom"]),
         ("go home", ["goto:dock"]),
+        ("could you check the kitchen", ["goto:kitchen", "see"]),  # was "I didn't understand"
+        ("carry on to the mailroom", ["goto:mailroom"]),  # was a carry of "on to the mailroom"
     ],
 )
 def test_a_reading_that_uses_everything_said_still_acts(

@@ -168,6 +168,11 @@ def test_a_known_object_named_is_not_dropped(tmp_path: Path) -> None:
         ("go home", ["goto:dock"]),
         ("could you check the kitchen", ["goto:kitchen", "see"]),  # was "I didn't understand"
         ("carry on to the mailroom", ["goto:mailroom"]),  # was a carry of "on to the mailroom"
+        ("get to reception", ["goto:reception"]),  # was "Where should I get the to reception from?"
+        (
+            "pick the bottle up from the kitchen",
+            ["fetch:bottle@kitchen"],
+        ),  # was "go to the kitchen?"
     ],
 )
 def test_a_reading_that_uses_everything_said_still_acts(

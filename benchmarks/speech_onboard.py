@@ -11,7 +11,7 @@ does), ``asked`` (read back "Did you say: …?"; ``asked_right`` when the read-b
 meant), ``rejected`` ("I didn't catch that"), ``other`` (heard and not acted on: the
 understanding layer asked or refused), ``wrong`` (acted on at once with a motion the typed
 sentence does not ask for — must be 0). Also: transcription latency p50/p99 per utterance,
-model load time, grammar build time.
+model load time, grammar build time, and ``exact``: transcripts that are the words said.
 
 The set: ``speech_onboard_set.yaml``, written before any tuning, in two splits — ``tuning``
 (every third sentence of the understanding layer's ``set_a.yaml``, the first 16: helper V's
@@ -41,7 +41,7 @@ from robot_language.scoring import (
 from robot_language.understand import Understanding
 from robot_voice_chat.services.speech.onboard import PocketsphinxSpeechInput
 from robot_voice_chat.services.speech.synth import say, with_noise
-from robot_voice_chat.services.speech.vocabulary import places_from_listing
+from robot_voice_chat.services.speech.vocabulary import places_from_listing, words_of
 
 SET = Path(__file__).parent / "speech_onboard_set.yaml"
 RESULTS = Path(__file__).parent / "results" / "speech_onboard.json"
@@ -82,6 +82,7 @@ def main() -> None:
     all_latencies: list[float] = []
     for split in args.split.split(","):
         counts = dict.fromkeys(OUTCOMES, 0)
+        exact = 0  # transcripts that are what was said (words, case and punctuation aside)
         latencies: list[float] = []
         for text, expected in spoken_set(split)[: args.limit or None]:
             for voice in voices:
@@ -93,6 +94,7 @@ def main() -> None:
                     heard = recognizer.hear_pcm(pcm)
                     latencies.append(time.monotonic() - t0)
                     said = heard.text
+                    exact += words_of(said) == words_of(text)
                     reading = understanding.understand(said, places).code() if said else []
                     right = reading == expected
                     if not heard.usable:
@@ -128,6 +130,7 @@ def main() -> None:
         all_latencies += latencies
         splits[split] = {
             "utterances": total,
+            "exact": exact,
             **counts,
             "done_pct": round(100 * counts["done"] / max(total, 1), 1),
             "latency_ms_p50": round(1000 * statistics.median(latencies), 1),

@@ -110,6 +110,7 @@ class VisionNode(Node):
         )
         self.latencies_ms: deque[float] = deque(maxlen=512)
         self._started = time.monotonic()
+        self._closing = False  # set first in shutdown(): no publishing from then on
         self._stats_pub = self.create_publisher(
             StampedString, f"{self.namespace}/stats", DIAGNOSTICS_QOS
         )
@@ -242,9 +243,11 @@ class VisionNode(Node):
     def publish(
         self, state: SkillState, frame: Frame, result: SkillResult, provenance: Provenance
     ) -> None:
-        """ResultSink: called by the engine with its lock held."""
+        """ResultSink: called by the engine with its lock held. Nothing is published once the
+        node is closing or its ROS context is gone (a signal shuts the context before
+        ``shutdown`` cancels the model runs, whose failure would republish a stale result)."""
         publishers = state.publishers
-        if not isinstance(publishers, SkillPublishers):
+        if not isinstance(publishers, SkillPublishers) or self._closing or not self.context.ok():
             return
         render: Any = None
         if not provenance.stale:
@@ -327,6 +330,7 @@ class VisionNode(Node):
 
     def shutdown(self) -> None:
         """Stop the frame source, the model loop and the artifacts server (bounded time)."""
+        self._closing = True
         self.runtime.frame_source.stop()
         self.scheduler.stop()
         if self._server is not None:

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 from typing import Any
 
 import pytest
+import rclpy
 from ros2_vision_interfaces.msg import VisionDetectionArray
 
 from robot_mcp_perception.models.base import GroundingResult, Image, ModelError, SemanticRequest
@@ -75,3 +77,26 @@ def test_grounder_that_raises_or_hangs_leaves_the_skill_running_and_republishes_
     ok, listing = harness.probe.call("list_vision_tasks", {})
     assert ok
     assert listing["skills"][0]["enabled"] is True
+
+
+def test_a_model_run_cancelled_at_shutdown_publishes_nothing_after_the_context_is_gone(
+    start_node: Any,
+    settings_factory: Any,
+    mug_result: GroundingResult,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A signal shuts the ROS context down first; then ``shutdown`` cancels the hanging run,
+    whose failure republishes the last result as stale. That publish raised rcl's "context is
+    invalid" inside a future's callback (a traceback in the node's output: the busy CI's
+    skill_control integration test)."""
+    grounder = HangsAfterFirstCall(mug_result, cost_class="local")
+    settings = settings_factory(node={"model_timeout_s": 60.0, "processing_frequency": 5.0})
+    harness = start_node(grounder=grounder, settings=settings)
+    meta = harness.probe.subscribe("/vision/spot/detections_meta", VisionDetectionArray)
+    harness.create(REGION)
+    harness.pump(lambda: len(meta) >= 1 and len(grounder.calls) >= 2, what="a run left hanging")
+
+    rclpy.shutdown(context=harness.node.context)  # what SIGINT/SIGTERM do first
+    with caplog.at_level(logging.ERROR, logger="concurrent.futures"):
+        harness.node.shutdown()
+    assert not [r for r in caplog.records if "exception calling callback" in r.getMessage()]

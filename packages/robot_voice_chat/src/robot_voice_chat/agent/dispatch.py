@@ -12,7 +12,7 @@ from typing import Any
 import structlog
 
 from robot_mcp_kit.models import TaskEvent
-from robot_voice_chat.agent.lapse import IssuedCall, lost_link
+from robot_voice_chat.agent.lapse import IssuedCall, lost_link, refused_unsupervised
 from robot_voice_chat.agent.output import MissionOutput
 from robot_voice_chat.agent.perception_notice import FallbackNotice
 from robot_voice_chat.agent.plan_tools import LOCAL_TOOLS, PlanTools, strip_step_id
@@ -151,6 +151,9 @@ class TaskDispatcher:
         finally:
             if in_flight is not None:
                 self.motion_steps_in_flight.discard(in_flight)
+        if motion and refused_unsupervised(outcome):  # the lease lapsed a moment: nothing moved
+            issued = IssuedCall(call.name, args, step_id)
+            outcome = await self.recovery.resend_refused(run, issued, outcome)
         duration_ms = round((time.monotonic() - started) * 1000, 1)
         self.skills.note(call.name, args, outcome.text, outcome.is_error)
         self.trace.record(

@@ -4,9 +4,11 @@ The brain's lease lapsed on a motion server (its renewals came too late: a starv
 slow network) while the brain kept running: the server cancelled the step's motion with
 ``CANCELLED`` and the reason ``robot_mcp_kit.supervision.LAPSE_REASONS["lapsed"]`` (or its
 refusal code). Such a step is not the mission's failure: the dispatcher re-leases, waits for
-the server's lock to open, re-issues the same call once within the same mission and says so
-once. Never while the software stop is latched, nor after an operator's stop (the mission is
-paused then, and its tasks were dropped), nor twice for one step.
+the server's lock to open, re-issues the same call within the same mission and says so once.
+Never while the software stop is latched, nor after an operator's stop (the mission is paused
+then, and its tasks were dropped), nor more than ``MAX_RECOVERIES`` times for one step. A motion
+call refused ``NOT_SUPERVISED`` when it was first sent (the lease lapsed a moment before; nothing
+moved) is sent again the same way once the lock is open.
 
 A drive that ended ``BASE_UNAVAILABLE`` (no NavigateToPose feedback for the navigation server's
 ``feedback_timeout_s``) is the same kind of moment when the base answers again right after: a
@@ -31,10 +33,16 @@ the planner as it came (the lease thread renews every period; a lock that stays 
 is not a moment's lapse)."""
 
 
-BASE_BACK_WAIT_S = 4.0
+BASE_BACK_WAIT_S = 6.0
 """How long a drive that lost its base waits for a fresh pose before it fails as it came (a lost
 base is reported to the person this much after the navigation server's own 3 s; the navigation
-server's task says BASE_UNAVAILABLE at once either way)."""
+server's task says BASE_UNAVAILABLE at once either way). A fresh-clone CI run saw robot-sim
+frozen 6.3 s with the host's other processes alive: 3 s of it before the loss, 3.3 s after."""
+
+MAX_RECOVERIES = 3
+"""How often one step is re-issued after a lost link before its failure goes to the planner. A
+fresh-clone CI run saw robot-sim frozen twice within one drive (6 s, then 3 s, the host's other
+processes alive): once was not enough, and a link that keeps failing is no moment's lapse."""
 
 LostLink = Literal["lease", "base"]
 

@@ -2,8 +2,10 @@
 
 The dispatcher records each motion call as it sent it; when its task ends because supervision
 lapsed or the base went silent for a moment — the brain alive, the stop not latched, the mission
-running — the call is re-issued once, under the same step, and the person is told once. The
-re-issued task carries the old one's label, and calls naming the old task id reach the new one.
+running — the call is re-issued under the same step (at most ``MAX_RECOVERIES`` times), and the
+person is told once. The re-issued task carries the old one's label, and calls naming the old
+task id reach the new one. A motion call refused ``NOT_SUPERVISED`` as it was sent is sent again
+once the lock is open (:meth:`StepRecovery.resend_refused`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import structlog
 from robot_mcp_kit.models import TaskEvent
 from robot_voice_chat.agent.lapse import (
     BASE_BACK_WAIT_S,
+    MAX_RECOVERIES,
     RECOVER_WAIT_S,
     IssuedCall,
     LostLink,
@@ -67,14 +70,14 @@ class RecoveryHost(Protocol):
 
 
 class StepRecovery:
-    """Each motion call as sent, the task a re-issued one replaced (old id → new), and the
-    steps re-issued once already (never twice)."""
+    """Each motion call as sent, the task a re-issued one replaced (old id → new), and how
+    often each step was re-issued (at most ``MAX_RECOVERIES``)."""
 
     def __init__(self, host: RecoveryHost) -> None:
         self._host = host
         self.issued: dict[str, IssuedCall] = {}
         self.aliases: dict[str, str] = {}
-        self.recovered: set[tuple[str, str | None]] = set()
+        self.recovered: dict[tuple[str, str | None], int] = {}
 
     def current_task_id(self, task_id: str) -> str:
         """The task that carries on ``task_id`` after lapses (itself if none re-issued it)."""
@@ -87,8 +90,8 @@ class StepRecovery:
     def recovers(self, run: MissionRun, handle: TaskHandle) -> bool:
         """A motion step of the running mission that ended because a link was lost for a moment
         (supervision lapsed, the base went silent), with the brain alive, the stop not latched,
-        the mission not paused and the step not re-issued yet: recovered here instead of failing
-        (agent.lapse)."""
+        the mission not paused and the step re-issued fewer than ``MAX_RECOVERIES`` times:
+        recovered here instead of failing (agent.lapse)."""
         issued = self.issued.get(handle.task_id)
         return (
             self._host.supervisor is not None
@@ -97,25 +100,27 @@ class StepRecovery:
             and not self._host.latched()
             and run.mission.state == "running"
             and not run.awaiting_user
-            and (run.mission.id, issued.step_id) not in self.recovered
+            and self.recovered.get((run.mission.id, issued.step_id), 0) < MAX_RECOVERIES
         )
 
     async def recover(
         self, run: MissionRun, handle: TaskHandle, event: TaskEvent, lost: LostLink
     ) -> None:
         """Re-lease, wait for the server's lock to open (and a lost base's fresh pose), re-issue
-        the step's call once and say so once; if any of that fails, the planner gets the failure
-        as it came."""
+        the step's call and say so (the first time only); if any of that fails, the planner gets
+        the failure as it came."""
         assert self._host.supervisor is not None
         issued = self.issued.pop(handle.task_id)
         mission = run.mission
-        self.recovered.add((mission.id, issued.step_id))
+        key = (mission.id, issued.step_id)
+        self.recovered[key] = times = self.recovered.get(key, 0) + 1
         logger.warning(
             "supervision_lapse_recovering",
             server=handle.server,
             task_id=handle.task_id,
             step_id=issued.step_id,
             lost=lost,
+            times=times,
         )
         step = mission.step(issued.step_id)
         if step is not None:
@@ -170,8 +175,35 @@ class StepRecovery:
         await self._host.register_task(
             run, issued.tool, issued.step_id, info, sent_at, shown_as=handle.label
         )
-        if self._host.still_running(run):
+        if self._host.still_running(run) and times == 1:
             await self._host.output.say(run, carrying_on(issued, lost))
+
+    async def resend_refused(
+        self, run: MissionRun, issued: IssuedCall, outcome: ToolOutcome
+    ) -> ToolOutcome:
+        """A motion call refused ``NOT_SUPERVISED`` as it was first sent (the lease lapsed a
+        moment before, the brain alive, nothing moved): sent again once the server's lock is
+        open, within ``RECOVER_WAIT_S``; otherwise the refusal as it came."""
+        supervisor = self._host.supervisor
+        server = issued.tool.partition(".")[0]
+        deadline = time.monotonic() + RECOVER_WAIT_S
+        while (
+            supervisor is not None
+            and refused_unsupervised(outcome)
+            and not self._host.latched()
+            and run.mission.state == "running"
+            and not run.awaiting_user
+        ):
+            left = deadline - time.monotonic()
+            if left <= 0 or not await supervisor.wait_lock_open(server, left):
+                break
+            if self._host.latched() or not self._host.still_running(run):
+                break
+            logger.info("supervision_lapse_resend", server=server, step_id=issued.step_id)
+            outcome = await self._send_again(run, issued)
+            if refused_unsupervised(outcome):
+                await asyncio.sleep(RESEND_PAUSE_S)  # a lock that reads open but refuses
+        return outcome
 
     async def _send_again(self, run: MissionRun, issued: IssuedCall) -> ToolOutcome:
         if issued.step_id is not None:

@@ -1,6 +1,7 @@
 """A mission recovers from a supervision lapse with the brain alive (issue 39 item 1): the drive
-the server cancelled is re-issued once, within the same mission, said once; never while the
-stop is latched, never after an operator's stop, never twice for one step. A drive whose base
+the server cancelled is re-issued within the same mission, said once; never while the stop is
+latched, never after an operator's stop, never more than MAX_RECOVERIES times for one step. A
+drive refused NOT_SUPERVISED as it was sent is sent again once the lock is open. A drive whose base
 went silent for a moment (BASE_UNAVAILABLE) is re-issued the same way once the base shows a fresh
 pose again; a base that stays silent fails the step as it came."""
 
@@ -17,7 +18,14 @@ from robot_mcp_kit.supervision import LAPSE_REASONS
 from robot_stack_testing import async_wait_until
 from robot_stack_testing.brain.harness import Harness, make_harness, task_info
 from robot_voice_chat.agent import step_recovery
-from robot_voice_chat.agent.lapse import IssuedCall, base_answers, carrying_on, is_lapse, lost_link
+from robot_voice_chat.agent.lapse import (
+    MAX_RECOVERIES,
+    IssuedCall,
+    base_answers,
+    carrying_on,
+    is_lapse,
+    lost_link,
+)
 from robot_voice_chat.robot_words import leaks
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
 
@@ -173,26 +181,82 @@ async def test_the_drive_waits_until_the_lock_is_open_again(drive: Any) -> None:
     await async_wait_until(lambda: nav.drives == 2, 5, "re-issued once the lock opened")
 
 
-async def test_a_second_lapse_of_the_same_step_goes_to_the_planner(tmp_path: Path) -> None:
+async def test_a_step_that_keeps_lapsing_goes_to_the_planner_after_three_reissues(
+    tmp_path: Path,
+) -> None:
     h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, GAVE_UP]))
     try:
         mission = await h.executor.start("drive to the kitchen")
         await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "driving")
-        await h.executor.on_task_event(lapsed("nav-1"))
-        await async_wait_until(lambda: nav.drives == 2, 5, "re-issued")
-        await async_wait_until(lambda: SAID in h.speech.spoken, 5, "said")
+        for n in range(1, MAX_RECOVERIES + 1):
+            await h.executor.on_task_event(lapsed(f"nav-{n}", seq=n))
+            await async_wait_until(lambda n=n: nav.drives == n + 1, 5, f"re-issued ({n})")
 
-        await h.executor.on_task_event(lapsed("nav-2", seq=2))
+        await h.executor.on_task_event(lapsed(f"nav-{MAX_RECOVERIES + 1}", seq=9))
         await h.executor.wait_idle(5)
     finally:
         await h.executor.shutdown()
         assert h.supervisor is not None
         await h.supervisor.aclose()
 
-    assert nav.drives == 2
+    assert nav.drives == MAX_RECOVERIES + 1
     assert mission.state == "failed"
+    assert h.speech.spoken.count(SAID) == 1  # told once, however often it was re-issued
     planner_saw = "\n".join(m.content for m in h.planner.requests[-1][0])
     assert "[task nav-1 navigation.navigate_to] failed CANCELLED" in planner_saw
+
+
+async def test_a_drive_refused_unsupervised_as_it_was_sent_is_sent_again_once_the_lock_opens(
+    tmp_path: Path,
+) -> None:
+    h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, DONE]))
+    nav.refusals = 2  # the lease lapsed a moment before the call (a starved host)
+    try:
+        mission = await h.executor.start("drive to the kitchen")
+        await async_wait_until(lambda: nav.drives == 1, 5, "sent again after the refusals")
+        await async_wait_until(lambda: h.executor.run and h.executor.run.suspended, 5, "driving")
+        assert mission.state == "running"
+        await h.executor.on_task_event(event("nav-1", "task_done", 1, result={"arrived": "x"}))
+        await h.executor.wait_idle(5)
+    finally:
+        await h.executor.shutdown()
+        assert h.supervisor is not None
+        await h.supervisor.aclose()
+
+    assert h.tools.called("navigation.navigate_to") == [{"location": "kitchen"}] * 3
+    assert mission.state == "succeeded"
+    planner_saw = "\n".join(m.content for m in h.planner.requests[1][0])
+    assert "NOT_SUPERVISED" not in planner_saw
+
+
+async def test_a_refused_drive_is_not_sent_again_once_the_stop_latched(tmp_path: Path) -> None:
+    nav = Navigation()
+    h = make_harness(tmp_path, FakeLLM([PLAN, GAVE_UP]), supervisor=(0.05, 0.5))
+
+    def refused_while_stopped(arguments: dict[str, Any]) -> str:
+        h.latch.engage("operator", "person in the way")  # the stop came while the call was out
+        nav.refusals = 1
+        return nav.navigate_to(arguments)
+
+    h.tools.add("navigation.navigate_to", refused_while_stopped, location="string")
+    h.tools.add(
+        "navigation.supervise",
+        lambda a: {"supervised": True, "latched": a["latched"], "lock": "open"},
+        holder="string",
+    )
+    assert h.supervisor is not None
+    await h.supervisor.start()
+    await async_wait_until(lambda: h.supervisor and h.supervisor.fresh("navigation"), 5, "lease")
+    try:
+        mission = await h.executor.start("drive to the kitchen")
+        await h.executor.wait_idle(5)
+    finally:
+        await h.executor.shutdown()
+        await h.supervisor.aclose()
+
+    assert nav.drives == 0
+    assert h.tools.called("navigation.navigate_to") == [{"location": "kitchen"}]
+    assert mission.state != "succeeded"
 
 
 async def test_no_recovery_while_the_stop_is_latched(drive: Any) -> None:

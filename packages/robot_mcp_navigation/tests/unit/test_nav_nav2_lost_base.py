@@ -78,6 +78,22 @@ async def test_a_base_that_stops_answering_mid_drive_ends_it_base_unavailable(ri
     assert (pose["x"], pose["y"]) == (3.0, 0.0)  # where it was last seen
 
 
+async def test_a_pose_sent_before_the_loss_but_delivered_after_it_is_still_a_lost_base(
+    rig: Rig,
+) -> None:
+    rig.action.publish_pose(Pose(0, 0))
+    await rig.navigator.navigate_to("kitchen")
+    rig.action.goals[-1].feedback(Pose(3, 0), distance_remaining_m=7.0)
+    rig.action.vanish()
+    await async_wait_until(lambda: not rig.navigator.moving, 5, "the drive ended")
+
+    rig.action.publish_pose(Pose(3, 0))  # queued on a starved host, handled after the timeout
+
+    pose = rig.navigator.pose()
+    assert pose["stale"] is True
+    assert "stopped answering" in pose["pose_note"]
+
+
 async def test_a_base_that_comes_back_elsewhere_is_reported_as_relocated(rig: Rig) -> None:
     rig.action.publish_pose(Pose(0, 0))
     await rig.navigator.navigate_to("kitchen")
@@ -87,7 +103,7 @@ async def test_a_base_that_comes_back_elsewhere_is_reported_as_relocated(rig: Ri
     await async_wait_until(lambda: not rig.navigator.moving, 5, "the drive ended")
     assert rig.navigator.pose()["relocated"] is None
 
-    rig.action.publish_pose(Pose(0, 0), at=time.monotonic() + 2.0)  # restarted at the dock
+    rig.action.publish_pose(Pose(0, 0), at=time.monotonic() + 3.0)  # restarted at the dock
 
     pose = rig.navigator.pose()
     assert pose["stale"] is False

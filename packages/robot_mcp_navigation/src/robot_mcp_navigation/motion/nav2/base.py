@@ -57,6 +57,10 @@ logger = structlog.get_logger(__name__)
 BASE_UNAVAILABLE = "BASE_UNAVAILABLE"
 RELOCATION_SHOWN_S = 300.0
 STALE_GOALS_TIMEOUT_S = 3.0
+LATE_POSE_S = 2.0
+"""A pose taken in this long after the base was declared lost is still a lost base's: on a
+starved host the pose sent before robot-sim was killed can reach our callback after the feedback
+timeout ran out (a fresh-clone CI run said "5 s old" instead of "stopped answering")."""
 """How long start-up looks for Nav2 to cancel stale goals (none up: nothing to cancel)."""
 """How long get_pose keeps reporting a relocation."""
 
@@ -142,7 +146,7 @@ class Nav2MotionBase(MotionBase):
         age = now - newest
         relocated = self._relocated(now)
         stale: str | None = None
-        if self._lost_at is not None and newest < self._lost_at:
+        if self._lost_at is not None and newest < self._lost_at + LATE_POSE_S:
             stale = (
                 f"no pose from the robot base since it stopped answering "
                 f"{now - self._lost_at:.0f} s ago: this is where it was last seen"

@@ -85,6 +85,8 @@ class SimSettings(BaseModel):
     progress_timeout_s: float = Field(
         default=10.0, gt=0.0, le=600.0, alias="SIM_PROGRESS_TIMEOUT_S"
     )
+    # every thread's stack to stderr when the pose timer stood still this long (0: off)
+    stall_dump_s: float = Field(default=3.0, ge=0.0, le=600.0, alias="SIM_STALL_DUMP_S")
     log_level: LogLevel = Field(default="INFO", alias="LOG_LEVEL")
 
     @field_validator("supervisor_lock_topics", "arm_lock_topics", mode="before")

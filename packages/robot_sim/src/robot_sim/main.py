@@ -18,6 +18,7 @@ from robot_sim.costmap import RobotMap
 from robot_sim.drive import DriveSim
 from robot_sim.logging_setup import configure_logging
 from robot_sim.render.renderer import MujocoRenderer
+from robot_sim.stall_watch import StallWatch
 from robot_sim.store import SceneStore
 from robot_sim.world import WorldError, load_world
 
@@ -64,8 +65,11 @@ def main(args: list[str] | None = None) -> None:
     rclpy.init(args=args)
     executor = MultiThreadedExecutor(num_threads=4)
     node: SimNode | None = None
+    watch = StallWatch(settings.stall_dump_s) if settings.stall_dump_s else None
     try:
         node = SimNode(settings, drive, camera)
+        if watch is not None:
+            node.on_pose_tick = watch.beat
         executor.add_node(node)
         if settings.ready_file is not None:
             settings.ready_file.parent.mkdir(parents=True, exist_ok=True)
@@ -74,6 +78,8 @@ def main(args: list[str] | None = None) -> None:
     except (KeyboardInterrupt, ExternalShutdownException):
         logger.info("robot_sim_interrupted")
     finally:
+        if watch is not None:
+            watch.close()
         executor.shutdown(timeout_sec=2.0)  # no callback runs on the node once it is destroyed
         if node is not None:
             node.destroy_node()

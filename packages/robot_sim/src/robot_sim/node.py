@@ -113,6 +113,7 @@ class SimNode(Node):
         self._info = self.create_publisher(CameraInfo, settings.camera_info_topic, CAMERA_QOS)
         self._depth = self.create_publisher(Image, settings.depth_topic, CAMERA_QOS)
         self._last_view = ""
+        self.on_pose_tick: Callable[[], None] = lambda: None
         self._image_lock = threading.Lock()
         self._costmap_version = -1
         self._plan_sent: tuple[tuple[float, float], ...] | None = None
@@ -154,6 +155,7 @@ class SimNode(Node):
         self._publish_image()
 
     def _publish_pose(self) -> None:
+        self.on_pose_tick()  # the stall watch (main.py): the process still runs
         if self.lock is not None:  # never a pose past the moment twist_mux held the base
             self.lock.enforce()
         state = self.drive.state(self._wall())

@@ -51,10 +51,12 @@ def compose(text: str, legs: list[Leg], places: PlaceIndex | None) -> Reading:
             if leg.status != "deliver":
                 problems.append((len(actions) - 1, leg))
             continue
+        if _fetch_there(leg, previous):
+            leg.status = "ok"  # "from the kitchen, bring a plate to Q": get it there
         if leg.status in ("ok", "bare"):
             assert leg.action is not None
             if (
-                leg.action.kind == "find"
+                leg.action.kind in ("find", "fetch")
                 and leg.action.place is None
                 and previous is not None
                 and previous.kind == "goto"
@@ -126,6 +128,9 @@ def _problem(
         for _, leg in hard
     )
     sure_actions = _known_only(actions, places)
+    missing = [(i, leg) for i, leg in problems if leg.status == "missing"]
+    if missing and not hard and _sayable(actions, places, placed=False):
+        return Reading("ask", question=_fill(actions, *missing[0], places))  # never a hole
     if not _sayable(actions, places):
         return Reading("refuse", text=missed) if hard else unclear(text)
     if hard:
@@ -162,10 +167,11 @@ def _fill(actions: list[Action], index: int, leg: Leg, places: PlaceIndex | None
         verb = {"watch": "watch for", "find": "look for"}.get(action.kind, "get")
         return Question(f"What should I {verb}?", "fill", actions, index=index, slot="obj")
     known = f" I know: {_known(places)}." if places and places.places else ""
+    things = [saying.thing(a.obj) for a in actions[index:] if a.kind == action.kind and not a.place]
     ask = (
         "Where should I go?"
         if action.kind == "goto"
-        else f"Where should I get {saying.thing(action.obj)} from?"
+        else f"Where should I get {' and '.join(things or [saying.thing(action.obj)])} from?"
     )
     return Question(ask + known, "fill", actions, index=index, slot="place")
 
@@ -215,13 +221,22 @@ def spells_a_place(places: PlaceIndex, phrase: str) -> bool:
     return any(wanted in place.spellings() for place in places.places)
 
 
-def _sayable(actions: list[Action], places: PlaceIndex | None) -> bool:
-    """Every object reads as a thing (not a piece of the sentence, not a place's name)."""
+def _sayable(actions: list[Action], places: PlaceIndex | None, placed: bool = True) -> bool:
+    """Every object reads as a thing (not a piece of the sentence, not a place's name), and
+    (``placed``) every fetch says where from (never "get the X from ?" said back)."""
     return all(
         saying.plausible(a.obj)
         and not (a.obj and places is not None and spells_a_place(places, a.obj))
+        and (not placed or a.kind != "fetch" or a.place is not None)
         for a in actions
     )
+
+
+def _fetch_there(leg: Leg, previous: Action | None) -> bool:
+    """A fetch said without a place, right after a drive: from where the drive goes."""
+    fetch = leg.action is not None and leg.action.kind == "fetch"
+    placeless = leg.status == "missing" and leg.slot == "place"
+    return fetch and placeless and previous is not None and previous.kind == "goto"
 
 
 def _brought_on(action: Action) -> bool:
@@ -233,16 +248,22 @@ def _brought_on(action: Action) -> bool:
 
 def share_place(legs: list[Leg]) -> None:
     """ "look for a red mug and a blue box in the meeting room": the place said with the last
-    object of a search is the place of the objects before it."""
+    object of a search (a fetch) is the place of the objects before it."""
     for i, leg in enumerate(legs):
         if not leg.more or leg.action is None or leg.action.place is None:
             continue
         j = i - 1
         while j >= 0:
             before = legs[j]
-            if before.action is None or before.action.kind != "find" or before.action.place:
+            if (
+                before.action is None
+                or before.action.kind != leg.action.kind
+                or before.action.place
+            ):
                 break
             before.action = replace(before.action, place=leg.action.place)
+            if before.status == "missing" and before.slot == "place":
+                before.status = "ok"
             if not before.more:
                 break
             j -= 1

@@ -73,8 +73,15 @@ class Question:
     slot: Literal["place", "obj", "to"] = "place"
 
     def complete(self, value: str) -> list[Action]:
+        """The actions with the slot asked about filled; a place answers for every later
+        action of that kind still without one ("where should I get the mug and the bottle
+        from?")."""
         actions = list(self.actions)
-        actions[self.index] = _with(actions[self.index], self.slot, value)
+        asked = actions[self.index]
+        for i, action in enumerate(actions):
+            same = self.slot == "place" and i > self.index and action.kind == asked.kind
+            if i == self.index or (same and action.place is None):
+                actions[i] = _with(action, self.slot, value)
         return actions
 
 

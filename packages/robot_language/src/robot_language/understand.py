@@ -48,6 +48,8 @@ _PUT_IT = re.compile(
     r"(?:down\s+|off\s+)?(?:on|onto|at|in|into|by|next to|over at|on top of)\s+(?P<to>.+)$"
 )
 
+_THING = re.compile(r"^(?:the|a|an|my|your|our|his|her|their|this|that|some)\s")
+
 
 class Understanding:
     """``understand(text, places)`` → :class:`Reading`; ``follow_up(question, answer, places)``
@@ -173,10 +175,15 @@ class Understanding:
         return Reading("cancel", text=text, intent="negated", stage="grammar")
 
     def _more_objects(self, part: str, before: list[Leg], places: PlaceIndex | None) -> Leg | None:
-        """ "look for the scissors and a yellow package": a part with no verb right after a
-        search is another object of that search."""
-        previous = before[-1] if before else None
-        if previous is None or previous.action is None or previous.action.kind != "find":
+        """ "look for the scissors and a yellow package", "bring the mug and the bottle": a part
+        with no verb right after a search (a fetch) is another object of it, fetched in turn."""
+        previous = before[-1].action if before else None
+        kind = previous.kind if previous is not None and previous.to is None else None
+        if kind == "fetch" and (
+            before[-1].status not in ("ok", "missing") or not _THING.match(part)
+        ):
+            return None  # "forget reception, head straight to X": no second thing to carry
+        if kind not in ("find", "fetch"):
             return None
         if (
             parse(part).kind != "unknown"
@@ -188,10 +195,11 @@ class Understanding:
             return None
         if read_question(part) is not None:
             return None
-        leg = self._leg(f"find {part}", places)
-        if leg.action is None or leg.action.kind != "find":
+        leg = self._leg(f"{kind} {part}", places)
+        if leg.action is None or leg.action.kind != kind:
             return None
         leg.text, leg.more = part, True
+        leg.sure = leg.sure and kind == "find"  # two things carried one by one: said back first
         return leg
 
     def _delivery(self, part: str, before: list[Leg], places: PlaceIndex | None) -> Leg | None:
@@ -328,8 +336,7 @@ class Understanding:
             leg.status, leg.slot = "missing", "obj"
             return leg
         if action.kind in ("goto", "fetch") and not action.place and leg.status == "ok":
-            leg.status, leg.slot = "missing", "place"
-            return leg
+            leg.status, leg.slot = "missing", "place"  # its destination is resolved still
         if places is None:
             return leg
         for slot in ("place", "to"):

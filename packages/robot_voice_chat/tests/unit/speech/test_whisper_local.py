@@ -146,6 +146,18 @@ async def test_live_names_become_hotwords_only_when_asked_for() -> None:
     assert "stapler" in model.calls[0]["hotwords"]
 
 
+async def test_the_sites_configured_objects_are_hotwords_with_those_heard_of() -> None:
+    speech, model = engine(
+        Segment("hello", 0.0), prompt_with_vocabulary=True, objects=["defibrillator"]
+    )
+    assert speech.update_vocabulary([["kitchen"]], ["stapler"]) is True
+    await speech.hear(SPEECH)
+    hotwords = model.calls[0]["hotwords"]
+    assert "defibrillator" in hotwords
+    assert "stapler" in hotwords
+    assert "scissors" not in hotwords  # the built-in labels only when none are configured
+
+
 async def test_transcribe_returns_only_usable_text_and_aclose_frees_the_model() -> None:
     speech, _ = engine(Segment("what time is it", math.log(0.9)))
     assert await speech.transcribe(SPEECH.audio, "audio/wav") == "what time is it"

@@ -151,10 +151,7 @@ class PocketsphinxSpeechInput(HearingSpeechInput):
     ) -> bool:
         """The live places (spoken names per place) and any object labels heard of beyond
         the configured ones; the grammar is rebuilt when anything changed (True)."""
-        known = self._vocabulary
-        vocabulary = Vocabulary.build(
-            places, dict.fromkeys([*self._objects, *objects]), known.intents, wake
-        )
+        vocabulary = self._vocabulary.with_live(places, self._objects, objects, wake)
         if vocabulary.digest() == self._digest:
             return False
         self._install(vocabulary)

@@ -166,6 +166,17 @@ class Vocabulary:
             " ".join(words_of(wake)),
         )
 
+    def with_live(
+        self,
+        places: Iterable[Iterable[str]],
+        configured: Iterable[str],
+        heard_of: Iterable[str],
+        wake: str,
+    ) -> Vocabulary:
+        """These intents with the live places, the configured object labels and those heard of
+        since (episodic memory's ``known_labels``), and the site's wake phrase."""
+        return Vocabulary.build(places, [*configured, *heard_of], self.intents, wake)
+
     def digest(self) -> str:
         """Changes when anything the grammar is made of changes (the grammar is rebuilt)."""
         intents = self.intents.model_dump_json()

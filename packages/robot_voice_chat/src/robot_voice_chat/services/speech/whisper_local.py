@@ -111,6 +111,7 @@ class FasterWhisperSpeechInput(HearingSpeechInput):
         confirm_below: float = 0.7,
         no_speech_above: float = 0.6,
         prompt_with_vocabulary: bool = False,
+        objects: Iterable[str] = DEFAULT_OBJECTS,
         required: bool = True,
     ) -> None:
         """``required: false`` (a chain's first member): no folder → not configured, and the
@@ -124,7 +125,8 @@ class FasterWhisperSpeechInput(HearingSpeechInput):
         self.reject_below, self.confirm_below = reject_below, confirm_below
         self.no_speech_above, self.beam_size = no_speech_above, beam_size
         self.prompt_with_vocabulary = prompt_with_vocabulary
-        self._vocabulary = Vocabulary.build([])
+        self._objects = tuple(objects)  # the site's object labels (hotwords with the places)
+        self._vocabulary = Vocabulary.build([], self._objects)
         self._hotwords = ""
         self._lock = threading.Lock()
         self._model: Any = None
@@ -182,9 +184,7 @@ class FasterWhisperSpeechInput(HearingSpeechInput):
     ) -> bool:
         """Kept to tell motion from other words (and, with ``prompt_with_vocabulary``, as
         hotwords); True only when the hotwords changed."""
-        vocabulary = Vocabulary.build(
-            places, dict.fromkeys([*DEFAULT_OBJECTS, *objects]), self._vocabulary.intents, wake
-        )
+        vocabulary = self._vocabulary.with_live(places, self._objects, objects, wake)
         self._vocabulary = vocabulary
         if not self.prompt_with_vocabulary:
             return False

@@ -39,6 +39,7 @@ from robot_voice_chat.settings import AgentConfig
 
 logger = structlog.get_logger(__name__)
 RESEND_PAUSE_S = 0.25
+RESEND_CHECK_S = 0.5  # a refused call waiting for the lock looks at the latch this often
 
 
 class RecoveryHost(Protocol):
@@ -187,18 +188,16 @@ class StepRecovery:
         supervisor = self._host.supervisor
         server = issued.tool.partition(".")[0]
         deadline = time.monotonic() + RECOVER_WAIT_S
-        while (
+        while (  # still running: not latched, not paused, not waiting on the person
             supervisor is not None
             and refused_unsupervised(outcome)
-            and not self._host.latched()
-            and run.mission.state == "running"
-            and not run.awaiting_user
+            and self._host.still_running(run)
         ):
             left = deadline - time.monotonic()
-            if left <= 0 or not await supervisor.wait_lock_open(server, left):
+            if left <= 0:
                 break
-            if self._host.latched() or not self._host.still_running(run):
-                break
+            if not await supervisor.wait_lock_open(server, min(left, RESEND_CHECK_S)):
+                continue  # the latch, a stop or the deadline is looked at again first
             logger.info("supervision_lapse_resend", server=server, step_id=issued.step_id)
             outcome = await self._send_again(run, issued)
             if refused_unsupervised(outcome):

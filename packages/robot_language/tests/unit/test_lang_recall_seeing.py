@@ -107,3 +107,32 @@ def test_they_are_answered_never_acted_on(understanding: Understanding, text: st
 )
 def test_the_same_words_without_a_past_sighting_by_the_robot_are_no_recall(text: str) -> None:
     assert read_recall(text) is None
+
+
+@pytest.mark.parametrize(
+    ("text", "place"),
+    [
+        ("what's in the kitchen", "kitchen"),
+        ("what is at reception?", "reception"),
+        ("what's there in the mailroom", "mailroom"),
+        ("what is inside the meeting room", "meeting room"),
+    ],
+)
+def test_what_is_in_a_place_is_what_it_saw_there_never_a_drive(
+    understanding: Understanding, text: str, place: str
+) -> None:
+    recall = read_recall(text)
+    assert recall is not None, text
+    assert recall.kind == "seen"
+    assert recall.place == place
+    reading = understanding.understand(text, OFFICE)
+    assert reading.kind == "answer"
+    assert reading.actions == []
+
+
+@pytest.mark.parametrize(
+    "text", ["what's in view?", "what is in front of you", "what's in your gripper"]
+)
+def test_what_is_in_view_or_in_its_hand_is_not_a_place_it_saw(text: str) -> None:
+    recall = read_recall(text)
+    assert recall is None or recall.place is None, text

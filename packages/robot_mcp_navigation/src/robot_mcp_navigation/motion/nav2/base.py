@@ -56,13 +56,13 @@ logger = structlog.get_logger(__name__)
 
 BASE_UNAVAILABLE = "BASE_UNAVAILABLE"
 RELOCATION_SHOWN_S = 300.0
+"""How long get_pose keeps reporting a relocation."""
 STALE_GOALS_TIMEOUT_S = 3.0
+"""How long start-up looks for Nav2 to cancel stale goals (none up: nothing to cancel)."""
 LATE_POSE_S = 2.0
 """A pose taken in this long after the base was declared lost is still a lost base's: on a
 starved host the pose sent before robot-sim was killed can reach our callback after the feedback
 timeout ran out (a fresh-clone CI run said "5 s old" instead of "stopped answering")."""
-"""How long start-up looks for Nav2 to cancel stale goals (none up: nothing to cancel)."""
-"""How long get_pose keeps reporting a relocation."""
 
 
 class Nav2MotionBase(MotionBase):

@@ -37,6 +37,10 @@ logger = structlog.get_logger(__name__)
 GET_HELD = "manipulation.get_held"
 LIST_LOCATIONS = "navigation.list_locations"
 READ_TIMEOUT_S = 3.0
+NAVIGATION_WAIT_S = 5.0
+"""A restarted brain connects to every server at once: the arm's may answer before navigation,
+whose places say where the robot is (a fresh-clone CI run told the held package without "near
+the mailroom"). Waited for this long, when navigation is configured."""
 """At most this long for each read at a mission's end (a lost server answers an error sooner)."""
 ARM_BACK_WAIT_S = 20.0
 """After a pick, at most this long for an arm server that does not answer (a restart takes
@@ -133,7 +137,7 @@ class HeldAtStart:
         started = time.monotonic()
         with dispatching(DispatchContext(may_ask=False, caller="the brain's start-up")):
             held = await read_held(self._tools, self._timeout_s)
-            where = await whereabouts(self._tools, self._timeout_s) if held.label else None
+            where = await self._where() if held.label else None
         logger.info(
             "held_at_start",
             known=held.known,
@@ -148,3 +152,14 @@ class HeldAtStart:
         )
         await self._speech.say(told)
         return told
+
+    async def _where(self) -> str | None:
+        """Where the robot is; a configured navigation server still connecting is waited for
+        (``NAVIGATION_WAIT_S``)."""
+        navigation = LIST_LOCATIONS.split(".")[0]
+        deadline = time.monotonic() + NAVIGATION_WAIT_S
+        while time.monotonic() < deadline:
+            if navigation not in self._tools.servers() or self._tools.has_tool(LIST_LOCATIONS):
+                break
+            await asyncio.sleep(0.1)  # the connection manager says nothing we could await
+        return await whereabouts(self._tools, self._timeout_s)

@@ -5,6 +5,7 @@ and the robot are), not against the summary alone."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 from pathlib import Path
 from typing import Any
@@ -330,6 +331,23 @@ async def test_nothing_is_said_at_start_without_a_held_thing(held: dict[str, Any
     assert await at_start.on_connect("manipulation", idle=True) is None
     assert speech.spoken == []
     assert emitter.events == []
+
+
+async def test_at_start_a_navigation_server_still_connecting_is_waited_for_to_say_where() -> None:
+    speech, emitter = FakeSpeechOutput(), FakeEventEmitter()
+    tools = backend({"known": True, "holding": True, "label": "red mug"}, {"kitchen": 0.4})
+    tools.states["navigation"] = "connecting"  # the arm's server answered first
+    at_start = HeldAtStart(tools, speech, emitter)
+
+    async def navigation_connects() -> None:
+        await asyncio.sleep(0.3)
+        tools.states["navigation"] = "connected"
+
+    connecting = asyncio.create_task(navigation_connects())
+    told = await at_start.on_connect("manipulation", idle=True)
+    await connecting
+
+    assert told == f"I'm still holding the red mug, here in the kitchen. {QUESTION}"
 
 
 async def test_a_mission_running_at_the_arms_first_connect_tells_it_at_its_end_instead() -> None:

@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> None:
     executor = MultiThreadedExecutor(num_threads=2)
     executor.add_node(node)
     spinner = threading.Thread(
-        target=_spin, args=(executor, ExternalShutdownException), daemon=True
+        target=_spin, args=(executor, stop, ExternalShutdownException), daemon=True
     )
     spinner.start()
     say("intruder_ready", node=args.node_name)
@@ -117,10 +117,12 @@ def main(argv: list[str] | None = None) -> None:
             _send_goal(node, client, args.goal, stop)
         stop.wait(max(0.0, args.seconds))
     finally:
-        # Nothing is destroyed while a callback may still run: the spin thread ends first (a
-        # node destroyed under a running action-client callback segfaulted on a busy machine).
+        # Nothing is destroyed while the executor may still use it: the spin loop ends first,
+        # then the executor (rclpy's shutdown destroys its guard condition at once, under a spin
+        # thread still waiting on it: a segfault on a busy machine), then the node.
+        stop.set()
+        spinner.join(timeout=10)
         executor.shutdown(timeout_sec=5)
-        spinner.join(timeout=5)
         if client is not None:
             client.destroy()
         node.destroy_node()
@@ -128,9 +130,10 @@ def main(argv: list[str] | None = None) -> None:
         say("intruder_stopped")
 
 
-def _spin(executor: Any, shutdown: type[BaseException]) -> None:
+def _spin(executor: Any, stop: threading.Event, shutdown: type[BaseException]) -> None:
     try:
-        executor.spin()
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
     except shutdown:
         return
 

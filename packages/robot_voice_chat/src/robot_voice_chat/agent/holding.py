@@ -37,11 +37,11 @@ logger = structlog.get_logger(__name__)
 GET_HELD = "manipulation.get_held"
 LIST_LOCATIONS = "navigation.list_locations"
 READ_TIMEOUT_S = 3.0
+"""At most this long for each read at a mission's end (a lost server answers an error sooner)."""
 NAVIGATION_WAIT_S = 5.0
 """A restarted brain connects to every server at once: the arm's may answer before navigation,
 whose places say where the robot is (a fresh-clone CI run told the held package without "near
 the mailroom"). Waited for this long, when navigation is configured."""
-"""At most this long for each read at a mission's end (a lost server answers an error sooner)."""
 ARM_BACK_WAIT_S = 20.0
 """After a pick, at most this long for an arm server that does not answer (a restart takes
 5–15 s on a busy robot) before the robot says it cannot tell what it holds."""

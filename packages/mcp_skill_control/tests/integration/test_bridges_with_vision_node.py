@@ -146,6 +146,7 @@ async def test_find_object_end_to_end_over_real_transports_with_a_real_vision_no
     except TimeoutError:
         raise AssertionError(f"vision node did not come up:\n{vision.log()[-3000:]}") from None
     async with clients(urls) as (skills, perception):
+        await _server_sees_vision(skills)
         templates = await call(skills, "list_skill_templates")
         assert {t["name"] for t in templates["templates"]} >= {"find_object", "watch_for"}
 
@@ -240,6 +241,14 @@ async def test_both_servers_fail_cleanly_without_the_vision_node_and_recover_whe
         assert _log_events(process, "ros_bridge_closed"), log
 
 
+async def _server_sees_vision(skills: Client) -> None:
+    # The observer seeing the node says nothing of the server's own discovery, which lagged
+    # past its 3 s service wait in the fresh-clone CI (stop 44): ask the server itself.
+    await async_wait_until(
+        lambda: _ok(call(skills, "list_running_skills")), 30.0, "the server to see the node"
+    )
+
+
 async def _ok(pending: Any) -> Any:
     answer = await pending
     return None if "_error" in answer else answer
@@ -267,6 +276,7 @@ async def test_a_prewarmed_grounding_is_reused_by_the_next_instantiation_on_a_re
     )
     params = {"template": "find_object", "params": {"query": "red mug"}}
     async with clients(urls) as (skills, perception):
+        await _server_sees_vision(skills)
         warmed = await call(skills, "prewarm_skill", params)
         assert "_error" not in warmed, f"{warmed}\n--- vision log:\n{vision.log()[-3000:]}"
         assert (warmed["skill_id"], warmed["prewarm"]) == ("prewarm_find_object", True)

@@ -19,20 +19,13 @@ from robot_language.places import PlaceIndex, words
 from robot_language.reading import Action, Question, Reading
 from robot_language.saying import CUT_OFF
 
-# "leave the box alone / where it is / as it is", "don't touch the box": hands off it
-_HANDS_OFF = re.compile(
-    r"\b(?:leave|let)\s+(?P<left>.+?)\s+(?:alone|be|where\s+(?:it|they)\s+(?:is|are)|"
-    r"as\s+(?:it|they)\s+(?:is|are)|in\s+peace)\b"
-    r"|\b(?:don't|do not|never)\s+(?:touch|move|pick up|take|handle)\s+(?P<touch>[^,.;]+)"
-)
-# a question may end on its preposition ("what are you looking at", "who is it for")
-_WH_QUESTION = re.compile(r"^(?:what|what's|which|who|whom|where|where's|how|when)\b")
 _HANDLING = ("pick", "put", "release", "fetch")
 _OFFER = "Do you want me to"
 _FIRST = "I can't check that before I start."
 _CANNOT = {"later": "I can't do things at a later time yet.", "exception": _FIRST,
            "condition": _FIRST, "route": "I can't choose my way around a place yet."}  # fmt: skip
-_Q = patterns("qualifiers", "not_now", "choice", "many", "back", "slot_in_thing", *_CANNOT)
+_Q = patterns("qualifiers", "not_now", "choice", "many", "back", "slot_in_thing", "hands_off",
+              "wh_question", *_CANNOT)  # fmt: skip
 _MAX_PLACE_WORDS = 4  # a place said in more words is a piece of sentence, not a name
 
 
@@ -103,17 +96,17 @@ def check_answer(reading: Reading, places: PlaceIndex | None) -> Reading:
 
 def _hands_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
     """A thing said to be left alone is handled by the reading."""
-    match = _HANDS_OFF.search(text)
+    match = _Q["hands_off"].search(text)
     if match is None:
         return None
-    left = set(words(match["left"] or match["touch"] or "")) - {"the", "a", "an", "my", "it"}
+    said = (match["left"] or match["touch"] or "").strip()
+    left = set(words(said)) - {"the", "a", "an", "my", "it"}
     handled = [
         a for a in actions if a.kind in _HANDLING and (not a.obj or left & set(words(a.obj)))
     ]
     if not left or not handled:
         return None
-    said = match["left"] or match["touch"] or ""
-    thing = saying.thing(said.strip()) if said.strip() else saying.thing(handled[0].obj)
+    thing = saying.thing(said or handled[0].obj)
     keep = [a for a in actions if a not in handled]
     return _Found(f"You said to leave {thing} alone, so I won't move it.", keep)
 
@@ -167,7 +160,7 @@ def _a_place(slot: str, places: PlaceIndex | None) -> bool:
 def _cut_off(text: str, actions: list[Action], places: PlaceIndex | None) -> _Found | None:
     """The sentence stops at a word that needs more after it."""
     said = re.findall(r"[\w']+", text)
-    if not said or said[-1] not in CUT_OFF or _WH_QUESTION.match(text):
+    if not said or said[-1] not in CUT_OFF or _Q["wh_question"].match(text):
         return None
     last = actions[-1]
     if said[-1] == "to" and last.kind == "fetch" and last.to is None:

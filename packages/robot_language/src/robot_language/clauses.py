@@ -8,8 +8,9 @@ from robot_language.config_file import patterns
 from robot_language.normalise import normalise
 
 _P = patterns("clauses", "split", "lead", "trail", "report", "search_in", "obj_in", "fetch",
-              "deliver", "watch_tail", "there", "for")  # fmt: skip
+              "deliver", "put_it", "watch_tail", "there", "for")  # fmt: skip
 SEARCH_IN = _P["search_in"]
+PUT_IT = _P["put_it"]
 
 _ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|her|his|their|your|any|this|that)\s+")
 

@@ -81,12 +81,8 @@ def compose(text: str, legs: list[Leg], places: PlaceIndex | None) -> Reading:
         "grammar" if all(leg.stage in ("grammar", "roles") for leg in legs) else "semantic"
     )
     intent = "+".join(leg.intent or "?" for leg in legs)
-    base = Reading("act", actions, intent=intent, score=score, stage=stage)
-    if not problems:
-        return base
-    return replace(
-        _problem(text, actions, problems, places), intent=intent, score=score, stage=stage
-    )
+    reading = _problem(text, actions, problems, places) if problems else Reading("act", actions)
+    return replace(reading, intent=intent, score=score, stage=stage)
 
 
 def _problem(
@@ -252,18 +248,13 @@ def share_place(legs: list[Leg]) -> None:
     for i, leg in enumerate(legs):
         if not leg.more or leg.action is None or leg.action.place is None:
             continue
-        j = i - 1
-        while j >= 0:
-            before = legs[j]
-            if (
-                before.action is None
-                or before.action.kind != leg.action.kind
-                or before.action.place
-            ):
+        for before in reversed(legs[:i]):
+            if before.action is None or before.action.kind != leg.action.kind:
+                break
+            if before.action.place:
                 break
             before.action = replace(before.action, place=leg.action.place)
             if before.status == "missing" and before.slot == "place":
                 before.status = "ok"
             if not before.more:
                 break
-            j -= 1

@@ -69,22 +69,14 @@ def _line_of(text: str, loc: tuple[int | str, ...]) -> int:
     return node.start_mark.line + 1 if node is not None else 1
 
 
-class _Patterns(RootModel[dict[str, Regex]]):
-    pass
-
-
-class _WordLists(RootModel[dict[str, frozenset[str]]]):
-    pass
-
-
 def patterns(name: str, *needed: str) -> dict[str, re.Pattern[str]]:
     """``config/<name>.yaml``: named regular expressions, compiled."""
-    return _named(name, _Patterns, needed)
+    return _named(name, RootModel[dict[str, Regex]], needed)
 
 
 def word_lists(name: str, *needed: str) -> dict[str, frozenset[str]]:
     """``config/<name>.yaml``: named lists of words."""
-    return _named(name, _WordLists, needed)
+    return _named(name, RootModel[dict[str, frozenset[str]]], needed)
 
 
 def _named(

@@ -6,21 +6,12 @@ from __future__ import annotations
 import re
 
 from robot_language import clauses as cl
+from robot_language.config_file import patterns
 from robot_language.normalise import normalise
 from robot_language.places import PlaceIndex
 from robot_language.reading import Question, Reading
 
-_CANCEL = re.compile(
-    r"^(?:never\s*mind|nevermind|cancel|forget\s+(?:it|that)|no|nope|no thanks|nothing|abort|"
-    r"don'?t|do nothing|stop|leave it)\b"
-)
-_YES = re.compile(
-    r"^(?:yes|yeah|yep|yup|sure|ok|okay|go ahead|do it|please do|correct|right|exactly|"
-    r"that's right|affirmative|please)\b"
-)
-# "no, the mailroom" / "no wait, reception": not a cancel but the place meant instead
-_NO_BUT = re.compile(r"^(?:no|nope|no no|no wait|not that one|wrong)[\s,]+(?:i meant |i mean )?"
-                     r"(?:to |go to )?(?P<rest>.+)$")  # fmt: skip
+_P = patterns("followup", "cancel", "yes", "no_but")
 _ORDINALS = {"first": 0, "former": 0, "second": 1, "latter": -1, "third": 2, "last": -1}
 
 
@@ -32,10 +23,10 @@ def follow_up(question: Question, answer: str, places: PlaceIndex | None) -> Rea
     corrected = _instead(question, text, places)
     if corrected is not None:
         return corrected
-    if _CANCEL.match(text):
+    if _P["cancel"].match(text):
         return Reading("cancel", text="OK, never mind: I won't do anything.", stage="answer")
     if question.mode == "confirm":
-        return Reading("act", question.actions, stage="answer") if _YES.match(text) else None
+        return Reading("act", question.actions, stage="answer") if _P["yes"].match(text) else None
     if question.mode == "choose":
         picked = _ordinal(text, question.options)
         if picked is None and places is not None:
@@ -56,7 +47,7 @@ def follow_up(question: Question, answer: str, places: PlaceIndex | None) -> Rea
 def _instead(question: Question, text: str, places: PlaceIndex | None) -> Reading | None:
     """ "no, the mailroom" to a question about one drive: that drive, to the place said, when
     the place is sure (else None, and the answer is read as a cancel or a new request)."""
-    said = _NO_BUT.match(text)
+    said = _P["no_but"].match(text)
     if said is None or places is None or len(question.actions) != 1:
         return None
     action = question.actions[0]

@@ -34,9 +34,9 @@ class IntentFile(BaseModel):
 def load_intents(extra: list[Path] | None = None) -> IntentFile:
     """The shipped intents, extended by ``extra`` files in order: a new intent is added, an
     existing one gets the extra examples and verbs (its kind and tool can't change)."""
-    merged = _read(DEFAULT_INTENTS)
+    merged = read_model(DEFAULT_INTENTS, IntentFile, "intents")
     for path in extra or []:
-        site = _read(path)
+        site = read_model(path, IntentFile, "intents")
         for name, intent in site.intents.items():
             known = merged.intents.get(name)
             if known is None:
@@ -50,7 +50,3 @@ def load_intents(extra: list[Path] | None = None) -> IntentFile:
         for word, looks in site.place_words.items():
             merged.place_words[word] = [*merged.place_words.get(word, []), *looks]
     return merged
-
-
-def _read(path: Path) -> IntentFile:
-    return read_model(path, IntentFile, "intents")

@@ -20,7 +20,8 @@ from robot_language import clauses as cl
 from robot_language.config_file import patterns, word_lists
 
 _P = patterns("negation", "leading", "not_first", "instead_of_first", "not_alone", "instead_of",
-              "not_last", "question", "still_negated")  # fmt: skip
+              "not_last", "question", "still_negated", "instead", "place_tail", "obj_verb",
+              "first_prep")  # fmt: skip
 
 _VERB = (
     r"(?:go|drive|head|come|move|walk|travel|return|navigate|visit|find|look|search|locate|"
@@ -33,13 +34,7 @@ _DONT = re.compile(
     rf"(?:,\s*|\s+(?:but|instead|rather)\s+|(?:\s+(?:and|then|but))?\s+(?={_VERB}\b)|$)"
     r"(?P<rest>.*)$"
 )
-_INSTEAD = re.compile(r"\s+instead$|^instead\s+")
 _WORDS = word_lists("words", "marks", "pairs", "strong", "not_after_no", "no_after")
-_PLACE_TAIL = re.compile(r"^(?P<head>.*\b(?:to|into|in|at|by|from|towards|near)\s+)(?P<place>.+)$")
-_OBJ_VERB = re.compile(
-    r"^(?P<verb>(?:find|look for|search for|locate|get|fetch|bring me|bring|grab|watch for)\s+)"
-)
-_FIRST_PREP = re.compile(r"^.*?\b(?:to|into|in|at|by|from|towards|near)\s+(?P<place>.+)$")
 
 
 @dataclass(frozen=True)
@@ -66,7 +61,7 @@ def read(text: str, is_place: Callable[[str], bool]) -> Said:
         if match is not None:
             leg = _trim(match["neg"])
             negated.append(_place_of(leg))
-            rest = _trim(_INSTEAD.sub("", match["rest"]))
+            rest = _trim(_P["instead"].sub("", match["rest"]))
             if not rest:
                 return Said("", negated, leg)
             text = rest
@@ -77,7 +72,7 @@ def read(text: str, is_place: Callable[[str], bool]) -> Said:
             negated.append(_place_of(_trim(match["neg"])))
             text = _trim(match["rest"])
             break
-    return Said(_trim(_INSTEAD.sub("", text)), [n for n in negated if n])
+    return Said(_trim(_P["instead"].sub("", text)), [n for n in negated if n])
 
 
 def _correct(text: str, is_place: Callable[[str], bool], negated: list[str]) -> str:
@@ -86,16 +81,16 @@ def _correct(text: str, is_place: Callable[[str], bool], negated: list[str]) -> 
     if found is None:
         return text
     before, after = found
-    after = _trim(_INSTEAD.sub("", after))
+    after = _trim(_P["instead"].sub("", after))
     legs = cl.clauses(before)
     if not legs or not after:
         return text
     *kept, last = legs
     if is_place(after) and not re.match(rf"^{_VERB}\b", after):
-        if is_place(last) and not _PLACE_TAIL.match(last):
+        if is_place(last) and not _P["place_tail"].match(last):
             negated.append(cl.strip_article(last))
             last = after
-        elif (tail := _PLACE_TAIL.match(last)) is not None:
+        elif (tail := _P["place_tail"].match(last)) is not None:
             negated.append(cl.strip_article(tail["place"]))
             last = tail["head"] + after
         else:
@@ -104,7 +99,7 @@ def _correct(text: str, is_place: Callable[[str], bool], negated: list[str]) -> 
     elif re.match(rf"^{_VERB}\b", after):
         negated.append(_place_of(last))
         last = after
-    elif (verb := _OBJ_VERB.match(last)) is not None and not _PLACE_TAIL.match(last):
+    elif (verb := _P["obj_verb"].match(last)) is not None and not _P["place_tail"].match(last):
         last = verb["verb"] + after  # "find the mug, no wait, the scissors"
     else:
         return text
@@ -166,7 +161,7 @@ def _trim(text: str) -> str:
 def _place_of(leg: str) -> str:
     """The place phrase of a negated leg ("go to the kitchen" → "the kitchen"; a bare place is
     itself)."""
-    match = _FIRST_PREP.match(leg)
+    match = _P["first_prep"].match(leg)
     return cl.strip_article(match["place"]) if match is not None else cl.strip_article(leg)
 
 

@@ -42,11 +42,10 @@ _LEADING = re.compile(r"^(?:(?:so|well|alright|all right|oh|yo|okay so|ok so|rig
 _YOU_KNOW = re.compile(r"(?:^|,)\s*you know\s*(?:,|$)")
 _SENTENCES = re.compile(r"[.!?]+")
 _WORD = re.compile(r"[\w']+")
-_NUMBER_WORDS = re.compile(
-    r"\b(?:one|two|three|four|five|six|seven|eight|nine|ten|eleven|twelve|thirteen|fourteen|"
-    r"fifteen|sixteen|seventeen|eighteen|nineteen|twenty|thirty|forty|fifty|sixty|seventy|"
-    r"eighty|ninety|hundred|thousand)\b"
-)
+ONES = "one|two|three|four|five|six|seven|eight|nine"
+TEENS = "ten|eleven|twelve|thirteen|fourteen|fifteen|sixteen|seventeen|eighteen|nineteen"
+TENS = "twenty|thirty|forty|fifty|sixty|seventy|eighty|ninety"
+_NUMBER_WORDS = re.compile(rf"\b(?:{ONES}|{TEENS}|{TENS}|hundred|thousand)\b")
 
 
 def possessors(names: Iterable[str]) -> set[str]:
@@ -64,7 +63,7 @@ def normalise(text: str, owners: Iterable[str] = (), *, spoken: bool = True) -> 
         return text
     text = _one_word_sentences(text)
     text = _words(text, {f"{o}s": f"{o}'s" for o in owners})
-    text = _drop_repeated_pairs(text)
+    text = re.sub(r"\b(\w+ \w+) \1\b", r"\1", text)  # a restart: "go to go to the kitchen"
     text = _YOU_KNOW.sub(",", text).strip(" ,")
     text = _LEADING.sub("", text)
     if _NUMBER_WORDS.search(text):
@@ -121,8 +120,3 @@ def _words(text: str, owned: dict[str, str]) -> str:
     joined = "".join(out)
     joined = re.sub(r"\s+([,.!?;:])(?!\d)", r"\1", joined)
     return re.sub(r"([,;])(?:\s*[,;])+", r"\1", " ".join(joined.split()))
-
-
-def _drop_repeated_pairs(text: str) -> str:
-    """ "go to go to the kitchen" → "go to the kitchen" (a restart of the same two words)."""
-    return re.sub(r"\b(\w+ \w+) \1\b", r"\1", text)

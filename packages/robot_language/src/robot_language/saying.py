@@ -56,8 +56,7 @@ def said(action: Action, places: PlaceIndex | None) -> str:
 
 def plan(actions: list[Action], places: PlaceIndex | None) -> str:
     """The actions in order, as one sentence's predicate."""
-    parts = [said(a, places) for a in actions]
-    return parts[0] if len(parts) == 1 else ", then ".join(parts[:-1]) + ", then " + parts[-1]
+    return ", then ".join(said(a, places) for a in actions)
 
 
 def confirm(actions: list[Action], places: PlaceIndex | None) -> str:

@@ -37,10 +37,7 @@ def load_set(path: Path) -> list[tuple[str, list[str]]]:
 
 def intent_of(expected: list[str]) -> str:
     """The intent an item tests: the first action's kind (seq when several), or its outcome."""
-    kinds = [e.split(":", 1)[0] for e in expected]
-    if len(kinds) > 1:
-        return "sequence"
-    return kinds[0]
+    return "sequence" if len(expected) > 1 else expected[0].split(":", 1)[0]
 
 
 def _objects_agree(a: str, b: str) -> bool:
@@ -92,10 +89,9 @@ def score(items: list[tuple[str, list[str]]], read: Reader) -> Score:
     for text, expected in items:
         got = read(text)
         result.total += 1
-        hit = got == expected
         counts = result.per_intent[intent_of(expected)]
         counts[1] += 1
-        if hit:
+        if got == expected:
             result.understood += 1
             counts[0] += 1
         else:

@@ -41,13 +41,6 @@ NOT_READ_RECALL = (
     "you last see the mug?', 'what did you see 5 minutes ago?', 'what happened while I was "
     "away?' or 'where were you at 3 pm?'"
 )
-# "put it on Q" / "leave it at Q" right after a fetch: where to bring it (the verbs of a
-# manipulation of its own are the manipulation layer's)
-_PUT_IT = re.compile(
-    r"^(?:put|place|leave|set|drop|put down|set down)\s+(?:it|them|that|this)\s+"
-    r"(?:down\s+|off\s+)?(?:on|onto|at|in|into|by|next to|over at|on top of)\s+(?P<to>.+)$"
-)
-
 _THING = re.compile(r"^(?:the|a|an|my|your|our|his|her|their|this|that|some)\s")
 
 
@@ -122,8 +115,7 @@ class Understanding:
         if places is not None and negated:
             places = places.excluding(negated)
         body, rounds = composites.rounds(said_plainly(said.text, self.roles))
-        parts = [phrasing.canonical(p) for p in cl.clauses(composites.patrol(body))]
-        parts = [p for p in parts if p]
+        parts = [c for p in cl.clauses(composites.patrol(body)) if (c := phrasing.canonical(p))]
         if not parts:
             return unclear(text), set()
         wholes = [body, cl.tidy(body), *(parts[:1] if len(parts) == 1 else [])]
@@ -189,11 +181,9 @@ class Understanding:
             parse(part).kind != "unknown"
             or self._verb(part) is not None
             or cl.SEARCH_IN.match(part)
+            or (places is not None and places.only_place(part))
+            or read_question(part) is not None
         ):
-            return None
-        if places is not None and places.only_place(part):
-            return None
-        if read_question(part) is not None:
             return None
         leg = self._leg(f"{kind} {part}", places)
         if leg.action is None or leg.action.kind != kind:
@@ -211,7 +201,7 @@ class Understanding:
         if previous.kind != "fetch" and not (previous.kind == "find" and previous.place):
             return None  # a search in a place, then "bring it to Q": get it from there
         to = cl.deliver_slot(part, self.intents.intents["deliver"].verbs)
-        put = _PUT_IT.match(part)
+        put = cl.PUT_IT.match(part)
         to = to or (cl.strip_article(put["to"]) if put is not None else None)
         if to is None:
             return None

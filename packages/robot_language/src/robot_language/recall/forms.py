@@ -45,9 +45,10 @@ def read_recall(text: str) -> Recall | None:
 
 
 def default_recall() -> Recall:
-    """What a question about the past that only the meaning matcher understood gets: the
-    digest since the person's previous turn (else the last hour)."""
-    return _away()
+    """The digest since the person's previous turn (else the last hour): "while I was away", and
+    what a question about the past that only the meaning matcher understood gets."""
+    arguments = {"start": DEFAULT_AWAY, "max_items": 100}
+    return Recall("away", WHAT_HAPPENED, arguments, "while away", since_turn=True)
 
 
 def _read(plain: str) -> Recall | None:
@@ -126,15 +127,10 @@ def _visits(text: str) -> Recall | None:
 
 def _digest(text: str) -> Recall | None:
     if FORMS.away.search(text):
-        return _away()
+        return default_recall()
     if not FORMS.digest.search(text):
         return None
-    return window(text, None, "digest", default=None) or _away()
-
-
-def _away() -> Recall:
-    arguments = {"start": DEFAULT_AWAY, "max_items": 100}
-    return Recall("away", WHAT_HAPPENED, arguments, "while away", since_turn=True)
+    return window(text, None, "digest", default=None) or default_recall()
 
 
 def window(

@@ -9,13 +9,11 @@ import re
 
 from text_to_num import text2num  # type: ignore[import-untyped]
 
+from robot_language.normalise import ONES, TEENS, TENS
 from robot_language.recall.phrasings import PHRASINGS
 
-_ONES = "one|two|three|four|five|six|seven|eight|nine"
-_TEENS = "ten|eleven|twelve|thirteen|fourteen|fifteen|sixteen|seventeen|eighteen|nineteen"
-_TENS = "twenty|thirty|forty|fifty|sixty|seventy|eighty|ninety"
 _AMOUNTS = "|".join(sorted(map(re.escape, PHRASINGS.amounts), key=len, reverse=True))
-NUMBER = rf"(?:\d+|(?:{_TENS})(?:[ -](?:{_ONES}))?|{_TEENS}|{_ONES}|{_AMOUNTS})"
+NUMBER = rf"(?:\d+|(?:{TENS})(?:[ -](?:{ONES}))?|{TEENS}|{ONES}|{_AMOUNTS})"
 UNIT = r"(?:seconds?|secs?|s|minutes?|mins?|m|hours?|hrs?|h)"
 UNIT_S = {"s": 1, "m": 60, "h": 3600}
 AGO = re.compile(
@@ -94,7 +92,7 @@ BETWEEN = re.compile(
     r"\b(?:between|from)\s+(?P<a>\d{1,2}(?::\d{2})?(?:\s*(?:am|pm))?)\s+(?:and|to|till|until)\s+"
     r"(?P<b>\d{1,2}(?::\d{2})?(?:\s*(?:am|pm))?)(?![\w:])"
 )
-_HOUR = rf"(?:1[0-2]|0?[1-9]|{_ONES}|ten|eleven|twelve)"
+_HOUR = rf"(?:1[0-2]|0?[1-9]|{ONES}|ten|eleven|twelve)"
 _DAYPART = r"(?=\s+in the (?:morning|afternoon|evening))"
 # "half past two", "ten past four", "twenty to three", "25 minutes past 3", "quarter of five",
 # "four o'clock", "3 pm", "three in the afternoon", "9:15 in the evening"; not a range ("from

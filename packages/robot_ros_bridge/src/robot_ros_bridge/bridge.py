@@ -125,6 +125,18 @@ class ReadinessTracker:
         return None if since is None else since + self.settle_s
 
 
+def _drain_callbacks(executor: Executor, timeout_s: float) -> None:
+    """Let callbacks already handed to a multi-threaded executor's pool finish: each triggers
+    the executor's guard condition, which ``Executor.shutdown`` destroys without waiting for
+    them (its wait is skipped once the shutdown flag is set; the pool is joined only after)."""
+    pool = getattr(executor, "_executor", None)  # MultiThreadedExecutor's ThreadPoolExecutor
+    if pool is None:
+        return
+    drainer = threading.Thread(target=pool.shutdown, kwargs={"wait": True}, daemon=True)
+    drainer.start()
+    drainer.join(timeout=timeout_s)
+
+
 class RosBridge:
     """Owns the ROS side of one process. Thread-safe; create once in the composition root.
 
@@ -196,25 +208,29 @@ class RosBridge:
         assert executor is not None
         assert context is not None
         with contextlib.suppress(ExternalShutdownException):
-            spin_until_shutdown(executor, lambda: not self._closed and context.ok())
+            spin_until_shutdown(executor, lambda: not self._closed and context.ok(), turn_s=0.5)
 
     def close(self, timeout_s: float = 5.0) -> None:
-        """Stop spinning, destroy the node, shut the context down. Idempotent."""
+        """End the spin thread, then shut the executor down, destroy the node and shut the
+        context down, in that order (see ``spinning``). Idempotent."""
         if self._closed:
             return
         self._closed = True
         executor, node, context, thread = self._executor, self._node, self._context, self._thread
-        if self._watch_timer is not None and node is not None:
-            node.destroy_timer(self._watch_timer)
-            self._watch_timer = None
         if executor is not None:
+            executor.wake()
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=timeout_s)
+            if thread.is_alive():
+                logger.warning("ros_bridge_spin_still_running", timeout_s=timeout_s)
+        if executor is not None:
+            _drain_callbacks(executor, timeout_s)
             executor.shutdown(timeout_sec=timeout_s)
+        self._watch_timer = None  # destroyed with the node, after callbacks in flight end
         if node is not None:
             node.destroy_node()
         if context is not None:
             context.try_shutdown()
-        if thread is not None:
-            thread.join(timeout=timeout_s)
         logger.info("ros_bridge_closed", node=self._node_name)
 
     def __enter__(self) -> RosBridge:

@@ -21,11 +21,22 @@ from rclpy.executors import ExternalShutdownException
 logger = structlog.get_logger(__name__)
 
 
-def spin_until_shutdown(executor: Any, running: Callable[[], bool] = rclpy.ok) -> None:
-    """Spin ``executor`` while ``running()``; Ctrl-C and an external shutdown end it (raised)."""
+def spin_until_shutdown(
+    executor: Any, running: Callable[[], bool] = rclpy.ok, *, turn_s: float | None = None
+) -> None:
+    """Spin ``executor`` while ``running()``; Ctrl-C and an external shutdown end it (raised).
+
+    With ``turn_s`` it spins one wait at a time, checking ``running()`` at least every
+    ``turn_s``: a thread spinning for another (the bridge's) then ends *before* its executor is
+    shut down. rclpy's ``Executor.shutdown`` destroys the guard condition at once, under a wait
+    that may still hold it (a test peer segfaulted on stop that way in a busy CI run).
+    """
     while running():
         try:
-            executor.spin()
+            if turn_s is None:
+                executor.spin()
+            else:
+                executor.spin_once(timeout_sec=turn_s)
         except (KeyboardInterrupt, ExternalShutdownException):
             raise
         except Exception:  # the spin loop is the process's boundary

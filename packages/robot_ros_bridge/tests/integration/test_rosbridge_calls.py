@@ -204,6 +204,27 @@ async def test_a_closed_bridge_refuses_calls_cleanly(vision: FakeVisionNode) -> 
         b.start()
 
 
+@pytest.mark.parametrize("kind", ["multi_threaded", "single_threaded"])
+def test_close_ends_the_spin_thread_before_the_executor_is_shut_down(kind: str) -> None:
+    # rclpy's Executor.shutdown destroys its guard condition at once, under a spin thread
+    # still waiting on it (a segfault on stop in a busy CI run): the thread must end first.
+    b = RosBridge(_unique("closing"), executor=kind).start()  # type: ignore[arg-type]
+    thread, executor = b._thread, b._executor
+    assert thread is not None
+    assert executor is not None
+    assert thread.is_alive()
+    alive_at_shutdown: list[bool] = []
+    shutdown = executor.shutdown
+
+    def recording_shutdown(*args: object, **kwargs: object) -> bool:
+        alive_at_shutdown.append(thread.is_alive())
+        return bool(shutdown(*args, **kwargs))  # type: ignore[arg-type]
+
+    executor.shutdown = recording_shutdown  # type: ignore[method-assign]
+    b.close()
+    assert alive_at_shutdown == [False]
+
+
 def test_an_unstarted_bridge_has_no_node() -> None:
     with pytest.raises(BridgeClosedError):
         _ = RosBridge("never_started").node

@@ -8,10 +8,14 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 from robot_language import saying
+from robot_language.config_file import patterns
 from robot_language.places import PlaceIndex, key
 from robot_language.reading import Action, Question, Reading
 
 Status = Literal["ok", "ambiguous", "unknown_place", "missing", "unclear", "bare", "deliver"]
+
+
+_THEM = patterns("clauses", "them")["them"]
 
 
 @dataclass
@@ -244,17 +248,25 @@ def _brought_on(action: Action) -> bool:
 
 def share_place(legs: list[Leg]) -> None:
     """ "look for a red mug and a blue box in the meeting room": the place said with the last
-    object of a search (a fetch) is the place of the objects before it."""
+    object of a search (a fetch) is the place of the objects before it; "bring the mug and the
+    bottle to reception" (or "… and bring them to reception"): so is the destination of a fetch."""
     for i, leg in enumerate(legs):
-        if not leg.more or leg.action is None or leg.action.place is None:
+        if leg.action is None:
             continue
-        for before in reversed(legs[:i]):
+        if leg.more:
+            chain = legs[:i]
+        elif leg.status == "deliver" and i > 0 and legs[i - 1].more and _THEM.search(leg.text):
+            chain = legs[: i - 1]  # the last thing is joined to its delivery when composed
+        else:
+            continue
+        for before in reversed(chain):
             if before.action is None or before.action.kind != leg.action.kind:
                 break
-            if before.action.place:
-                break
-            before.action = replace(before.action, place=leg.action.place)
-            if before.status == "missing" and before.slot == "place":
-                before.status = "ok"
+            if leg.action.place and not before.action.place:
+                before.action = replace(before.action, place=leg.action.place)
+                if before.status == "missing" and before.slot == "place":
+                    before.status = "ok"
+            if leg.action.to and not before.action.to and before.action.kind == "fetch":
+                before.action = replace(before.action, to=leg.action.to)
             if not before.more:
                 break

@@ -99,3 +99,38 @@ def test_no_sentence_of_any_set_is_said_back_with_an_empty_place(
                 holes.append((text, question.text))
     assert len(DATA_SETS) >= 7
     assert holes == []
+
+
+@pytest.mark.parametrize(
+    "said",
+    [
+        "bring the mug and the bottle from the kitchen to reception",
+        "get the mug and the bottle from the kitchen and bring them to reception",
+        "get the mug and the bottle from the kitchen and bring both to reception",
+    ],
+)
+def test_two_things_brought_to_one_place_are_each_brought_there(
+    understanding: Understanding, places: PlaceIndex, said: str
+) -> None:
+    reading = understanding.understand(said, places)
+    assert reading.question is not None
+    assert reading.question.actions == [
+        Action("fetch", "kitchen", "mug", "reception"),
+        Action("fetch", "kitchen", "bottle", "reception"),
+    ]
+    assert reading.question.text == (
+        "Do you want me to get the mug from the kitchen and bring it to the reception desk, "
+        "then get the bottle from the kitchen and bring it to the reception desk? (yes or no)"
+    )
+
+
+def test_it_after_two_things_is_only_the_last_and_is_said_back_so(
+    understanding: Understanding, places: PlaceIndex
+) -> None:
+    said = "get the mug and the bottle from the kitchen and bring it to reception"
+    reading = understanding.understand(said, places)
+    assert reading.question is not None
+    assert reading.question.actions == [
+        Action("fetch", "kitchen", "mug"),
+        Action("fetch", "kitchen", "bottle", "reception"),
+    ]

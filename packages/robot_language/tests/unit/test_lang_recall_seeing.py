@@ -116,6 +116,8 @@ def test_the_same_words_without_a_past_sighting_by_the_robot_are_no_recall(text:
         ("what is at reception?", "reception"),
         ("what's there in the mailroom", "mailroom"),
         ("what is inside the meeting room", "meeting room"),
+        ("what's on Bob's desk", "bob's desk"),
+        ("what is lying on the kitchen table", "kitchen table"),
     ],
 )
 def test_what_is_in_a_place_is_what_it_saw_there_never_a_drive(
@@ -131,7 +133,14 @@ def test_what_is_in_a_place_is_what_it_saw_there_never_a_drive(
 
 
 @pytest.mark.parametrize(
-    "text", ["what's in view?", "what is in front of you", "what's in your gripper"]
+    "text",
+    [
+        "what's in view?",
+        "what is in front of you",
+        "what's in your gripper",
+        "what's on your mind",
+        "what did you see on monday",
+    ],
 )
 def test_what_is_in_view_or_in_its_hand_is_not_a_place_it_saw(text: str) -> None:
     recall = read_recall(text)

@@ -11,14 +11,18 @@ from robot_language.recall.times import AGO, SPAN, ago, span
 ARTICLE = re.compile(r"^(?:the|a|an|my|our|some|any|your|her|his|their|that|this)\s+")
 _HEDGES = sorted(PHRASINGS.hedges)
 _HEDGE = r"(?:" + "|".join(_HEDGES) + r"|at (?:" + "|".join(_HEDGES) + r"))\b"
-_PLACE = re.compile(
-    r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)"
+_PLACE_WORDS = (
     r"(?:the\s+|my\s+|our\s+)?(?P<place>[a-z' ]+?)"
     r"(?=\s+(?:today|recently|lately|earlier|in the|during|over|this|\d|a |an |half|just|"
     r"around|when|while|between|from|before|after|at (?:\d|noon|midday|midnight)|"
     + _HEDGE
     + r")|$)"
 )
+_PLACE = re.compile(
+    r"\b(?:in|at|inside)\s+(?!(?:the\s+)?(?:last|past|previous|moment)\b)" + _PLACE_WORDS
+)
+# "what's on Bob's desk": "on" names a place only in this form ("on Monday" never does)
+_ON_PLACE = re.compile(r"^what(?:'s| is| are) (?:there |lying |standing )?on\s+" + _PLACE_WORDS)
 _NO_PLACE = {"all", "view", "noon", "midday", "midnight", *PHRASINGS.hedges}
 _PLACE_TAIL = re.compile(r"\s+(?:in|at|inside|near|by)\s+(?:the\s+|my\s+|our\s+)?(?P<place>.+)$")
 _OBJECT_TAIL = re.compile(
@@ -32,7 +36,7 @@ _OBJECT_TAIL = re.compile(
 
 def place_of(text: str) -> str | None:
     """The place said after "in" / "at" ("what did you see in the kitchen at 3 pm")."""
-    match = _PLACE.search(text)
+    match = _PLACE.search(text) or _ON_PLACE.match(text)
     if match is None:
         return None
     place = match["place"].strip()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Collection
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
@@ -81,11 +82,17 @@ class Understanding:
         return PlaceIndex.from_result(list_locations_result, self.intents.place_words)
 
     # --- one request ------------------------------------------------------------------------
-    def understand(self, text: str, places: PlaceIndex | None = None) -> Reading:
+    def understand(
+        self, text: str, places: PlaceIndex | None = None, seen: Collection[str] = ()
+    ) -> Reading:
+        """``seen``: the things the robot has seen (episodic memory's labels, as spoken): a
+        misspelt thing is read as one of them when it clearly is. Not checked for as unused
+        objects: a label such as "desk" or "door" is also a word of places and requests."""
         started = time.monotonic()
         heard = normalise(text, places.owners() if places is not None else ())
         reading, ruled_out = self._understand(heard, places)
-        spelt = [replace(a, obj=fuzzy.respelt(a.obj, self._things)) if a.obj else a
+        things = self._things.union(seen)
+        spelt = [replace(a, obj=fuzzy.respelt(a.obj, things)) if a.obj else a
                  for a in reading.actions]  # fmt: skip
         # the CHECK stage: the one point every reading passes before anything acts on it
         reading = check(

@@ -155,3 +155,18 @@ def test_an_unknown_place_is_refused_naming_the_known_ones(read: Read, said: str
     assert reading.kind == "refuse"
     assert "garage" in reading.text
     assert "kitchen" in reading.text
+
+
+def test_a_misspelt_thing_the_robot_has_seen_is_read_as_that_thing(
+    understanding: Understanding,
+) -> None:
+    places = understanding.places(OFFICE_LIST_LOCATIONS)
+    said = "bring the thermoss from the kitchen"
+
+    def things(reading: Reading) -> list[str | None]:
+        actions = reading.question.actions if reading.question is not None else reading.actions
+        return [a.obj for a in actions]
+
+    assert things(understanding.understand(said, places)) == ["thermoss"]
+    seen = understanding.understand(said, places, seen=["thermos", "coffee mug"])
+    assert things(seen) == ["thermos"]

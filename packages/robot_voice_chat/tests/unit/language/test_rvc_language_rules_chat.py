@@ -146,3 +146,27 @@ async def test_call_ids_renamed_on_the_way_still_reach_the_right_step(
     ]
     reply = await chat.chat(messages, TOOLS)
     assert [c.name for c in reply.tool_calls] == ["start_mission"]
+
+
+@pytest.mark.parametrize("labels", ['{"labels": ["thermos", "coffee_mug"]}', "not json"])
+async def test_what_the_robot_has_seen_is_read_with_the_places(
+    understanding: Understanding, labels: str
+) -> None:
+    """With memory running, episodic.known_labels is read beside the places: a thing the
+    camera has seen, misspelt, is fetched by its name; an unreadable answer changes nothing."""
+    chat = RulesChat(understanding)
+    tools = [*TOOLS, ToolDefinition(name="episodic.known_labels"),
+             ToolDefinition(name="start_mission")]  # fmt: skip
+    messages = [Message(role="user", content="fetch the thermoss from the kitchen")]
+    first = await chat.chat(messages, tools)
+    places, seen = first.tool_calls
+    assert (places.name, seen.name) == ("navigation.list_locations", "episodic.known_labels")
+    answers = [
+        ToolResult(tool_call_id=places.id, content=OFFICE_LIST_LOCATIONS),
+        ToolResult(tool_call_id=seen.id, content=labels),
+    ]
+    messages += [first.as_message(), Message(role="user", tool_results=answers)]
+    reply = await chat.chat(messages, tools)
+    [call] = reply.tool_calls
+    thing = "thermos" if labels.startswith("{") else "thermoss"
+    assert call.arguments["instruction"] == f"fetch {thing} from kitchen"

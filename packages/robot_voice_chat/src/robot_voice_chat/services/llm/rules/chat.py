@@ -52,8 +52,10 @@ from robot_voice_chat.services.llm.rules.recollection import (
     names_of,
     recollection,
 )
+from robot_voice_chat.services.speech.vocabulary import labels_from_listing
 
 LIST_LOCATIONS = "navigation.list_locations"
+KNOWN_LABELS = "episodic.known_labels"  # what the robot has seen: a misspelt one is read right
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
 GET_HELD = "manipulation.get_held"
@@ -131,27 +133,32 @@ class RulesChat(LLMProvider):
         names = {t.name for t in tools or []}
         last = messages[-1] if messages else Message(role="user")
         if last.tool_results:
-            return self._on_result(last.tool_results[0], messages, names)
+            return self._on_result(last.tool_results, messages, names)
         self._stamp_turn(messages)
         text = normalise(last.content, spoken=False)
         if _STOP.match(text) and "stop_mission" in names:
             self._pending = None
             return self._call("stop_mission", {}, "stop")
-        if LIST_LOCATIONS in names:  # read the live places first, then the request
-            return self._call(LIST_LOCATIONS, {}, "places")
+        if LIST_LOCATIONS in names:  # read the live places (and what it has seen) first
+            calls = [self._tool_call(LIST_LOCATIONS, {}, "places")]
+            if KNOWN_LABELS in names:
+                calls.append(self._tool_call(KNOWN_LABELS, {}, "seen"))
+            return LLMResponse(tool_calls=calls, stop_reason="tool_use")
         return self._reply(last.content, None, messages, names)
 
     def _on_result(
-        self, result: ToolResult, messages: list[Message], names: set[str]
+        self, results: list[ToolResult], messages: list[Message], names: set[str]
     ) -> LLMResponse:
-        sent = self._sent.pop(result.tool_call_id, None) or _Sent(_purpose_of(result, messages))
+        sents = [self._why(r, messages) for r in results]
+        result, sent = results[0], sents[0]
         purpose = sent.purpose
         request = next(
             (m.content for m in reversed(messages) if m.role == "user" and m.content), ""
         )
         if purpose == "places":
             places = None if result.is_error else self.understanding.places(result.content)
-            return self._reply(request, places, messages, names)
+            seen = [r for r, s in zip(results, sents, strict=True) if s.purpose == "seen"]
+            return self._reply(request, places, messages, names, _labels(seen))
         if purpose == "pose":
             return LLMResponse(text=_where(result, names_of(sent.places)))
         if purpose == "held":
@@ -174,8 +181,17 @@ class RulesChat(LLMProvider):
             return LLMResponse(text=result.content or "Stopped.")
         return LLMResponse(text="Done.")
 
+    def _why(self, result: ToolResult, messages: list[Message]) -> _Sent:
+        sent = self._sent.pop(result.tool_call_id, None)
+        return sent or _Sent(_purpose_of(result, messages))
+
     def _reply(
-        self, text: str, places: PlaceIndex | None, messages: list[Message], names: set[str]
+        self,
+        text: str,
+        places: PlaceIndex | None,
+        messages: list[Message],
+        names: set[str],
+        seen: list[str] | None = None,
     ) -> LLMResponse:
         reading: Reading | None = None
         pending, self._pending = self._pending, None
@@ -184,7 +200,7 @@ class RulesChat(LLMProvider):
         if reading is None:
             reading = _history_follow_up(text, messages, places)
         if reading is None:
-            reading = self.understanding.understand(text, places)
+            reading = self.understanding.understand(text, places, seen or ())
         if reading.kind == "act" and "start_mission" in names:
             said = saying.plan(reading.actions, places)
             missing = _missing_service(reading.actions, names)
@@ -300,12 +316,18 @@ class RulesChat(LLMProvider):
         places: PlaceIndex | None = None,
         about: str | None = None,
     ) -> LLMResponse:
+        call = self._tool_call(name, arguments, purpose, _Sent(purpose, recall, places, about))
+        return LLMResponse(tool_calls=[call], stop_reason="tool_use")
+
+    def _tool_call(
+        self, name: str, arguments: dict[str, Any], purpose: str, sent: _Sent | None = None
+    ) -> ToolCall:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
-        self._sent[call.id] = _Sent(purpose, recall, places, about)
+        self._sent[call.id] = sent or _Sent(purpose)
         while len(self._sent) > 64:  # answers that never came back
             self._sent.pop(next(iter(self._sent)))
-        return LLMResponse(tool_calls=[call], stop_reason="tool_use")
+        return call
 
     async def chat_stream(
         self, messages: list[Message], tools: list[ToolDefinition] | None = None
@@ -377,6 +399,7 @@ def _where(result: ToolResult, names: Names = by_id) -> str:
 
 _PURPOSE_OF_TOOL = {
     LIST_LOCATIONS: "places",
+    KNOWN_LABELS: "seen",
     GET_POSE: "pose",
     GET_HELD: "held",
     RESUME: "resume",
@@ -441,6 +464,15 @@ def _tool_of(result: ToolResult, messages: list[Message]) -> str:
         ),
         "",
     )
+
+
+def _labels(results: list[ToolResult]) -> list[str]:
+    """What ``episodic.known_labels`` answered, as spoken; none when it failed."""
+    for result in results:
+        labels = None if result.is_error else labels_from_listing(result.content)
+        if labels:
+            return labels
+    return []
 
 
 def _purpose_of(result: ToolResult, messages: list[Message]) -> str:

@@ -130,27 +130,24 @@ class StepRecovery:
             await self._host.output.emit_plan(run)
         deadline = time.monotonic() + RECOVER_WAIT_S
         opened = lost == "lease" or await self._base_back(handle.server)
-        while True:
-            left = max(0.0, deadline - time.monotonic())
-            opened = opened and await self._host.supervisor.wait_lock_open(handle.server, left)
-            if not (opened and self._host.still_running(run)):
-                logger.warning(
-                    "supervision_lapse_not_recovered",
-                    server=handle.server,
-                    task_id=handle.task_id,
-                    lock_open=opened,
-                )
-                if self._host.still_running(run):
-                    await self._host.deliver(run, handle, event)
-                return
-            sent_at = time.time()
-            outcome = await self._send_again(run, issued)
-            # refused unsupervised: nothing moved, the lease lapsed again (the host is still
-            # catching up): sent again once the lock is open, within the same wait
-            if not (refused_unsupervised(outcome) and time.monotonic() < deadline):
-                break
-            logger.info("supervision_lapse_resend", server=handle.server, step_id=issued.step_id)
-            await asyncio.sleep(RESEND_PAUSE_S)  # a lock that reads open but refuses: no spin
+        left = max(0.0, deadline - time.monotonic())
+        opened = opened and await self._host.supervisor.wait_lock_open(handle.server, left)
+        if not (opened and self._host.still_running(run)):
+            logger.warning(
+                "supervision_lapse_not_recovered",
+                server=handle.server,
+                task_id=handle.task_id,
+                lock_open=opened,
+            )
+            if self._host.still_running(run):
+                await self._host.deliver(run, handle, event)
+            return
+        sent_at = time.time()
+        # refused unsupervised: nothing moved, the lease lapsed again (the host is still
+        # catching up): sent again once the lock is open, within the same wait
+        outcome = await self.resend_refused(
+            run, issued, await self._send_again(run, issued), deadline
+        )
         info = None if outcome.is_error else parse_task_info(outcome.text)
         self._host.trace.record(
             mission.id,
@@ -180,14 +177,18 @@ class StepRecovery:
             await self._host.output.say(run, carrying_on(issued, lost))
 
     async def resend_refused(
-        self, run: MissionRun, issued: IssuedCall, outcome: ToolOutcome
+        self,
+        run: MissionRun,
+        issued: IssuedCall,
+        outcome: ToolOutcome,
+        deadline: float | None = None,
     ) -> ToolOutcome:
-        """A motion call refused ``NOT_SUPERVISED`` as it was first sent (the lease lapsed a
-        moment before, the brain alive, nothing moved): sent again once the server's lock is
-        open, within ``RECOVER_WAIT_S``; otherwise the refusal as it came."""
+        """A motion call refused ``NOT_SUPERVISED`` as it was sent (the lease lapsed a moment
+        before, the brain alive, nothing moved): sent again once the server's lock is open,
+        until ``deadline`` (monotonic; ``RECOVER_WAIT_S`` from now); otherwise the refusal."""
         supervisor = self._host.supervisor
         server = issued.tool.partition(".")[0]
-        deadline = time.monotonic() + RECOVER_WAIT_S
+        deadline = deadline or time.monotonic() + RECOVER_WAIT_S
         while (  # still running: not latched, not paused, not waiting on the person
             supervisor is not None
             and refused_unsupervised(outcome)

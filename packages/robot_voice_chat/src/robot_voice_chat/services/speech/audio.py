@@ -68,6 +68,14 @@ class Utterance:
         return cls(wav_bytes(samples), "audio/wav", samples)
 
 
+MIN_PEAK = 300  # an utterance quieter than this (int16 peak) is nothing heard
+
+
+def nothing_said(samples: np.ndarray) -> bool:
+    """No sample of the 16-bit recording reaches ``MIN_PEAK``: silence, not speech."""
+    return samples.size == 0 or int(np.abs(samples.astype(np.int32)).max()) < MIN_PEAK
+
+
 def base_type(mime_type: str) -> str:
     return mime_type.split(";", 1)[0].strip().lower()
 

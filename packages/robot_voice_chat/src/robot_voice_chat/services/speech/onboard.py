@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import structlog
 
-from robot_voice_chat.services.speech.audio import RATE, Utterance
+from robot_voice_chat.services.speech.audio import MIN_PEAK, RATE, Utterance, nothing_said
 from robot_voice_chat.services.speech.base import (
     Heard,
     HearingSpeechInput,
@@ -79,7 +79,6 @@ SCORE_SHIFT = 1024.0
 TRIM_KEEP_S = 0.3  # kept around the speech when the recording's silence is cut
 PAD_S = 0.3  # silence added at each end: the search needs to start and end in silence
 DITHER = 8.0  # std of the noise added (int16 units): digital silence breaks the features
-MIN_PEAK = 300  # an utterance quieter than this (int16 peak) is nothing heard
 
 
 def _span(value: float, span: tuple[float, float]) -> float:
@@ -212,7 +211,7 @@ class PocketsphinxSpeechInput(HearingSpeechInput):
         """Recognize 16 kHz mono int16 audio (blocking; ``hear`` runs it in a thread)."""
         started = time.monotonic()
         samples = np.asarray(pcm, dtype=np.int16)
-        if samples.size == 0 or int(np.abs(samples.astype(np.int32)).max()) < MIN_PEAK:
+        if nothing_said(samples):
             return Heard("", 0.0, self.name, "other", rejected="nothing_heard")
         with self._lock:
             prepared = self._prepare(samples)

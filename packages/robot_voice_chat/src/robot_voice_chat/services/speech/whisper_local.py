@@ -35,14 +35,13 @@ from typing import Any, Protocol
 import numpy as np
 import structlog
 
-from robot_voice_chat.services.speech.audio import RATE, Utterance
+from robot_voice_chat.services.speech.audio import RATE, Utterance, nothing_said
 from robot_voice_chat.services.speech.base import (
     Heard,
     HearingSpeechInput,
     Rejection,
     TranscriptionError,
 )
-from robot_voice_chat.services.speech.onboard import MIN_PEAK
 from robot_voice_chat.services.speech.vocabulary import (
     DEFAULT_OBJECTS,
     Vocabulary,
@@ -201,7 +200,7 @@ class FasterWhisperSpeechInput(HearingSpeechInput):
             raise TranscriptionError("the whisper speech input has no model (WHISPER_MODEL unset)")
         started = time.monotonic()
         samples = np.asarray(pcm, dtype=np.int16)
-        if samples.size == 0 or int(np.abs(samples.astype(np.int32)).max()) < MIN_PEAK:
+        if nothing_said(samples):
             return Heard("", 0.0, self.name, "other", rejected="nothing_heard")
         try:
             with self._lock:

@@ -95,6 +95,7 @@ def test_colcon_skips_our_nav2_msgs_so_a_system_ros_keeps_its_own(tmp_path: Path
         capture_output=True,
         text=True,
         env=env,
+        cwd=tmp_path,  # colcon writes its log/ folder here, not into the checkout
         timeout=120,
         check=True,
     ).stdout.split()

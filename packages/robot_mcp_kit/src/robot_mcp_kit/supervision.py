@@ -62,6 +62,9 @@ SAFETY_STOP_LATCHED = "SAFETY_STOP_LATCHED"
 NOT_SUPERVISED = "NOT_SUPERVISED"
 INVALID_LEASE = "INVALID_LEASE"
 SUPERVISION_ALARM = "SUPERVISION_ALARM"
+STOP_CLEARING = "the stop was cleared a moment ago"
+"""How a refusal (``SAFETY_STOP_LATCHED``) during the sweep after a clear starts: nothing
+moved, and the same call goes through once the sweep is done."""
 """The refusal code while any alarm is active (its detail names the alarms)."""
 NOT_PERMITTED = "not_permitted"
 """The tool error code of a ``supervise`` call from anyone but the brain, or by a holder other
@@ -335,7 +338,7 @@ class Supervision:
         if (fresh or not self.required) and self._sweep_pending():
             return Refusal(
                 SAFETY_STOP_LATCHED,
-                "the stop was cleared a moment ago: this server is cancelling every goal its "
+                f"{STOP_CLEARING}: this server is cancelling every goal its "
                 "base runs or holds before it moves again",
             )
         if fresh or not self.required:

@@ -24,7 +24,13 @@ import json
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from robot_mcp_kit.supervision import LAPSE_REASONS, NOT_SUPERVISED
+from robot_mcp_kit.supervision import (
+    LAPSE_REASONS,
+    NOT_SUPERVISED,
+    SAFETY_STOP_LATCHED,
+    STOP_CLEARING,
+)
+from robot_mcp_kit.tool_errors import parse_tool_error
 from robot_voice_chat.services.tools.base import ToolOutcome
 
 RECOVER_WAIT_S = 10.0
@@ -77,12 +83,15 @@ def lost_link(payload: dict[str, Any]) -> LostLink | None:
 
 
 def refused_unsupervised(outcome: ToolOutcome) -> bool:
-    """A motion call refused because the lease lapsed again: nothing moved."""
-    try:
-        error = json.loads(outcome.text) if outcome.is_error else None
-    except ValueError:
+    """A motion call refused for a moment, nothing moved: the lease lapsed again, or the
+    server is still sweeping its goals after the stop was cleared. The text is read as a real
+    server sends it (the MCP SDK's ``Error executing tool …:`` prefix) or bare."""
+    error = parse_tool_error(outcome.text) if outcome.is_error else None
+    if error is None:
         return False
-    return isinstance(error, dict) and error.get("error") == NOT_SUPERVISED
+    return error["error"] == NOT_SUPERVISED or (
+        error["error"] == SAFETY_STOP_LATCHED and error["detail"].startswith(STOP_CLEARING)
+    )
 
 
 def base_answers(pose_result: str) -> bool:

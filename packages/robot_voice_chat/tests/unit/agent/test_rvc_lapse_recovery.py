@@ -25,9 +25,11 @@ from robot_voice_chat.agent.lapse import (
     carrying_on,
     is_lapse,
     lost_link,
+    refused_unsupervised,
 )
 from robot_voice_chat.robot_words import leaks
 from robot_voice_chat.services.llm.fake import FakeLLM, reply
+from robot_voice_chat.services.tools.base import ToolOutcome
 
 PLAN = reply(
     "",
@@ -92,11 +94,12 @@ class Navigation:
         self.pose_stale = False
         self.poses_asked = 0
         self.refusals = 0  # the next calls refused NOT_SUPERVISED (the lease lapsed again)
+        self.refusal = '{"error": "NOT_SUPERVISED", "detail": "the lease lapsed 0.3 s ago"}'
 
     def navigate_to(self, arguments: dict[str, Any]) -> str:
         if self.refusals:
             self.refusals -= 1
-            raise ValueError('{"error": "NOT_SUPERVISED", "detail": "the lease lapsed 0.3 s ago"}')
+            raise ValueError(self.refusal)
         self.drives += 1
         return task_info(f"nav-{self.drives}")
 
@@ -227,6 +230,37 @@ async def test_a_drive_refused_unsupervised_as_it_was_sent_is_sent_again_once_th
     assert mission.state == "succeeded"
     planner_saw = "\n".join(m.content for m in h.planner.requests[1][0])
     assert "NOT_SUPERVISED" not in planner_saw
+
+
+async def test_a_drive_cancelled_by_the_sweep_after_a_clear_is_sent_again(tmp_path: Path) -> None:
+    # "continue" right after "clear stop": the server's sweep of old goals took the new one
+    # too; the refusal as the MCP SDK sends it (its "Error executing tool" prefix)
+    h, nav = await supervised(tmp_path, FakeLLM([PLAN, WAIT, DONE]))
+    nav.refusals = 1
+    nav.refusal = (
+        'Error executing tool navigate_to: {"error": "SAFETY_STOP_LATCHED", "detail": '
+        '"the stop was cleared a moment ago: this server is cancelling every goal its base '
+        'runs or holds before it moves again"}'
+    )
+    try:
+        mission = await h.executor.start("drive to the kitchen")
+        await async_wait_until(lambda: nav.drives == 1, 5, "sent again after the sweep")
+        await h.executor.on_task_event(event("nav-1", "task_done", 1, result={"arrived": "x"}))
+        await h.executor.wait_idle(5)
+    finally:
+        await h.executor.shutdown()
+        assert h.supervisor is not None
+        await h.supervisor.aclose()
+    assert mission.state == "succeeded"
+    assert h.tools.called("navigation.navigate_to") == [{"location": "kitchen"}] * 2
+
+
+def test_only_a_momentary_refusal_is_sent_again() -> None:
+    latched = '{"error": "SAFETY_STOP_LATCHED", "detail": "a software stop is latched"}'
+    assert not refused_unsupervised(ToolOutcome(text=latched, is_error=True))
+    lapsed = 'Error executing tool navigate_to: {"error": "NOT_SUPERVISED", "detail": "lapsed"}'
+    assert refused_unsupervised(ToolOutcome(text=lapsed, is_error=True))
+    assert not refused_unsupervised(ToolOutcome(text=lapsed, is_error=False))
 
 
 async def test_a_refused_drive_is_not_sent_again_once_the_stop_latched(tmp_path: Path) -> None:

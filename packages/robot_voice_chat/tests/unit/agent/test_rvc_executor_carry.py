@@ -73,6 +73,20 @@ async def test_two_failed_grasps_end_with_the_truth_and_the_package_where_it_is(
     assert "GRASP" not in mission.summary
 
 
+async def test_two_failed_grasps_where_it_stands_say_where_the_thing_is(tmp_path: Path) -> None:
+    # no place was named: the sentence ends with where it saw it, never "It is still."
+    o = office(tmp_path, arm=True)
+    o.world.at = "kitchen"
+    o.world.arm.fail_grasps = 2
+    mission = await o.run("pick up the red mug")
+    assert mission.state == "failed"
+    assert mission.summary == (
+        "I couldn't pick up the red mug: the grasp didn't hold (I tried twice). "
+        "It is still where I saw it."
+    )
+    assert o.world.arm.held is None
+
+
 async def test_without_an_arm_the_robot_finds_it_and_says_it_cannot_carry_it(
     tmp_path: Path,
 ) -> None:

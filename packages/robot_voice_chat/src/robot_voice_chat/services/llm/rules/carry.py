@@ -50,6 +50,12 @@ _SAID = {
 CUT_OFF = "CUT_OFF"
 
 
+def still_there(where: str) -> str:
+    """Where a thing it did not pick up is: the place said ("It is still in the mailroom"),
+    or where it saw it when no place was named (never "It is still.")."""
+    return f"It is still{where}" if where else "It is still where I saw it"
+
+
 def said(code: str) -> str:
     if code == CUT_OFF:
         return "I lost contact with my arm while it was starting"
@@ -211,7 +217,7 @@ class Carrying:
             still = (
                 "I can't tell yet whether my gripper closed on it"
                 if code == CUT_OFF and not gripper.known
-                else f"It is still{where}"
+                else still_there(where)
             )
             raise Finished("failed", f"I couldn't pick up the {obj}: {said(code)}{tried}. {still}.")
         return (yield from self._held(obj, held_step))

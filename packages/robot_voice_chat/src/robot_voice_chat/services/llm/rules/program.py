@@ -26,6 +26,7 @@ from robot_voice_chat.services.llm.rules.carry import (
     PLACE,
     RELEASE,
     Carrying,
+    still_there,
 )
 from robot_voice_chat.services.llm.rules.driving import NAVIGATE, Driving
 from robot_voice_chat.services.llm.rules.looking import (
@@ -296,7 +297,7 @@ class MissionProgram(Looking, Driving, Carrying):
                 if leg.kind in ("fetch", "pick") and "pick" not in ids:
                     said.append(
                         f"I found the {leg.obj}{where}: {found}. But I can't carry it: "
-                        f"{NO_ARM}. It is still{where}."
+                        f"{NO_ARM}. {still_there(where)}."
                     )
                     raise Finished("failed", " ".join(said))
                 if "pick" not in ids:

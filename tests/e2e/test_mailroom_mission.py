@@ -40,18 +40,29 @@ ROOT = Path(__file__).resolve().parents[2]
 STACK_FILE = ROOT / "deploy" / "local-stack.yaml"
 
 
-def replanned_east_of_the_mailroom(sim_log: str) -> list[list[float]]:
+def replanned_east_of_the_mailroom(
+    sim_log: str, event: str = "path_replanned"
+) -> list[list[float]]:
     """The waypoints of robot-sim's replanned path (its ``path_replanned`` log, the plan its
     drive then followed) east of the mailroom's east wall: in by the east entrance. The
     poses navigation reports are samples (every 10 % or 2 s), and under load none of them
     fell in the short stretch past the east wall, so the plan is what is read."""
     waypoints = []
     for line in sim_log.splitlines():
-        if '"path_replanned"' not in line:
+        if f'"{event}"' not in line:
             continue
         record = json.loads(line[line.index("{") :])
-        waypoints += [point for point in record["via"] if point[0] > 19.5]
+        waypoints += [point for point in record.get("via", []) if point[0] > 19.5]
     return waypoints
+
+
+def reissued_after_a_stall(sim_log: str) -> bool:
+    """robot-sim stood still long enough for navigation to call the base lost (its stall
+    watch logs it), and the brain re-issued the drive (issue 39): the first goal cancelled,
+    a second accepted. Its plan then starts from what the robot already knew (the closed
+    door), so the detour is in the accepted plan rather than in a replan."""
+    accepted = sim_log.count('"event": "goal_accepted"')
+    return '"robot_sim_stalled"' in sim_log and '"goal_canceled"' in sim_log and accepted >= 2
 
 
 @pytest.fixture
@@ -107,9 +118,15 @@ async def test_the_robot_goes_round_the_closed_mailroom_door_and_finds_the_packa
     # once, and the new plan it drove passes east of the mailroom (the east entrance).
     sim_log = stack.services["robot_sim"].log()
     assert '"closed_doors": ["mailroom_west_door"]' in sim_log
-    assert '"event": "path_replanned"' in sim_log
-    assert '"replans": 1' in sim_log
-    assert replanned_east_of_the_mailroom(sim_log), "the new plan does not pass east of it"
+    if reissued_after_a_stall(sim_log):  # a host stall, recovered within the mission
+        east = replanned_east_of_the_mailroom(sim_log) or replanned_east_of_the_mailroom(
+            sim_log, "goal_accepted"
+        )
+    else:
+        assert '"event": "path_replanned"' in sim_log
+        assert '"replans": 1' in sim_log
+        east = replanned_east_of_the_mailroom(sim_log)
+    assert east, "the plan it drove does not pass east of the mailroom"
 
     # Vision: labels, boxes and a mask *reference*; the mask itself is on the artifacts HTTP
     # endpoint (data plane), never in an MCP answer.

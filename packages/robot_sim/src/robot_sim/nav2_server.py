@@ -188,6 +188,7 @@ class NavigateToPoseServer:
             y=round(goal.y, 2),
             location=run.location,
             distance_m=round(first.distance_remaining_m, 2),
+            via=[[round(x, 2), round(y, 2)] for x, y in first.plan],  # the plan it drives
         )
         started = self._clock()
         while True:

@@ -30,6 +30,7 @@ from robot_stack_testing.mission_driver import (
     MissionDriver,
     RunningStack,
     mailroom_stack,
+    reissued_after_a_stall,
     seed_memory,
 )
 from robot_stack_testing.stack import free_port_overrides
@@ -54,15 +55,6 @@ def replanned_east_of_the_mailroom(
         record = json.loads(line[line.index("{") :])
         waypoints += [point for point in record.get("via", []) if point[0] > 19.5]
     return waypoints
-
-
-def reissued_after_a_stall(sim_log: str) -> bool:
-    """robot-sim stood still long enough for navigation to call the base lost (its stall
-    watch logs it), and the brain re-issued the drive (issue 39): the first goal cancelled,
-    a second accepted. Its plan then starts from what the robot already knew (the closed
-    door), so the detour is in the accepted plan rather than in a replan."""
-    accepted = sim_log.count('"event": "goal_accepted"')
-    return '"robot_sim_stalled"' in sim_log and '"goal_canceled"' in sim_log and accepted >= 2
 
 
 @pytest.fixture

@@ -99,6 +99,15 @@ async def say_on_microphone(text: str, *options: str) -> None:
     assert process.returncode == 0, output.decode(errors="replace")
 
 
+def reissued_after_a_stall(sim_log: str) -> bool:
+    """robot-sim stood still long enough for navigation to call the base lost (its stall
+    watch logs ``robot_sim_stalled``), and the brain re-issued the drive (issue 39): a goal
+    cancelled, another accepted. The re-issued goal plans from what the robot already knew
+    (a door it saw closed), so a detour shows in its plan, not in a replan."""
+    accepted = sim_log.count('"event": "goal_accepted"')
+    return '"robot_sim_stalled"' in sim_log and '"goal_canceled"' in sim_log and accepted >= 2
+
+
 def fresh_secret() -> str:
     return secrets.token_urlsafe(32)
 

@@ -44,7 +44,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from robot_ros_bridge.errors import BridgeClosedError, ServiceTimeoutError, ServiceUnavailableError
-from robot_ros_bridge.spinning import spin_until_shutdown
+from robot_ros_bridge.spinning import drain_callbacks, spin_until_shutdown
 
 logger = structlog.get_logger(__name__)
 
@@ -123,18 +123,6 @@ class ReadinessTracker:
         """When the service counts as settled (``<= now``: send), or ``None`` if not ready."""
         since = self.observe(client, ready, now)
         return None if since is None else since + self.settle_s
-
-
-def _drain_callbacks(executor: Executor, timeout_s: float) -> None:
-    """Let callbacks already handed to a multi-threaded executor's pool finish: each triggers
-    the executor's guard condition, which ``Executor.shutdown`` destroys without waiting for
-    them (its wait is skipped once the shutdown flag is set; the pool is joined only after)."""
-    pool = getattr(executor, "_executor", None)  # MultiThreadedExecutor's ThreadPoolExecutor
-    if pool is None:
-        return
-    drainer = threading.Thread(target=pool.shutdown, kwargs={"wait": True}, daemon=True)
-    drainer.start()
-    drainer.join(timeout=timeout_s)
 
 
 class RosBridge:
@@ -224,7 +212,7 @@ class RosBridge:
             if thread.is_alive():
                 logger.warning("ros_bridge_spin_still_running", timeout_s=timeout_s)
         if executor is not None:
-            _drain_callbacks(executor, timeout_s)
+            drain_callbacks(executor, timeout_s)
             executor.shutdown(timeout_sec=timeout_s)
         self._watch_timer = None  # destroyed with the node, after callbacks in flight end
         if node is not None:

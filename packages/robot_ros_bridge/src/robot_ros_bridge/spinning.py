@@ -11,6 +11,7 @@ builds its wait set without the destroyed entity.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -43,3 +44,16 @@ def spin_until_shutdown(
             if not running():
                 return
             logger.exception("ros_callback_failed")
+
+
+def drain_callbacks(executor: Any, timeout_s: float) -> None:
+    """Let callbacks already handed to a multi-threaded executor's pool finish (call it after
+    the spin loop ended, before ``executor.shutdown``): each triggers the executor's guard
+    condition, which ``Executor.shutdown`` destroys without waiting for them (its wait is
+    skipped once the shutdown flag is set; the pool is joined only after)."""
+    pool = getattr(executor, "_executor", None)  # MultiThreadedExecutor's ThreadPoolExecutor
+    if pool is None:
+        return
+    drainer = threading.Thread(target=pool.shutdown, kwargs={"wait": True}, daemon=True)
+    drainer.start()
+    drainer.join(timeout=timeout_s)

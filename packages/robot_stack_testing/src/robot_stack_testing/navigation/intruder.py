@@ -68,6 +68,8 @@ def main(argv: list[str] | None = None) -> None:
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Bool
 
+    from robot_ros_bridge.spinning import drain_callbacks
+
     rclpy.init()
     node = rclpy.create_node(args.node_name)
     stop = threading.Event()
@@ -122,6 +124,7 @@ def main(argv: list[str] | None = None) -> None:
         # thread still waiting on it: a segfault on a busy machine), then the node.
         stop.set()
         spinner.join(timeout=10)
+        drain_callbacks(executor, 5.0)
         executor.shutdown(timeout_sec=5)
         if client is not None:
             client.destroy()
@@ -131,9 +134,10 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _spin(executor: Any, stop: threading.Event, shutdown: type[BaseException]) -> None:
+    from robot_ros_bridge.spinning import spin_until_shutdown
+
     try:
-        while not stop.is_set():
-            executor.spin_once(timeout_sec=0.1)
+        spin_until_shutdown(executor, lambda: not stop.is_set(), turn_s=0.1)
     except shutdown:
         return
 

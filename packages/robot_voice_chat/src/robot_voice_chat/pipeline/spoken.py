@@ -34,6 +34,7 @@ from robot_voice_chat.services.emitter.base import EventEmitter
 from robot_voice_chat.services.speech.audio import Utterance
 from robot_voice_chat.services.speech.base import Heard, SpeechInput, SpeechOutput
 from robot_voice_chat.services.speech.vocabulary import (
+    KNOWN_LABELS,
     NO,
     YES,
     addressed,
@@ -48,7 +49,6 @@ from robot_voice_chat.socket_events import ChatMessage
 logger = structlog.get_logger(__name__)
 
 LIST_LOCATIONS = "navigation.list_locations"
-KNOWN_LABELS = "episodic.known_labels"
 MAX_LABELS = 300  # the grammar stays small enough to decode in real time
 NOT_CAUGHT = "Sorry, I didn't catch that. Please say it again."
 DROPPED = "OK, I won't do that."

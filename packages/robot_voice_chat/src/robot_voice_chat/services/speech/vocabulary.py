@@ -126,6 +126,9 @@ def places_from_listing(text: str) -> list[list[str]]:
     return [spoken_names(item) for item in items or [] if isinstance(item, dict)]
 
 
+KNOWN_LABELS = "episodic.known_labels"  # the tool that lists every label the robot has seen
+
+
 def labels_from_listing(text: str) -> list[str] | None:
     """``episodic.known_labels``' JSON answer → the labels as spoken ("coffee_mug" → "coffee
     mug"); None when unreadable."""

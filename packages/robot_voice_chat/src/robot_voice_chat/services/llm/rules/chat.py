@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import re
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from typing import Any
@@ -52,10 +52,9 @@ from robot_voice_chat.services.llm.rules.recollection import (
     names_of,
     recollection,
 )
-from robot_voice_chat.services.speech.vocabulary import labels_from_listing
+from robot_voice_chat.services.speech.vocabulary import KNOWN_LABELS, labels_from_listing
 
 LIST_LOCATIONS = "navigation.list_locations"
-KNOWN_LABELS = "episodic.known_labels"  # what the robot has seen: a misspelt one is read right
 _FOLLOW_UPS = 3  # a follow-up is read against at most this many earlier turns
 GET_POSE = "navigation.get_pose"
 GET_HELD = "manipulation.get_held"
@@ -140,9 +139,9 @@ class RulesChat(LLMProvider):
             self._pending = None
             return self._call("stop_mission", {}, "stop")
         if LIST_LOCATIONS in names:  # read the live places (and what it has seen) first
-            calls = [self._tool_call(LIST_LOCATIONS, {}, "places")]
-            if KNOWN_LABELS in names:
-                calls.append(self._tool_call(KNOWN_LABELS, {}, "seen"))
+            calls = [self._tool_call(LIST_LOCATIONS, {}, _Sent("places"))]
+            if KNOWN_LABELS in names:  # what it has seen: a misspelt one is read right
+                calls.append(self._tool_call(KNOWN_LABELS, {}, _Sent("seen")))
             return LLMResponse(tool_calls=calls, stop_reason="tool_use")
         return self._reply(last.content, None, messages, names)
 
@@ -191,7 +190,7 @@ class RulesChat(LLMProvider):
         places: PlaceIndex | None,
         messages: list[Message],
         names: set[str],
-        seen: list[str] | None = None,
+        seen: Sequence[str] = (),
     ) -> LLMResponse:
         reading: Reading | None = None
         pending, self._pending = self._pending, None
@@ -200,7 +199,7 @@ class RulesChat(LLMProvider):
         if reading is None:
             reading = _history_follow_up(text, messages, places)
         if reading is None:
-            reading = self.understanding.understand(text, places, seen or ())
+            reading = self.understanding.understand(text, places, seen)
         if reading.kind == "act" and "start_mission" in names:
             said = saying.plan(reading.actions, places)
             missing = _missing_service(reading.actions, names)
@@ -316,15 +315,13 @@ class RulesChat(LLMProvider):
         places: PlaceIndex | None = None,
         about: str | None = None,
     ) -> LLMResponse:
-        call = self._tool_call(name, arguments, purpose, _Sent(purpose, recall, places, about))
+        call = self._tool_call(name, arguments, _Sent(purpose, recall, places, about))
         return LLMResponse(tool_calls=[call], stop_reason="tool_use")
 
-    def _tool_call(
-        self, name: str, arguments: dict[str, Any], purpose: str, sent: _Sent | None = None
-    ) -> ToolCall:
+    def _tool_call(self, name: str, arguments: dict[str, Any], sent: _Sent) -> ToolCall:
         self._ids += 1
         call = ToolCall(id=f"rules_chat_{self._ids}", name=name, arguments=arguments)
-        self._sent[call.id] = sent or _Sent(purpose)
+        self._sent[call.id] = sent
         while len(self._sent) > 64:  # answers that never came back
             self._sent.pop(next(iter(self._sent)))
         return call
